@@ -1,0 +1,42 @@
+#!/usr/bin/env bash
+# Installs, by Debian package name, everything URSLink needs to build, test and run.
+# Idempotent: packages already present are skipped, and nothing is downloaded when all are there.
+# Usage: deploy/install-deps.sh [--with-fuzz]   (adds clang + libFuzzer for the fuzz targets)
+set -euo pipefail
+
+PACKAGES=(
+  # toolchain
+  build-essential cmake ninja-build pkg-config git ca-certificates
+  # required stack
+  libprotobuf-dev protobuf-compiler python3-protobuf
+  libspdlog-dev libfmt-dev
+  libgtest-dev libgmock-dev
+  libomniorb4-dev omniidl omniorb-nameserver omniorb
+  libfastrtps-dev libfastcdr-dev fastddsgen
+  # supporting libraries
+  libasio-dev libcli11-dev libyaml-cpp-dev libsqlite3-dev
+  # tools used by tests and scripts
+  python3 procps iproute2
+)
+if [[ "${1:-}" == "--with-fuzz" ]]; then
+  PACKAGES+=(clang libclang-rt-14-dev)
+fi
+
+missing=()
+for p in "${PACKAGES[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+
+if ((${#missing[@]} == 0)); then
+  echo "install-deps: all ${#PACKAGES[@]} packages present"
+  exit 0
+fi
+
+SUDO=""
+if [[ $(id -u) -ne 0 ]]; then SUDO="sudo"; fi
+echo "install-deps: installing ${missing[*]}"
+export DEBIAN_FRONTEND=noninteractive
+$SUDO apt-get update -q
+$SUDO apt-get install -y -q --no-install-recommends "${missing[@]}"

@@ -1,0 +1,110 @@
+#pragma once
+// Planet client: one TCP session to a CAMUS server that survives disconnections.
+//
+// - Reconnects by itself with exponential backoff (reconnect_min .. reconnect_max).
+// - After every handshake it first restores registrations (register_service) and subscriptions
+//   (resuming after the last event seen), then flushes what was queued while disconnected.
+// - Calls made while disconnected are queued (bounded by max_queued); a call that is already on
+//   the wire when the connection drops fails with UNAVAILABLE "connection lost" and is
+//   never retried (at-most-once). Publishes are kept until the server acknowledges them and are
+//   resent after a reconnect (at-least-once; the server drops duplicates within its lifetime).
+// - Heartbeats: the server's Welcome sets the interval and timeout; a silent server is declared
+//   dead after heartbeat_timeout and the client reconnects.
+//
+// Threading: every callback (reply, event, request, connected) runs on the client's I/O thread
+// and must not block; call() blocks and must not be used from a callback.
+
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+
+#include "camus.pb.h"
+#include "planet.pb.h"
+#include "urs/planet/status.hpp"
+
+namespace urs::planet {
+
+struct ClientOptions {
+  std::string host = "127.0.0.1";
+  uint16_t port = 0;
+  std::string token;
+  std::string peer_name = "client";
+  Role role = CLIENT;
+  std::chrono::milliseconds connect_timeout{2000};
+  std::chrono::milliseconds reconnect_min{50};
+  std::chrono::milliseconds reconnect_max{2000};
+  std::chrono::milliseconds default_deadline{10000};
+  size_t max_queued = 10000;              // calls + publishes waiting for a connection
+  uint64_t max_message_bytes = 64ull << 20;
+  uint32_t chunk_bytes = 64u << 10;
+};
+
+using ReplyHandler = std::function<void(CallResult)>;
+using EventHandler = std::function<void(const Event&)>;
+
+// Answers one incoming request (provider role). Move-only; reply() may be called from any thread,
+// once. Destroying it unanswered replies INTERNAL "provider dropped the request".
+class Responder {
+ public:
+  Responder() = default;
+  Responder(Responder&&) noexcept;
+  Responder& operator=(Responder&&) noexcept;
+  ~Responder();
+  void reply(CallResult result);
+  bool pending() const;
+
+  struct State;  // implementation detail
+  explicit Responder(std::shared_ptr<State> state);
+
+ private:
+  std::shared_ptr<State> state_;
+};
+using RequestHandler = std::function<void(const Request& request, Responder responder)>;
+
+class Client {
+ public:
+  explicit Client(ClientOptions options);
+  ~Client();  // stop()
+  Client(const Client&) = delete;
+  Client& operator=(const Client&) = delete;
+
+  // Handlers are set before start().
+  void set_request_handler(RequestHandler handler);  // provider role; default answers UNKNOWN_SERVICE
+  void on_connected(std::function<void(const Welcome&)> handler);
+  void on_disconnected(std::function<void(const std::string& reason)> handler);
+
+  void start();  // starts the I/O thread and the first connection attempt; returns at once
+  void stop();   // closes, fails everything pending with UNAVAILABLE "client stopped", joins
+
+  bool connected() const;
+  bool wait_connected(std::chrono::milliseconds timeout) const;
+  // Why the last connection attempt or session failed (e.g. "refused: wrong token"); empty if none.
+  std::string last_error() const;
+  Welcome welcome() const;  // of the current (or last) session
+
+  // Request/reply. deadline 0 = options.default_deadline. The handler runs exactly once.
+  void call_async(const std::string& service, const std::string& operation, std::string payload,
+                  std::chrono::milliseconds deadline, ReplyHandler handler);
+  CallResult call(const std::string& service, const std::string& operation, std::string payload,
+                  std::chrono::milliseconds deadline = std::chrono::milliseconds{0});
+  // Fire-and-forget; returns false (and logs) only if the queue is full.
+  bool oneway(const std::string& service, const std::string& operation, std::string payload);
+
+  // Events. publish() returns UNAVAILABLE with a message if the queue is full, OK otherwise.
+  CallResult publish(const std::string& topic, std::string payload, const std::string& content_type);
+  uint64_t subscribe(const std::string& pattern, EventHandler handler, uint64_t resume_after_seq = 0);
+  void unsubscribe(uint64_t subscription_id);
+
+  // Provider role: registrations are kept and re-sent after every reconnect.
+  // The handler gets the result of the first registration attempt.
+  void register_service(const camus::RegisterRequest& registration, ReplyHandler handler = {});
+  void unregister_service(const std::string& name, ReplyHandler handler = {});
+
+ private:
+  struct Impl;
+  std::shared_ptr<Impl> impl_;
+};
+
+}  // namespace urs::planet

@@ -1,0 +1,42 @@
+#pragma once
+// Pieces every URSLink program shares: logging set-up, endpoints, token files, shutdown signals.
+// Each throws urs::util::ConfigError with a message naming the flag or file and the bad value.
+
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+
+namespace urs::util {
+
+class ConfigError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// Valid --log-level values, for help texts.
+inline constexpr const char* kLogLevels = "trace|debug|info|warn|error|critical|off";
+
+// Sets the default spdlog logger (stderr, "<program>" in every line) to `level`.
+void init_logging(const std::string& program, const std::string& level);
+
+struct Endpoint {
+  std::string host;
+  uint16_t port = 0;
+  std::string str() const { return host + ":" + std::to_string(port); }
+};
+
+// "HOST:PORT" (PORT 0..65535; "[::1]:80" for IPv6). `what` names the flag in error messages.
+Endpoint parse_endpoint(const std::string& text, const std::string& what);
+
+// The token in FILE (surrounding white space removed). Empty path gives "".
+std::string read_token_file(const std::string& path);
+
+// Blocks SIGINT/SIGTERM in the calling thread (call first in main, before threads start) and
+// returns a waiter: wait_for_shutdown() then blocks until one of them arrives.
+void block_shutdown_signals();
+int wait_for_shutdown();  // returns the signal number
+
+// Writes `content` to `path` atomically (temp file + rename), e.g. the bound port for tests.
+void write_file_atomically(const std::string& path, const std::string& content);
+
+}  // namespace urs::util

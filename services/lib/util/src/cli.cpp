@@ -1,0 +1,105 @@
+#include "urs/util/cli.hpp"
+
+#include <signal.h>
+#include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/spdlog.h>
+
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+
+namespace urs::util {
+
+void init_logging(const std::string& program, const std::string& level) {
+  auto parsed = spdlog::level::from_str(level);
+  // from_str maps unknown names to "off"; only accept "off" when it was asked for.
+  if (parsed == spdlog::level::off && level != "off") {
+    throw ConfigError("--log-level: unknown level '" + level + "' (expected " + kLogLevels + ")");
+  }
+  auto logger = spdlog::stderr_color_mt(program);
+  logger->set_pattern("%Y-%m-%dT%H:%M:%S.%e %^%-5l%$ [%n] %v");
+  logger->set_level(parsed);
+  logger->flush_on(spdlog::level::warn);
+  spdlog::set_default_logger(logger);
+}
+
+Endpoint parse_endpoint(const std::string& text, const std::string& what) {
+  std::string host;
+  std::string port_text;
+  if (!text.empty() && text.front() == '[') {
+    auto close = text.find(']');
+    if (close == std::string::npos || close + 1 >= text.size() || text[close + 1] != ':') {
+      throw ConfigError(what + ": '" + text + "' is not [IPV6]:PORT");
+    }
+    host = text.substr(1, close - 1);
+    port_text = text.substr(close + 2);
+  } else {
+    auto colon = text.rfind(':');
+    if (colon == std::string::npos || colon == 0) {
+      throw ConfigError(what + ": '" + text + "' is not HOST:PORT");
+    }
+    host = text.substr(0, colon);
+    port_text = text.substr(colon + 1);
+  }
+  if (port_text.empty() || port_text.size() > 5 ||
+      port_text.find_first_not_of("0123456789") != std::string::npos) {
+    throw ConfigError(what + ": port '" + port_text + "' in '" + text + "' is not a number 0..65535");
+  }
+  unsigned long port = std::stoul(port_text);
+  if (port > 65535) {
+    throw ConfigError(what + ": port " + port_text + " in '" + text + "' is over 65535");
+  }
+  return Endpoint{host, static_cast<uint16_t>(port)};
+}
+
+std::string read_token_file(const std::string& path) {
+  if (path.empty()) return {};
+  std::ifstream in(path);
+  if (!in) throw ConfigError("token file '" + path + "' cannot be read");
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  std::string token = buffer.str();
+  const char* ws = " \t\r\n";
+  token.erase(0, token.find_first_not_of(ws));
+  auto last = token.find_last_not_of(ws);
+  token.erase(last == std::string::npos ? 0 : last + 1);
+  if (token.empty()) throw ConfigError("token file '" + path + "' is empty");
+  return token;
+}
+
+namespace {
+sigset_t shutdown_set() {
+  sigset_t set;
+  sigemptyset(&set);
+  sigaddset(&set, SIGINT);
+  sigaddset(&set, SIGTERM);
+  return set;
+}
+}  // namespace
+
+void block_shutdown_signals() {
+  sigset_t set = shutdown_set();
+  pthread_sigmask(SIG_BLOCK, &set, nullptr);
+  signal(SIGPIPE, SIG_IGN);
+}
+
+int wait_for_shutdown() {
+  sigset_t set = shutdown_set();
+  int sig = 0;
+  sigwait(&set, &sig);
+  return sig;
+}
+
+void write_file_atomically(const std::string& path, const std::string& content) {
+  std::string tmp = path + ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::trunc);
+    if (!out) throw ConfigError("cannot write '" + tmp + "'");
+    out << content;
+  }
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+    throw ConfigError("cannot rename '" + tmp + "' to '" + path + "'");
+  }
+}
+
+}  // namespace urs::util
