@@ -9,6 +9,7 @@ PACKAGES=(
   build-essential cmake ninja-build pkg-config git ca-certificates
   # required stack
   libprotobuf-dev protobuf-compiler python3-protobuf
+  libprotoc-dev  # protobuf::libprotoc (compiler::Importer) for urs::schema load_idl()
   libspdlog-dev libfmt-dev
   libgtest-dev libgmock-dev
   libomniorb4-dev omniidl omniorb-nameserver omniorb

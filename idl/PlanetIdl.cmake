@@ -53,3 +53,86 @@ function(urs_proto_library target)
   target_link_libraries(${target} PUBLIC protobuf::libprotobuf ${ARG_LINK})
   target_compile_options(${target} PRIVATE -w)
 endfunction()
+
+# urs_idl_library(<target> IDLS <file.idl>... [INCLUDE_DIRS <dir>...] [LINK <target>...])
+#   Translates CORBA IDL files into the Planet schema with omniidl and the planet_proto back-end
+#   (idl/omniidl_planet; rules in docs/idl-mapping.md), one <name>.proto per IDL file in
+#   ${CMAKE_CURRENT_BINARY_DIR}/<target>_proto/, then compiles them with urs_proto_library into one
+#   static library <target> (alias urs::<target>): "<name>.pb.h" headers, the <target>.desc
+#   FileDescriptorSet (property URS_DESCRIPTOR_SET) and Python modules (property URS_PYTHON_DIR).
+#   - An IDL file #included by another must be listed too (each IDL file yields its own .proto,
+#     imported by the includers); IDL base names must be unique within one library.
+#   - The directory of every IDL file is on the include path; INCLUDE_DIRS adds more.
+#   - urs_options.proto (the custom options every schema imports) is compiled once, in
+#     urs::idl_options, which the library links: never list it in PROTOS of another library.
+#   - A refused IDL construct fails the build with "<file>:<line>: error: ..." from omniidl.
+
+find_program(URS_OMNIIDL NAMES omniidl DOC "omniidl, the omniORB IDL compiler (Debian package omniidl)")
+set(URS_IDL_DIR ${CMAKE_CURRENT_LIST_DIR} CACHE INTERNAL "Folder of urs_options.proto")
+set(URS_PLANET_BACKEND_DIR ${CMAKE_CURRENT_LIST_DIR}/omniidl_planet CACHE INTERNAL
+    "Folder of the omniidl planet_proto back-end")
+set(URS_PLANET_BACKEND_FILES
+    ${URS_PLANET_BACKEND_DIR}/planet_proto.py
+    ${URS_PLANET_BACKEND_DIR}/planet_translator.py
+    CACHE INTERNAL "Sources of the omniidl planet_proto back-end")
+
+function(urs_idl_library target)
+  cmake_parse_arguments(ARG "" "" "IDLS;INCLUDE_DIRS;LINK" ${ARGN})
+  if(ARG_UNPARSED_ARGUMENTS)
+    message(FATAL_ERROR "urs_idl_library(${target}): unexpected arguments '${ARG_UNPARSED_ARGUMENTS}'")
+  endif()
+  if(NOT ARG_IDLS)
+    message(FATAL_ERROR "urs_idl_library(${target}): IDLS is empty")
+  endif()
+  if(NOT URS_OMNIIDL)
+    message(FATAL_ERROR "urs_idl_library(${target}): omniidl not found: run deploy/install-deps.sh "
+                        "(Debian package omniidl) or set URS_OMNIIDL to its path")
+  endif()
+  set(out_dir ${CMAKE_CURRENT_BINARY_DIR}/${target}_proto)
+  set(abs_idls)
+  set(protos)
+  set(names)
+  set(include_args)
+  foreach(dir IN LISTS ARG_INCLUDE_DIRS)
+    get_filename_component(abs_dir ${dir} ABSOLUTE)
+    list(APPEND include_args -I${abs_dir})
+  endforeach()
+  foreach(idl IN LISTS ARG_IDLS)
+    get_filename_component(abs ${idl} ABSOLUTE)
+    get_filename_component(dir ${abs} DIRECTORY)
+    get_filename_component(name ${abs} NAME_WE)
+    if(NOT EXISTS ${abs})
+      message(FATAL_ERROR "urs_idl_library(${target}): IDL file '${abs}' does not exist")
+    endif()
+    if(name IN_LIST names)
+      message(FATAL_ERROR "urs_idl_library(${target}): two IDL files are named '${name}' "
+                          "(each yields ${name}.proto); rename one or split the library")
+    endif()
+    list(APPEND names ${name})
+    list(APPEND abs_idls ${abs})
+    list(APPEND include_args -I${dir})
+    list(APPEND protos ${out_dir}/${name}.proto)
+  endforeach()
+  list(REMOVE_DUPLICATES include_args)
+  add_custom_command(
+    OUTPUT ${protos}
+    COMMAND ${CMAKE_COMMAND} -E make_directory ${out_dir}
+    COMMAND ${URS_OMNIIDL} -p ${URS_PLANET_BACKEND_DIR} -b planet_proto -C ${out_dir}
+            ${include_args} ${abs_idls}
+    DEPENDS ${abs_idls} ${URS_PLANET_BACKEND_FILES} ${URS_OMNIIDL}
+    COMMENT "omniidl planet_proto ${target}"
+    VERBATIM)
+  urs_proto_library(${target} PROTOS ${protos} IMPORT_DIRS ${URS_IDL_DIR}
+                    LINK urs::idl_options ${ARG_LINK})
+  # Python clients import urs_options_pb2 from the same folder as the generated modules.
+  get_target_property(py_dir ${target} URS_PYTHON_DIR)
+  add_custom_command(
+    OUTPUT ${py_dir}/urs_options_pb2.py
+    COMMAND ${CMAKE_COMMAND} -E make_directory ${py_dir}
+    COMMAND ${URS_PROTOC} -I${URS_IDL_DIR} --python_out=${py_dir} ${URS_IDL_DIR}/urs_options.proto
+    DEPENDS ${URS_IDL_DIR}/urs_options.proto ${URS_PROTOC}
+    COMMENT "protoc urs_options.proto (Python) for ${target}"
+    VERBATIM)
+  target_sources(${target} PRIVATE ${py_dir}/urs_options_pb2.py)
+  set_target_properties(${target} PROPERTIES URS_IDL_PROTO_DIR ${out_dir})
+endfunction()
