@@ -5,7 +5,7 @@
 // - After every handshake it first restores registrations (register_service) and subscriptions
 //   (resuming after the last event seen), then flushes what was queued while disconnected.
 // - Calls made while disconnected are queued (bounded by max_queued); a call that is already on
-//   the wire when the connection drops fails with UNAVAILABLE "connection lost" and is
+//   the wire when the connection drops fails with UNAVAILABLE "connection to server lost" and is
 //   never retried (at-most-once). Publishes are kept until the server acknowledges them and are
 //   resent after a reconnect (at-least-once; the server drops duplicates within its lifetime).
 // - Heartbeats: the server's Welcome sets the interval and timeout; a silent server is declared
@@ -54,6 +54,10 @@ class Responder {
   ~Responder();
   void reply(CallResult result);
   bool pending() const;
+
+  // A responder that hands the result to `fn` (in-process hosts such as the server's service
+  // container, and tests). Destroyed unanswered, it calls fn with INTERNAL as above.
+  static Responder from_callback(std::function<void(CallResult)> fn);
 
   struct State;  // implementation detail
   explicit Responder(std::shared_ptr<State> state);

@@ -1,0 +1,408 @@
+#include "urs/planet/server.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <atomic>
+#include <condition_variable>
+#include <map>
+#include <mutex>
+#include <random>
+#include <stdexcept>
+#include <thread>
+#include <vector>
+
+#include "link.hpp"
+#include "random.hpp"
+#include "urs/planet/codec.hpp"
+#include "urs/planet/status.hpp"
+
+namespace urs::planet {
+namespace {
+
+using std::chrono::milliseconds;
+
+// Compares in time that depends only on the lengths, not on where the first difference is.
+bool constant_time_equal(const std::string& a, const std::string& b) {
+  const size_t size = std::max(a.size(), b.size());
+  unsigned char difference = a.size() == b.size() ? 0 : 1;
+  for (size_t i = 0; i < size; ++i) {
+    const unsigned char x = i < a.size() ? static_cast<unsigned char>(a[i]) : 0;
+    const unsigned char y = i < b.size() ? static_cast<unsigned char>(b[i]) : 0;
+    difference = static_cast<unsigned char>(difference | (x ^ y));
+  }
+  return difference == 0;
+}
+
+void validate(const ServerOptions& options) {
+  std::vector<std::string> errors;
+  auto ms = [](milliseconds value) { return std::to_string(value.count()) + " ms"; };
+  if (options.heartbeat_interval.count() <= 0) {
+    errors.push_back("heartbeat_interval " + ms(options.heartbeat_interval) + " must be > 0");
+  }
+  if (options.heartbeat_timeout <= options.heartbeat_interval) {
+    errors.push_back("heartbeat_timeout " + ms(options.heartbeat_timeout) +
+                     " must be longer than heartbeat_interval " + ms(options.heartbeat_interval));
+  }
+  if (options.handshake_timeout.count() <= 0) {
+    errors.push_back("handshake_timeout " + ms(options.handshake_timeout) + " must be > 0");
+  }
+  if (options.chunk_bytes < kMinChunkBytes) {
+    errors.push_back("chunk_bytes " + std::to_string(options.chunk_bytes) +
+                     " is below the minimum " + std::to_string(kMinChunkBytes));
+  }
+  if (options.max_message_bytes < options.chunk_bytes ||
+      options.max_message_bytes > kMaxMessageBytesCeiling) {
+    errors.push_back("max_message_bytes " + std::to_string(options.max_message_bytes) +
+                     " must be between chunk_bytes (" + std::to_string(options.chunk_bytes) +
+                     ") and " + std::to_string(kMaxMessageBytesCeiling));
+  }
+  if (options.max_send_queue_bytes < options.chunk_bytes) {
+    errors.push_back("max_send_queue_bytes " + std::to_string(options.max_send_queue_bytes) +
+                     " must be at least chunk_bytes (" + std::to_string(options.chunk_bytes) + ")");
+  }
+  if (options.io_threads == 0) errors.push_back("io_threads must be at least 1");
+  if (errors.empty()) return;
+  std::string message = "invalid Planet ServerOptions:";
+  for (const auto& error : errors) message += "\n  " + error;
+  throw std::invalid_argument(message);
+}
+
+}  // namespace
+
+class ServerSession;
+
+// Everything the server owns. Server::Impl is this; sessions name it ServerCore because
+// Server::Impl is private.
+struct ServerCore {
+  ServerCore(ServerOptions options_in, SessionHandler& handler_in);
+
+  void start();
+  void stop();
+  void do_accept();
+  void on_session_closed(uint64_t id);
+  bool on_io_thread() const;
+
+  const ServerOptions options;
+  SessionHandler& handler;
+  const std::string instance = detail::random_hex(8);
+  std::shared_ptr<asio::io_context> io = std::make_shared<asio::io_context>();
+  asio::strand<asio::io_context::executor_type> accept_strand{io->get_executor()};
+  asio::ip::tcp::acceptor acceptor{accept_strand};
+  asio::steady_timer accept_retry{accept_strand};
+  std::optional<asio::executor_work_guard<asio::io_context::executor_type>> work;
+  std::vector<std::thread> threads;
+  uint16_t bound_port = 0;
+
+  std::mutex mutex;
+  std::condition_variable changed;
+  std::map<uint64_t, std::shared_ptr<ServerSession>> sessions;  // handshaking and open
+  uint64_t next_session_id = 1;
+  bool started = false;
+  bool stopped = false;
+};
+
+// One accepted connection: handshake, then frames to the SessionHandler.
+class ServerSession final : public detail::Link, public Session {
+ public:
+  ServerSession(ServerCore& server, uint64_t id, asio::ip::tcp::socket socket,
+                const detail::LinkConfig& config)
+      : Link(server.io, std::move(socket), config),
+        server_(server),
+        id_(id),
+        handshake_timer_(executor()) {}
+
+  // Starts the handshake timer and the read loop.
+  void begin() {
+    auto self = std::static_pointer_cast<ServerSession>(shared_from_this());
+    asio::post(executor(), [self] {
+      if (self->closing()) return;  // Server::stop() got here first
+      self->handshake_timer_.expires_after(self->server_.options.handshake_timeout);
+      self->handshake_timer_.async_wait([self](const std::error_code& error) {
+        if (error || self->opened_) return;
+        const std::string reason = "no Hello within " +
+                                   std::to_string(self->server_.options.handshake_timeout.count()) +
+                                   " ms";
+        spdlog::warn("planet: closing {}: {}", self->describe(), reason);
+        self->close_link(detail::make_goodbye(Status::DEADLINE_EXCEEDED, reason), reason);
+      });
+      self->start();
+    });
+  }
+
+  // Only after the io threads are gone (Server::stop fallback).
+  void abandon(const std::string& reason) { finish(reason); }
+
+  // Session
+  uint64_t id() const override { return id_; }
+  const Hello& hello() const override { return hello_; }
+  std::string remote_address() const override { return peer_address(); }
+  bool send(Frame frame) override { return enqueue(std::move(frame)); }
+  void close(Status status, const std::string& reason) override {
+    close_link(detail::make_goodbye(status, reason), reason);
+  }
+
+ protected:
+  // Link
+  void handle_frame(Frame&& frame) override {
+    if (!opened_) {
+      handshake(std::move(frame));
+      return;
+    }
+    if (frame.has_hello()) {
+      protocol_violation("unexpected Hello: the session is already open");
+      return;
+    }
+    server_.handler.on_frame(self(), std::move(frame));
+  }
+
+  void handle_closed(const std::string& reason) override {
+    handshake_timer_.cancel();
+    if (opened_) {
+      spdlog::info("planet: {} closed: {}", describe(), reason);
+      try {
+        server_.handler.on_close(self(), reason);
+      } catch (const std::exception& exception) {
+        spdlog::error("planet: SessionHandler::on_close of {} threw: {}", describe(),
+                      exception.what());
+      }
+    }
+    server_.on_session_closed(id_);
+  }
+
+  std::string describe() const override {
+    std::string text = "session " + std::to_string(id_) + " from " + peer_address();
+    if (opened_) text += " (peer '" + hello_.peer_name() + "')";
+    return text;
+  }
+
+ private:
+  SessionPtr self() { return std::static_pointer_cast<ServerSession>(shared_from_this()); }
+
+  void protocol_violation(const std::string& reason) {
+    spdlog::warn("planet: closing {}: {}", describe(), reason);
+    close_link(detail::make_goodbye(Status::BAD_ARGUMENTS, reason), reason);
+  }
+
+  void refuse(Status status, const std::string& reason, const Hello& hello) {
+    spdlog::warn("planet: refused peer '{}' from {}: {}", hello.peer_name(), peer_address(),
+                 reason);
+    Frame refused;
+    refused.mutable_refused()->set_status(status);
+    refused.mutable_refused()->set_reason(reason);
+    close_link(std::move(refused), "refused: " + reason);
+  }
+
+  void handshake(Frame&& frame) {
+    handshake_timer_.cancel();
+    if (!frame.has_hello()) {
+      protocol_violation("expected Hello as the first frame, got " +
+                         std::string(frame_body_name(frame)));
+      return;
+    }
+    Hello& hello = *frame.mutable_hello();
+    const ServerOptions& options = server_.options;
+    if (hello.version() != kProtocolVersion) {
+      refuse(Status::INTERNAL,
+             "protocol version " + std::to_string(hello.version()) +
+                 " not supported, server speaks " + std::to_string(kProtocolVersion),
+             hello);
+      return;
+    }
+    if (!options.token.empty()) {
+      if (hello.token().empty()) {
+        refuse(Status::UNAUTHENTICATED, "token required: pass --token-file", hello);
+        return;
+      }
+      if (!constant_time_equal(hello.token(), options.token)) {
+        refuse(Status::UNAUTHENTICATED, "wrong token", hello);
+        return;
+      }
+    }
+    hello.clear_token();
+    hello_ = std::move(hello);
+
+    Frame welcome_frame;
+    Welcome& welcome = *welcome_frame.mutable_welcome();
+    welcome.set_version(kProtocolVersion);
+    welcome.set_space(options.space);
+    welcome.set_server_instance(server_.instance);
+    welcome.set_heartbeat_interval_ms(static_cast<uint32_t>(options.heartbeat_interval.count()));
+    welcome.set_heartbeat_timeout_ms(static_cast<uint32_t>(options.heartbeat_timeout.count()));
+    welcome.set_max_message_bytes(options.max_message_bytes);
+    welcome.set_chunk_bytes(options.chunk_bytes);
+    enqueue(welcome_frame);
+
+    opened_ = true;
+    mark_open();
+    set_heartbeat(options.heartbeat_interval, options.heartbeat_timeout);
+    spdlog::info("planet: {} open: role {}, session_id {}", describe(), Role_Name(hello_.role()),
+                 hello_.session_id());
+    server_.handler.on_open(self());
+  }
+
+  ServerCore& server_;
+  const uint64_t id_;
+  asio::steady_timer handshake_timer_;
+  Hello hello_;        // written once on the strand before on_open; read-only afterwards
+  std::atomic<bool> opened_{false};  // set on the strand after hello_; read anywhere
+};
+
+ServerCore::ServerCore(ServerOptions options_in, SessionHandler& handler_in)
+    : options(std::move(options_in)), handler(handler_in) {
+  validate(options);
+  const std::string where = options.host + ":" + std::to_string(options.port);
+  try {
+    asio::ip::tcp::resolver resolver(*io);
+    auto results = resolver.resolve(options.host, std::to_string(options.port),
+                                    asio::ip::tcp::resolver::passive |
+                                        asio::ip::tcp::resolver::numeric_service);
+    if (results.empty()) throw std::runtime_error("no address");
+    const asio::ip::tcp::endpoint endpoint = results.begin()->endpoint();
+    acceptor.open(endpoint.protocol());
+    acceptor.set_option(asio::ip::tcp::acceptor::reuse_address(true));
+    acceptor.bind(endpoint);
+    acceptor.listen(asio::socket_base::max_listen_connections);
+    bound_port = acceptor.local_endpoint().port();
+  } catch (const std::exception& exception) {
+    throw std::runtime_error("Planet server cannot listen on " + where + ": " + exception.what() +
+                             " (is another process using the port? choose another with --listen)");
+  }
+}
+
+bool ServerCore::on_io_thread() const {
+  for (const auto& thread : threads) {
+    if (thread.get_id() == std::this_thread::get_id()) return true;
+  }
+  return false;
+}
+
+void ServerCore::start() {
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    if (started || stopped) return;
+    started = true;
+  }
+  work.emplace(io->get_executor());
+  asio::post(accept_strand, [this] { do_accept(); });
+  for (unsigned i = 0; i < options.io_threads; ++i) {
+    threads.emplace_back([this] {
+      for (;;) {
+        try {
+          io->run();
+          return;
+        } catch (const std::exception& exception) {
+          spdlog::error("planet: server I/O thread caught: {}", exception.what());
+        }
+      }
+    });
+  }
+  spdlog::info("planet: server listening on {}:{} (space '{}', instance {})", options.host,
+               bound_port, options.space, instance);
+}
+
+void ServerCore::do_accept() {
+  acceptor.async_accept(
+      asio::make_strand(*io), [this](const std::error_code& error, asio::ip::tcp::socket socket) {
+        if (error == asio::error::operation_aborted || !acceptor.is_open()) return;
+        if (error) {
+          // E.g. out of file descriptors: retry shortly instead of spinning.
+          spdlog::warn("planet: accept failed on port {}: {}", bound_port, error.message());
+          accept_retry.expires_after(std::chrono::milliseconds(100));
+          accept_retry.async_wait([this](const std::error_code& wait_error) {
+            if (!wait_error) do_accept();
+          });
+          return;
+        }
+        std::shared_ptr<ServerSession> session;
+        {
+          std::lock_guard<std::mutex> lock(mutex);
+          if (stopped) return;  // the socket closes as it goes out of scope
+          detail::LinkConfig config;
+          config.limits.max_frame_bytes = options.chunk_bytes;
+          config.limits.max_message_bytes = options.max_message_bytes;
+          config.chunk_bytes = options.chunk_bytes;
+          config.max_send_queue_bytes = options.max_send_queue_bytes;
+          const uint64_t id = next_session_id++;
+          session = std::make_shared<ServerSession>(*this, id, std::move(socket), config);
+          sessions.emplace(id, session);
+        }
+        spdlog::debug("planet: accepted {}", session->remote_address());
+        session->begin();
+        do_accept();
+      });
+}
+
+void ServerCore::on_session_closed(uint64_t id) {
+  std::lock_guard<std::mutex> lock(mutex);
+  sessions.erase(id);
+  changed.notify_all();
+}
+
+void ServerCore::stop() {
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    if (stopped) return;
+    stopped = true;
+  }
+  if (threads.empty()) {
+    std::error_code ignored;
+    acceptor.close(ignored);
+    return;
+  }
+  if (on_io_thread()) {
+    throw std::logic_error("planet::Server::stop() called from one of its own I/O threads");
+  }
+  asio::post(accept_strand, [this] {
+    std::error_code ignored;
+    acceptor.close(ignored);
+    accept_retry.cancel();
+  });
+  std::vector<std::shared_ptr<ServerSession>> all;
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    for (auto& [id, session] : sessions) all.push_back(session);
+  }
+  for (auto& session : all) {
+    session->close_link(detail::make_goodbye(Status::UNAVAILABLE, "server shutting down"),
+                        "server stopped");
+  }
+  all.clear();
+  bool drained = false;
+  {
+    std::unique_lock<std::mutex> lock(mutex);
+    // Each close takes at most the linger time (1 s) to send its Goodbye.
+    drained = changed.wait_for(lock, std::chrono::seconds(10), [this] { return sessions.empty(); });
+  }
+  work.reset();
+  if (!drained) {
+    spdlog::error("planet: sessions did not close within 10 s; stopping the I/O threads anyway");
+    io->stop();
+  }
+  for (auto& thread : threads) thread.join();
+  threads.clear();
+  // Only if the io_context was stopped: close what is left here, so on_close still runs once.
+  std::map<uint64_t, std::shared_ptr<ServerSession>> left;
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    left = sessions;
+  }
+  for (auto& [id, session] : left) session->abandon("server stopped");
+  spdlog::info("planet: server on port {} stopped", bound_port);
+}
+
+struct Server::Impl : ServerCore {
+  using ServerCore::ServerCore;
+};
+
+Server::Server(ServerOptions options, SessionHandler& handler)
+    : impl_(std::make_unique<Impl>(std::move(options), handler)) {}
+
+Server::~Server() { stop(); }
+
+uint16_t Server::port() const { return impl_->bound_port; }
+
+void Server::start() { impl_->start(); }
+
+void Server::stop() { impl_->stop(); }
+
+}  // namespace urs::planet
