@@ -1,0 +1,99 @@
+#pragma once
+// Invocation routing: a Request goes to a built-in service or to the session that provides the
+// service, with a fresh server-side call id and a deadline; the Reply goes back to the caller
+// under the caller's call id.
+//
+// Guarantees: every accepted non-oneway call is answered exactly once (the provider's reply,
+// DEADLINE_EXCEEDED, PROVIDER_GONE, or UNAVAILABLE at shutdown); a reply that comes too late is
+// dropped and logged at debug level. Oneway requests are forwarded without bookkeeping.
+//
+// Threading: thread-safe; never blocks (Session::send queues). Deadlines run on a Scheduler (one
+// timer thread), so a slow provider holds no thread.
+
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <mutex>
+#include <string>
+#include <unordered_map>
+
+#include "planet.pb.h"
+#include "urs/camus_server/registry.hpp"
+#include "urs/camus_server/timer.hpp"
+#include "urs/planet/server.hpp"
+#include "urs/planet/status.hpp"
+
+namespace urs::camus_server {
+
+// Who is calling.
+struct Caller {
+  planet::SessionPtr session;  // null for callers inside the server (task runs)
+  std::string peer;            // the session's peer_name, or e.g. "task:square-path/r3"
+  uint64_t session_id() const { return session ? session->id() : 0; }
+};
+
+// Runs exactly once with the outcome of a call.
+using Completion = std::function<void(planet::CallResult)>;
+
+// Services implemented inside the server (the registry and the service container).
+class LocalServices {
+ public:
+  virtual ~LocalServices() = default;
+  virtual bool serves(const std::string& service) const = 0;
+  // Never blocks the caller. Calls `done` exactly once, on any thread, possibly before returning;
+  // for oneway requests `done` may be ignored.
+  virtual void dispatch(const Caller& caller, const planet::Request& request, Completion done) = 0;
+};
+
+struct RouterOptions {
+  std::string space;
+  std::chrono::milliseconds default_deadline{10000};
+};
+
+class Router {
+ public:
+  // `local` and `timers` must outlive the router, and `local` must have answered (or dropped)
+  // every dispatched call before the router is destroyed.
+  Router(RouterOptions options, const Registry& registry, LocalServices& local, Scheduler& timers);
+  ~Router();  // shutdown()
+  Router(const Router&) = delete;
+  Router& operator=(const Router&) = delete;
+
+  // A Request frame from `session`; the outcome is sent back as a Reply frame.
+  void on_request(const planet::SessionPtr& session, planet::Request request);
+  // A Reply frame from `session` (a provider answering a forwarded call).
+  void on_reply(const planet::Session& session, planet::Reply reply);
+  // A call from any caller; `done` runs exactly once unless the request is oneway.
+  void call(const Caller& caller, planet::Request request, Completion done);
+  // Fails calls pending at the closed session (PROVIDER_GONE) and forgets those it made.
+  void on_session_closed(uint64_t session_id);
+  // Answers every pending call UNAVAILABLE; later calls are refused the same way. Idempotent.
+  void shutdown();
+
+  size_t pending() const;
+
+ private:
+  struct Pending {
+    uint64_t caller_session = 0;
+    Completion done;
+    std::string service;
+    std::string operation;
+    uint64_t provider_session = 0;  // 0 for built-ins
+    std::string provider;
+    uint32_t deadline_ms = 0;
+    Scheduler::TimerId timer = 0;
+  };
+  void complete(uint64_t call_id, planet::CallResult result);
+  void expire(uint64_t call_id);
+
+  const RouterOptions options_;
+  const Registry& registry_;
+  LocalServices& local_;
+  Scheduler& timers_;
+  mutable std::mutex mutex_;
+  std::unordered_map<uint64_t, Pending> pending_;
+  uint64_t next_call_id_ = 1;
+  bool shut_down_ = false;
+};
+
+}  // namespace urs::camus_server

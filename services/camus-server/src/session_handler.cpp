@@ -1,0 +1,97 @@
+#include "urs/camus_server/session_handler.hpp"
+
+#include <spdlog/spdlog.h>
+
+namespace urs::camus_server {
+
+bool BuiltinServices::serves(const std::string& service) const {
+  return service == RegistryService::kName || container_.hosts(service);
+}
+
+void BuiltinServices::dispatch(const Caller& caller, const planet::Request& request, Completion done) {
+  if (request.service() == RegistryService::kName) {
+    auto result = registry_.handle(caller.session, request);
+    if (!request.oneway()) done(std::move(result));
+    return;
+  }
+  container_.dispatch(request, caller.peer, std::move(done));
+}
+
+void RouterInvoker::call(const std::string& caller, planet::Request request,
+                         std::function<void(planet::CallResult)> done) {
+  router_.call(Caller{nullptr, caller}, std::move(request), std::move(done));
+}
+
+void CamusSessionHandler::on_open(const planet::SessionPtr& session) {
+  const auto& hello = session->hello();
+  spdlog::info("session {} opened: {} ({}) from {}", session->id(), hello.peer_name(), planet::Role_Name(hello.role()),
+               session->remote_address());
+}
+
+void CamusSessionHandler::on_frame(const planet::SessionPtr& session, planet::Frame&& frame) {
+  std::weak_ptr<planet::Session> weak = session;
+  switch (frame.body_case()) {
+    case planet::Frame::kRequest:
+      router_.on_request(session, std::move(*frame.mutable_request()));
+      return;
+    case planet::Frame::kReply:
+      router_.on_reply(*session, std::move(*frame.mutable_reply()));
+      return;
+    case planet::Frame::kPublish: {
+      auto* publish = frame.mutable_publish();
+      PublishInput input;
+      input.topic = std::move(*publish->mutable_topic());
+      input.payload = std::move(*publish->mutable_payload());
+      input.content_type = std::move(*publish->mutable_content_type());
+      input.source = session->hello().peer_name();
+      input.session_key = session->hello().session_id();
+      input.publish_id = publish->publish_id();
+      bus_.publish(std::move(input), [weak](const planet::PublishAck& ack) {
+        auto s = weak.lock();
+        if (!s) return;
+        planet::Frame out;
+        *out.mutable_publish_ack() = ack;
+        s->send(std::move(out));
+      });
+      return;
+    }
+    case planet::Frame::kSubscribe:
+      bus_.subscribe(
+          session->id(), frame.subscribe(),
+          [weak](const planet::Event& event) {
+            auto s = weak.lock();
+            if (!s) return false;
+            planet::Frame out;
+            *out.mutable_event() = event;
+            return s->send(std::move(out));
+          },
+          [weak](const planet::SubscribeAck& ack) {
+            auto s = weak.lock();
+            if (!s) return;
+            planet::Frame out;
+            *out.mutable_subscribe_ack() = ack;
+            s->send(std::move(out));
+          });
+      return;
+    case planet::Frame::kUnsubscribe:
+      bus_.unsubscribe(session->id(), frame.unsubscribe().subscription_id());
+      return;
+    default: {
+      const auto* field = planet::Frame::descriptor()->FindFieldByNumber(frame.body_case());
+      std::string kind = field != nullptr ? field->name() : "empty";
+      spdlog::warn("session {} ({}) sent an unexpected '{}' frame; closing it", session->id(),
+                   session->hello().peer_name(), kind);
+      session->close(planet::BAD_ARGUMENTS, "unexpected '" + kind + "' frame: a server does not accept it");
+      return;
+    }
+  }
+}
+
+void CamusSessionHandler::on_close(const planet::SessionPtr& session, const std::string& reason) {
+  spdlog::info("session {} ({}) closed: {}", session->id(), session->hello().peer_name(), reason);
+  registry_.remove_session(session->id());
+  router_.on_session_closed(session->id());
+  bus_.drop_owner(session->id());
+}
+
+}  // namespace urs::camus_server

@@ -1,0 +1,134 @@
+#pragma once
+// Service agents (SAs) and the host that runs them.
+//
+// A ServiceAgent implements one interface (a Protobuf service generated from IDL). It sees parsed
+// request messages and fills reply messages; it never touches the wire. An AgentHost maps
+// service names to agents, decodes Planet requests, validates them, runs the agent on a worker
+// pool (so a slow agent never blocks another) and encodes the outcome. The same host serves
+// agents inside urs-sam and the server-side service container of urs-camus-server.
+
+#include <google/protobuf/descriptor.h>
+#include <google/protobuf/message.h>
+
+#include <chrono>
+#include <condition_variable>
+#include <deque>
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "urs/planet/client.hpp"
+#include "urs/planet/status.hpp"
+
+namespace urs::agent {
+
+// Where an agent publishes events (the SAM's Planet client, or the server's event bus).
+class EventSink {
+ public:
+  virtual ~EventSink() = default;
+  // Never blocks; returns !ok() with a reason if the event cannot be accepted (e.g. queue full).
+  virtual planet::CallResult publish(const std::string& topic, const google::protobuf::Message& event) = 0;
+};
+
+struct CallContext {
+  std::string service;                               // the service name the caller used
+  std::string caller;                                // the calling peer's name, when known
+  std::chrono::steady_clock::time_point deadline;    // after this the caller has given up
+  EventSink* events = nullptr;                       // never null inside invoke()
+};
+
+// What invoke() returns. On OK the reply message has been filled.
+struct Outcome {
+  planet::Status status = planet::OK;
+  std::string message;
+  std::shared_ptr<const google::protobuf::Message> exception;  // USER_EXCEPTION only
+
+  static Outcome ok() { return {}; }
+  static Outcome error(planet::Status status, std::string message) {
+    return {status, std::move(message), nullptr};
+  }
+  // Raise an IDL exception (a message whose type is listed in the method's raises).
+  static Outcome raise(std::shared_ptr<const google::protobuf::Message> exception, std::string message) {
+    return {planet::USER_EXCEPTION, std::move(message), std::move(exception)};
+  }
+};
+
+class ServiceAgent {
+ public:
+  virtual ~ServiceAgent() = default;
+  virtual const google::protobuf::ServiceDescriptor& interface() const = 0;
+  // Runs on a worker thread and may block (ideally not past ctx.deadline). `request` is of
+  // method.input_type(), `reply` an empty message of method.output_type(). Exceptions thrown
+  // here become INTERNAL with the exception's text.
+  virtual Outcome invoke(const google::protobuf::MethodDescriptor& method,
+                         const google::protobuf::Message& request, google::protobuf::Message& reply,
+                         const CallContext& ctx) = 0;
+  virtual void start(EventSink& /*events*/) {}  // after registration; e.g. start a sensor thread
+  virtual void stop() {}                        // before the host goes away; joins own threads
+};
+
+// Fixed pool of worker threads with an unbounded FIFO queue. stop() drains nothing: queued jobs
+// that have not started are run with `cancelled = true` so that each can still answer its caller.
+class WorkerPool {
+ public:
+  using Job = std::function<void(bool cancelled)>;
+  explicit WorkerPool(unsigned threads);
+  ~WorkerPool();
+  WorkerPool(const WorkerPool&) = delete;
+  WorkerPool& operator=(const WorkerPool&) = delete;
+  void post(Job job);
+  void stop();
+
+ private:
+  void run();
+  std::mutex mutex_;
+  std::condition_variable wake_;
+  std::deque<Job> jobs_;
+  bool stopping_ = false;
+  std::vector<std::thread> threads_;
+};
+
+struct HostedService {
+  std::string name;                       // unique service name, e.g. "robot1.diag"
+  std::shared_ptr<ServiceAgent> agent;
+  std::map<std::string, std::string> properties;
+  uint32_t deadline_ms = 0;               // default deadline advertised to callers (0 = server's)
+};
+
+class AgentHost {
+ public:
+  // `events` must outlive the host. `factory` makes reply/request messages: pass nullptr for the
+  // generated factory (agents built from compiled IDL) or a DynamicMessageFactory's.
+  AgentHost(unsigned workers, EventSink& events,
+            google::protobuf::MessageFactory* factory = nullptr);
+  ~AgentHost();  // stop()
+
+  // Control plane: throws std::invalid_argument naming the service on a duplicate name.
+  void add(HostedService service);
+  std::vector<HostedService> services() const;
+  const HostedService* find(const std::string& name) const;
+
+  void start();  // calls start() of every agent
+  void stop();   // stops agents, then the pool (queued calls answered UNAVAILABLE)
+
+  // Never blocks. Answers UNKNOWN_SERVICE, UNKNOWN_OPERATION, BAD_ARGUMENTS itself; otherwise
+  // runs the agent on the pool and answers with its outcome. Oneway requests get no reply.
+  void dispatch(const planet::Request& request, const std::string& caller, planet::Responder responder);
+
+  // The registration to send for `service` (interface name + descriptor set of its file).
+  camus::RegisterRequest registration(const HostedService& service) const;
+
+ private:
+  EventSink& events_;
+  google::protobuf::MessageFactory* factory_;
+  WorkerPool pool_;
+  mutable std::mutex mutex_;
+  std::map<std::string, HostedService> services_;
+  bool started_ = false;
+};
+
+}  // namespace urs::agent

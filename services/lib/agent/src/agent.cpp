@@ -1,0 +1,218 @@
+#include "urs/agent/agent.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <stdexcept>
+
+#include "urs/schema/schema.hpp"
+
+namespace urs::agent {
+
+namespace gp = google::protobuf;
+
+WorkerPool::WorkerPool(unsigned threads) {
+  if (threads == 0) threads = 1;
+  threads_.reserve(threads);
+  for (unsigned i = 0; i < threads; ++i) threads_.emplace_back([this] { run(); });
+}
+
+WorkerPool::~WorkerPool() { stop(); }
+
+void WorkerPool::post(Job job) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!stopping_) {
+      jobs_.push_back(std::move(job));
+      wake_.notify_one();
+      return;
+    }
+  }
+  job(true);  // pool stopped: let the job answer its caller
+}
+
+void WorkerPool::stop() {
+  std::deque<Job> cancelled;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (stopping_ && threads_.empty()) return;
+    stopping_ = true;
+    cancelled.swap(jobs_);
+    wake_.notify_all();
+  }
+  for (auto& job : cancelled) job(true);
+  for (auto& t : threads_) {
+    if (t.joinable()) t.join();
+  }
+  threads_.clear();
+}
+
+void WorkerPool::run() {
+  for (;;) {
+    Job job;
+    {
+      std::unique_lock<std::mutex> lock(mutex_);
+      wake_.wait(lock, [this] { return stopping_ || !jobs_.empty(); });
+      if (jobs_.empty()) return;  // stopping and drained
+      job = std::move(jobs_.front());
+      jobs_.pop_front();
+    }
+    job(false);
+  }
+}
+
+AgentHost::AgentHost(unsigned workers, EventSink& events, gp::MessageFactory* factory)
+    : events_(events),
+      factory_(factory != nullptr ? factory : gp::MessageFactory::generated_factory()),
+      pool_(workers) {}
+
+AgentHost::~AgentHost() { stop(); }
+
+void AgentHost::add(HostedService service) {
+  if (!service.agent) throw std::invalid_argument("service '" + service.name + "' has no agent");
+  if (service.name.empty()) throw std::invalid_argument("a service agent needs a non-empty name");
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (services_.count(service.name) != 0) {
+    throw std::invalid_argument("service name '" + service.name + "' is used twice on this host");
+  }
+  auto name = service.name;
+  services_.emplace(std::move(name), std::move(service));
+}
+
+std::vector<HostedService> AgentHost::services() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  std::vector<HostedService> out;
+  out.reserve(services_.size());
+  for (const auto& [name, service] : services_) out.push_back(service);
+  return out;
+}
+
+const HostedService* AgentHost::find(const std::string& name) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  auto it = services_.find(name);
+  return it == services_.end() ? nullptr : &it->second;
+}
+
+void AgentHost::start() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (started_) return;
+  started_ = true;
+  for (auto& [name, service] : services_) service.agent->start(events_);
+}
+
+void AgentHost::stop() {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (started_) {
+      for (auto& [name, service] : services_) service.agent->stop();
+      started_ = false;
+    }
+  }
+  pool_.stop();
+}
+
+camus::RegisterRequest AgentHost::registration(const HostedService& service) const {
+  camus::RegisterRequest out;
+  const gp::ServiceDescriptor& iface = service.agent->interface();
+  auto* info = out.mutable_service();
+  info->set_name(service.name);
+  info->set_interface(iface.full_name());
+  info->set_deadline_ms(service.deadline_ms);
+  for (const auto& [key, value] : service.properties) (*info->mutable_properties())[key] = value;
+  out.set_descriptor_set(schema::descriptor_set_for(*iface.file()));
+  return out;
+}
+
+namespace {
+
+planet::CallResult encode(const Outcome& outcome, const gp::Message& reply) {
+  if (outcome.status == planet::OK) return planet::CallResult::success(reply.SerializeAsString());
+  if (outcome.status == planet::USER_EXCEPTION) {
+    if (!outcome.exception) {
+      return planet::CallResult::error(planet::INTERNAL, "agent raised an exception without a value: " +
+                                                             outcome.message);
+    }
+    return planet::CallResult::user_exception(outcome.exception->GetTypeName(),
+                                              outcome.exception->SerializeAsString(), outcome.message);
+  }
+  return planet::CallResult::error(outcome.status, outcome.message);
+}
+
+}  // namespace
+
+void AgentHost::dispatch(const planet::Request& request, const std::string& caller,
+                         planet::Responder responder) {
+  const bool oneway = request.oneway();
+  auto answer = [&responder, oneway](planet::CallResult result) {
+    if (!oneway) responder.reply(std::move(result));
+  };
+
+  std::shared_ptr<ServiceAgent> agent;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto it = services_.find(request.service());
+    if (it == services_.end()) {
+      answer(planet::CallResult::error(planet::UNKNOWN_SERVICE,
+                                       "no service named '" + request.service() + "' on this host"));
+      return;
+    }
+    agent = it->second.agent;
+  }
+  const gp::ServiceDescriptor& iface = agent->interface();
+  const gp::MethodDescriptor* method = iface.FindMethodByName(request.operation());
+  if (method == nullptr) {
+    answer(planet::CallResult::error(planet::UNKNOWN_OPERATION, "interface " + iface.full_name() +
+                                                                    " has no operation '" +
+                                                                    request.operation() + "'"));
+    return;
+  }
+  const gp::Message* request_proto = factory_->GetPrototype(method->input_type());
+  const gp::Message* reply_proto = factory_->GetPrototype(method->output_type());
+  if (request_proto == nullptr || reply_proto == nullptr) {
+    answer(planet::CallResult::error(planet::INTERNAL, "no message factory for " + method->full_name()));
+    return;
+  }
+  std::shared_ptr<gp::Message> parsed(request_proto->New());
+  if (!parsed->ParseFromString(request.payload())) {
+    answer(planet::CallResult::error(
+        planet::BAD_ARGUMENTS, "payload of " + request.service() + "." + request.operation() +
+                                   " is not a valid " + method->input_type()->full_name()));
+    return;
+  }
+
+  auto ctx = std::make_shared<CallContext>();
+  ctx->service = request.service();
+  ctx->caller = caller;
+  ctx->events = &events_;
+  ctx->deadline = request.deadline_ms() == 0
+                      ? std::chrono::steady_clock::time_point::max()
+                      : std::chrono::steady_clock::now() + std::chrono::milliseconds(request.deadline_ms());
+  auto shared_responder = std::make_shared<planet::Responder>(std::move(responder));
+
+  pool_.post([agent, method, parsed, reply_proto, ctx, shared_responder, oneway](bool cancelled) {
+    auto reply_to = [&](planet::CallResult result) {
+      if (!oneway) shared_responder->reply(std::move(result));
+    };
+    if (cancelled) {
+      reply_to(planet::CallResult::error(planet::UNAVAILABLE,
+                                         "service host is shutting down; " + ctx->service + " not called"));
+      return;
+    }
+    if (std::chrono::steady_clock::now() > ctx->deadline) {
+      reply_to(planet::CallResult::error(planet::DEADLINE_EXCEEDED,
+                                         "deadline passed before " + ctx->service + "." +
+                                             method->name() + " could start"));
+      return;
+    }
+    std::unique_ptr<gp::Message> reply(reply_proto->New());
+    Outcome outcome;
+    try {
+      outcome = agent->invoke(*method, *parsed, *reply, *ctx);
+    } catch (const std::exception& e) {
+      spdlog::error("{}.{} threw: {}", ctx->service, method->name(), e.what());
+      outcome = Outcome::error(planet::INTERNAL, ctx->service + "." + method->name() + " failed: " + e.what());
+    }
+    reply_to(encode(outcome, *reply));
+  });
+}
+
+}  // namespace urs::agent

@@ -1,0 +1,233 @@
+#include "urs/camus_server/router.hpp"
+
+#include <gtest/gtest.h>
+
+#include "fakes.hpp"
+
+namespace urs::camus_server::test {
+namespace {
+
+class NoContainer final : public ServiceContainer {
+ public:
+  bool hosts(const std::string&) const override { return false; }
+  void dispatch(const planet::Request&, const std::string&, Completion) override {}
+};
+
+class RouterTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    ASSERT_TRUE(registry.register_service(provider, navigation_registration("robot1.navigation")).ok());
+    const auto* file = camus::ServiceInfo::descriptor()->file();
+    registry.add_builtin("camus.registry", *file->FindServiceByName("Registry"));
+  }
+
+  planet::Request request(uint64_t call_id, const std::string& service, const std::string& op,
+                          uint32_t deadline_ms = 0, bool oneway = false) {
+    planet::Request r;
+    r.set_call_id(call_id);
+    r.set_service(service);
+    r.set_operation(op);
+    r.set_payload("args");
+    r.set_deadline_ms(deadline_ms);
+    r.set_oneway(oneway);
+    return r;
+  }
+
+  planet::Reply reply_from_provider(uint64_t server_call_id, const std::string& payload) {
+    planet::Reply reply;
+    reply.set_call_id(server_call_id);
+    reply.set_status(planet::OK);
+    reply.set_payload(payload);
+    return reply;
+  }
+
+  RecordingSink sink;
+  Registry registry{"kr", sink};
+  RegistryService registry_service{registry};
+  NoContainer container;
+  BuiltinServices builtins{registry_service, container};
+  ManualScheduler timers;
+  Router router{RouterOptions{"kr", std::chrono::milliseconds(1000)}, registry, builtins, timers};
+  std::shared_ptr<FakeSession> caller = std::make_shared<FakeSession>(1, "cli@host", planet::CLIENT);
+  std::shared_ptr<FakeSession> provider = std::make_shared<FakeSession>(2, "sam@robot1", planet::SAM, "k");
+};
+
+TEST_F(RouterTest, ForwardsWithServerCallIdAndMapsTheReplyBack) {
+  router.on_request(caller, request(7, "robot1.navigation", "moveTo"));
+  router.on_request(caller, request(7, "robot1.navigation", "moveTo"));  // same caller id twice: distinct calls
+  ASSERT_EQ(provider->count(planet::Frame::kRequest), 2u);
+  auto first = provider->frames()[0].request();
+  auto second = provider->frames()[1].request();
+  EXPECT_NE(first.call_id(), second.call_id());
+  EXPECT_EQ(first.service(), "robot1.navigation");
+  EXPECT_EQ(first.operation(), "moveTo");
+  EXPECT_EQ(first.payload(), "args");
+  EXPECT_EQ(first.deadline_ms(), 1000u);  // the server default, passed on to the provider
+  EXPECT_EQ(router.pending(), 2u);
+
+  router.on_reply(*provider, reply_from_provider(second.call_id(), "second"));
+  router.on_reply(*provider, reply_from_provider(first.call_id(), "first"));
+  ASSERT_EQ(caller->count(planet::Frame::kReply), 2u);
+  auto r0 = caller->frames()[0].reply();
+  auto r1 = caller->frames()[1].reply();
+  EXPECT_EQ(r0.call_id(), 7u);
+  EXPECT_EQ(r0.payload(), "second");
+  EXPECT_EQ(r1.payload(), "first");
+  EXPECT_EQ(router.pending(), 0u);
+  EXPECT_EQ(timers.pending(), 0u);  // deadline timers cancelled
+}
+
+TEST_F(RouterTest, ProviderStatusAndExceptionArePassedThrough) {
+  router.on_request(caller, request(3, "robot1.navigation", "moveTo"));
+  planet::Reply reply;
+  reply.set_call_id(provider->frames()[0].request().call_id());
+  reply.set_status(planet::USER_EXCEPTION);
+  reply.set_message("target outside the map");
+  reply.set_exception_type("URC.InvalidTarget");
+  reply.set_payload("exc");
+  router.on_reply(*provider, reply);
+  auto got = caller->wait_frame(planet::Frame::kReply);
+  ASSERT_TRUE(got);
+  EXPECT_EQ(got->reply().status(), planet::USER_EXCEPTION);
+  EXPECT_EQ(got->reply().message(), "target outside the map");
+  EXPECT_EQ(got->reply().exception_type(), "URC.InvalidTarget");
+  EXPECT_EQ(got->reply().payload(), "exc");
+}
+
+TEST_F(RouterTest, DeadlineExceededThenLateReplyIsDropped) {
+  router.on_request(caller, request(9, "robot1.navigation", "moveTo", 250));
+  uint64_t server_id = provider->frames()[0].request().call_id();
+  EXPECT_EQ(provider->frames()[0].request().deadline_ms(), 250u);
+  timers.advance(std::chrono::milliseconds(249));
+  EXPECT_EQ(caller->count(planet::Frame::kReply), 0u);
+  timers.advance(std::chrono::milliseconds(1));
+  ASSERT_EQ(caller->count(planet::Frame::kReply), 1u);
+  auto reply = caller->frames()[0].reply();
+  EXPECT_EQ(reply.call_id(), 9u);
+  EXPECT_EQ(reply.status(), planet::DEADLINE_EXCEEDED);
+  EXPECT_EQ(reply.message(), "no reply from robot1.navigation.moveTo within 250 ms");
+
+  router.on_reply(*provider, reply_from_provider(server_id, "late"));
+  EXPECT_EQ(caller->count(planet::Frame::kReply), 1u);
+  EXPECT_EQ(router.pending(), 0u);
+}
+
+TEST_F(RouterTest, DeadlineComesFromCallThenServiceThenDefault) {
+  ASSERT_TRUE(registry.register_service(provider, navigation_registration("robot1.slow", 5000)).ok());
+  router.on_request(caller, request(1, "robot1.slow", "moveTo"));
+  router.on_request(caller, request(2, "robot1.slow", "moveTo", 100));
+  EXPECT_EQ(provider->frames()[0].request().deadline_ms(), 5000u);
+  EXPECT_EQ(provider->frames()[1].request().deadline_ms(), 100u);
+  timers.advance(std::chrono::milliseconds(100));
+  ASSERT_EQ(caller->count(planet::Frame::kReply), 1u);
+  EXPECT_EQ(caller->frames()[0].reply().call_id(), 2u);
+  timers.advance(std::chrono::milliseconds(4900));
+  ASSERT_EQ(caller->count(planet::Frame::kReply), 2u);
+  EXPECT_EQ(caller->frames()[1].reply().message(), "no reply from robot1.slow.moveTo within 5000 ms");
+}
+
+TEST_F(RouterTest, ProviderGoneFailsItsPendingCalls) {
+  router.on_request(caller, request(4, "robot1.navigation", "moveTo"));
+  router.on_request(caller, request(5, "robot1.navigation", "setSpeed"));
+  registry.remove_session(provider->id());
+  router.on_session_closed(provider->id());
+  ASSERT_EQ(caller->count(planet::Frame::kReply), 2u);
+  for (const auto& frame : caller->frames()) {
+    EXPECT_EQ(frame.reply().status(), planet::PROVIDER_GONE);
+    EXPECT_EQ(frame.reply().message(), "provider sam@robot1 of robot1.navigation disconnected");
+  }
+  EXPECT_EQ(router.pending(), 0u);
+  EXPECT_EQ(timers.pending(), 0u);
+  router.on_request(caller, request(6, "robot1.navigation", "moveTo"));
+  EXPECT_EQ(caller->frames().back().reply().status(), planet::UNKNOWN_SERVICE);
+}
+
+TEST_F(RouterTest, SendToAClosedProviderAnswersProviderGoneAtOnce) {
+  provider->mark_closed();
+  router.on_request(caller, request(4, "robot1.navigation", "moveTo"));
+  auto reply = caller->wait_frame(planet::Frame::kReply);
+  ASSERT_TRUE(reply);
+  EXPECT_EQ(reply->reply().status(), planet::PROVIDER_GONE);
+  EXPECT_EQ(router.pending(), 0u);
+}
+
+TEST_F(RouterTest, CallerGoneDropsItsEntries) {
+  router.on_request(caller, request(4, "robot1.navigation", "moveTo"));
+  uint64_t server_id = provider->frames()[0].request().call_id();
+  router.on_session_closed(caller->id());
+  EXPECT_EQ(router.pending(), 0u);
+  EXPECT_EQ(timers.pending(), 0u);
+  router.on_reply(*provider, reply_from_provider(server_id, "nobody listens"));
+  EXPECT_EQ(caller->count(planet::Frame::kReply), 0u);
+}
+
+TEST_F(RouterTest, UnknownServiceAndOperationAreNamed) {
+  router.on_request(caller, request(1, "robot9.navigation", "moveTo"));
+  router.on_request(caller, request(2, "robot1.navigation", "fly"));
+  ASSERT_EQ(caller->count(planet::Frame::kReply), 2u);
+  auto unknown = caller->frames()[0].reply();
+  EXPECT_EQ(unknown.call_id(), 1u);
+  EXPECT_EQ(unknown.status(), planet::UNKNOWN_SERVICE);
+  EXPECT_EQ(unknown.message(), "no service named 'robot9.navigation' in space kr");
+  auto no_op = caller->frames()[1].reply();
+  EXPECT_EQ(no_op.status(), planet::UNKNOWN_OPERATION);
+  EXPECT_EQ(no_op.message(), "interface test.Navigation has no operation 'fly'");
+  EXPECT_EQ(provider->count(planet::Frame::kRequest), 0u);
+}
+
+TEST_F(RouterTest, OnewayIsForwardedWithoutBookkeeping) {
+  router.on_request(caller, request(1, "robot1.navigation", "moveTo", 0, true));
+  ASSERT_EQ(provider->count(planet::Frame::kRequest), 1u);
+  EXPECT_TRUE(provider->frames()[0].request().oneway());
+  EXPECT_EQ(router.pending(), 0u);
+  EXPECT_EQ(timers.pending(), 0u);
+  router.on_request(caller, request(2, "robot9.navigation", "moveTo", 0, true));  // unknown: logged, no reply
+  EXPECT_EQ(caller->count(planet::Frame::kReply), 0u);
+}
+
+TEST_F(RouterTest, ReplyFromAnotherSessionIsIgnored) {
+  router.on_request(caller, request(1, "robot1.navigation", "moveTo"));
+  uint64_t server_id = provider->frames()[0].request().call_id();
+  auto intruder = std::make_shared<FakeSession>(3, "intruder", planet::SAM);
+  router.on_reply(*intruder, reply_from_provider(server_id, "forged"));
+  EXPECT_EQ(caller->count(planet::Frame::kReply), 0u);
+  router.on_reply(*provider, reply_from_provider(server_id, "real"));
+  EXPECT_EQ(caller->frames()[0].reply().payload(), "real");
+}
+
+TEST_F(RouterTest, BuiltinRegistryIsServedLocally) {
+  planet::Request list = request(11, "camus.registry", "List");
+  list.set_payload(camus::ListRequest().SerializeAsString());
+  router.on_request(caller, list);
+  auto reply = caller->wait_frame(planet::Frame::kReply);
+  ASSERT_TRUE(reply);
+  EXPECT_EQ(reply->reply().call_id(), 11u);
+  ASSERT_EQ(reply->reply().status(), planet::OK) << reply->reply().message();
+  camus::ListReply services;
+  ASSERT_TRUE(services.ParseFromString(reply->reply().payload()));
+  EXPECT_EQ(services.services_size(), 2);
+  router.on_request(caller, request(12, "camus.registry", "Fly"));
+  EXPECT_EQ(caller->frames().back().reply().message(), "interface urs.camus.Registry has no operation 'Fly'");
+}
+
+TEST_F(RouterTest, InternalCallersGetCompletions) {
+  std::optional<planet::CallResult> got;
+  router.call(Caller{nullptr, "task:t/r1"}, request(0, "robot1.navigation", "setSpeed"),
+              [&got](planet::CallResult result) { got = std::move(result); });
+  router.on_reply(*provider, reply_from_provider(provider->frames()[0].request().call_id(), "ok"));
+  ASSERT_TRUE(got);
+  EXPECT_EQ(got->payload, "ok");
+}
+
+TEST_F(RouterTest, ShutdownAnswersPendingAndLaterCallsUnavailable) {
+  router.on_request(caller, request(1, "robot1.navigation", "moveTo"));
+  router.shutdown();
+  ASSERT_EQ(caller->count(planet::Frame::kReply), 1u);
+  EXPECT_EQ(caller->frames()[0].reply().status(), planet::UNAVAILABLE);
+  EXPECT_EQ(caller->frames()[0].reply().message(), "server is shutting down; no reply from robot1.navigation.moveTo");
+  router.on_request(caller, request(2, "robot1.navigation", "moveTo"));
+  EXPECT_EQ(caller->frames()[1].reply().message(), "server is shutting down; robot1.navigation.moveTo not called");
+}
+
+}  // namespace
+}  // namespace urs::camus_server::test

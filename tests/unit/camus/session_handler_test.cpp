@@ -1,0 +1,123 @@
+#include "urs/camus_server/session_handler.hpp"
+
+#include <gtest/gtest.h>
+
+#include "fakes.hpp"
+
+namespace urs::camus_server::test {
+namespace {
+
+// The handler wired to real components (in memory), as in the server.
+class HandlerTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const auto* file = camus::ServiceInfo::descriptor()->file();
+    registry.add_builtin("camus.registry", *file->FindServiceByName("Registry"));
+    registry.add_builtin("camus.context", *file->FindServiceByName("Context"));
+    container.add("camus.context", context_agent);
+  }
+
+  planet::Frame request(uint64_t call_id, const std::string& service, const std::string& op,
+                        const google::protobuf::Message& payload) {
+    planet::Frame frame;
+    auto* r = frame.mutable_request();
+    r->set_call_id(call_id);
+    r->set_service(service);
+    r->set_operation(op);
+    r->set_payload(payload.SerializeAsString());
+    return frame;
+  }
+
+  ManualClock clock;
+  EventBus bus{"", {}, clock};
+  BusEventSink sink{bus};
+  Registry registry{"kr", sink};
+  ManualScheduler timers;
+  ContextStore context{"", sink, clock, timers};
+  ContextAgent context_agent{context};
+  InlineContainer container{sink};
+  RegistryService registry_service{registry};
+  BuiltinServices builtins{registry_service, container};
+  Router router{RouterOptions{"kr", std::chrono::milliseconds(1000)}, registry, builtins, timers};
+  CamusSessionHandler handler{registry, router, bus};
+  std::shared_ptr<FakeSession> client = std::make_shared<FakeSession>(1, "cli@host", planet::CLIENT, "c1");
+  std::shared_ptr<FakeSession> sam = std::make_shared<FakeSession>(2, "sam@robot1", planet::SAM, "s1");
+};
+
+TEST_F(HandlerTest, ContextSetAndGetThroughFrames) {
+  handler.on_open(client);
+  camus::ContextSetRequest set;
+  set.set_key("robot1/battery");
+  set.mutable_value()->set_number_value(0.5);
+  handler.on_frame(client, request(1, "camus.context", "Set", set));
+  camus::ContextGetRequest get;
+  get.set_key("robot1/battery");
+  handler.on_frame(client, request(2, "camus.context", "Get", get));
+  auto first = client->wait_frame(planet::Frame::kReply, 0);
+  auto second = client->wait_frame(planet::Frame::kReply, 1);
+  ASSERT_TRUE(first && second);
+  ASSERT_EQ(second->reply().status(), planet::OK) << second->reply().message();
+  camus::ContextEntry entry;
+  ASSERT_TRUE(entry.ParseFromString(second->reply().payload()));
+  EXPECT_EQ(entry.source(), "cli@host");
+  EXPECT_DOUBLE_EQ(entry.value().number_value(), 0.5);
+}
+
+TEST_F(HandlerTest, PublishSubscribeAndUnsubscribeThroughFrames) {
+  planet::Frame subscribe;
+  subscribe.mutable_subscribe()->set_subscription_id(4);
+  subscribe.mutable_subscribe()->set_pattern("kr/robot1/#");
+  handler.on_frame(client, std::move(subscribe));
+  planet::Frame publish;
+  publish.mutable_publish()->set_publish_id(1);
+  publish.mutable_publish()->set_topic("kr/robot1/arrived");
+  publish.mutable_publish()->set_payload("here");
+  handler.on_frame(sam, planet::Frame(publish));
+  handler.on_frame(sam, planet::Frame(publish));  // resent: deduplicated
+  auto ack = client->wait_frame(planet::Frame::kSubscribeAck);
+  ASSERT_TRUE(ack);
+  EXPECT_EQ(ack->subscribe_ack().status(), planet::OK);
+  auto event = client->wait_frame(planet::Frame::kEvent);
+  ASSERT_TRUE(event);
+  EXPECT_EQ(event->event().subscription_id(), 4u);
+  EXPECT_EQ(event->event().source(), "sam@robot1");
+  EXPECT_EQ(event->event().payload(), "here");
+  auto ack1 = sam->wait_frame(planet::Frame::kPublishAck, 0);
+  auto ack2 = sam->wait_frame(planet::Frame::kPublishAck, 1);
+  ASSERT_TRUE(ack1 && ack2);
+  EXPECT_EQ(ack1->publish_ack().seq(), ack2->publish_ack().seq());
+
+  planet::Frame unsubscribe;
+  unsubscribe.mutable_unsubscribe()->set_subscription_id(4);
+  handler.on_frame(client, std::move(unsubscribe));
+  publish.mutable_publish()->set_publish_id(2);
+  handler.on_frame(sam, std::move(publish));
+  bus.flush();
+  EXPECT_EQ(client->count(planet::Frame::kEvent), 1u);
+}
+
+TEST_F(HandlerTest, CloseRemovesRegistrationsAndFailsCalls) {
+  handler.on_frame(sam, request(1, "camus.registry", "Register", navigation_registration("robot1.navigation")));
+  auto registered = sam->wait_frame(planet::Frame::kReply);
+  ASSERT_EQ(registered->reply().status(), planet::OK) << registered->reply().message();
+  handler.on_frame(client, request(5, "robot1.navigation", "getPosition", camus::ListRequest()));
+  ASSERT_TRUE(sam->wait_frame(planet::Frame::kRequest));
+  handler.on_close(sam, "heartbeat timeout");
+  auto reply = client->wait_frame(planet::Frame::kReply);
+  ASSERT_TRUE(reply);
+  EXPECT_EQ(reply->reply().call_id(), 5u);
+  EXPECT_EQ(reply->reply().status(), planet::PROVIDER_GONE);
+  EXPECT_TRUE(registry.list("robot1.*").empty());
+}
+
+TEST_F(HandlerTest, UnexpectedFrameClosesOnlyThatSession) {
+  planet::Frame welcome;
+  welcome.mutable_welcome()->set_version(1);
+  handler.on_frame(client, std::move(welcome));
+  EXPECT_TRUE(client->closed());
+  EXPECT_EQ(client->close_reason(), "unexpected 'welcome' frame: a server does not accept it");
+  EXPECT_FALSE(sam->closed());
+}
+
+}  // namespace
+}  // namespace urs::camus_server::test
