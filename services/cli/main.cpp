@@ -1,0 +1,331 @@
+// urs: the command-line client of a CAMUS space (rtshell-like). See docs/camus.md.
+//
+// Exit codes: 0 success; 1 the call or operation failed (one-line reason on stderr);
+// 2 bad usage or arguments; 3 the server cannot be reached.
+
+#include <google/protobuf/util/json_util.h>
+#include <spdlog/spdlog.h>
+
+#include <CLI/CLI.hpp>
+#include <condition_variable>
+#include <cstdlib>
+#include <deque>
+#include <fstream>
+#include <map>
+#include <iostream>
+#include <mutex>
+#include <sstream>
+
+#include "camus.pb.h"
+#include "dynamic_caller.hpp"
+#include "urs/planet/client.hpp"
+#include "urs/util/cli.hpp"
+
+namespace {
+
+using urs::planet::CallResult;
+namespace camus = urs::camus;
+
+constexpr int kOk = 0;
+constexpr int kFailed = 1;
+constexpr int kUsage = 2;
+constexpr int kUnreachable = 3;
+
+std::string env_or(const char* name, const std::string& fallback) {
+  const char* value = std::getenv(name);
+  return value != nullptr && *value != '\0' ? value : fallback;
+}
+
+int report(const std::string& what, const CallResult& result, const std::string& detail_json = {}) {
+  std::cerr << "urs: " << what << ": " << urs::planet::status_name(result.status);
+  if (!result.exception_type.empty()) std::cerr << " " << result.exception_type;
+  if (!detail_json.empty()) std::cerr << " " << detail_json;
+  if (!result.message.empty()) std::cerr << ": " << result.message;
+  std::cerr << "\n";
+  return result.status == urs::planet::UNAVAILABLE ? kUnreachable : kFailed;
+}
+
+std::string to_json(const google::protobuf::Message& message) {
+  std::string json;
+  urs::schema::message_to_json(message, json);
+  return json;
+}
+
+// Calls a built-in service with compiled types; prints the reply as JSON on success.
+template <class Reply>
+int builtin(urs::planet::Client& client, const std::string& service, const std::string& operation,
+            const google::protobuf::Message& request, std::chrono::milliseconds timeout, Reply& reply,
+            bool print = true) {
+  auto result = client.call(service, operation, request.SerializeAsString(), timeout);
+  if (!result.ok()) return report(service + "." + operation, result);
+  if (!reply.ParseFromString(result.payload)) {
+    return report(service + "." + operation,
+                  CallResult::error(urs::planet::INTERNAL, "unreadable " + reply.GetTypeName()));
+  }
+  if (print) std::cout << to_json(reply) << "\n";
+  return kOk;
+}
+
+std::string read_file(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw urs::util::ConfigError("cannot read '" + path + "'");
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  return buffer.str();
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"urs: command-line client of a CAMUS space"};
+  app.require_subcommand(1);
+  std::string server = env_or("URS_SERVER", "127.0.0.1:7600");
+  std::string token_file;
+  std::string log_level = "warn";
+  int timeout_ms = 5000;
+  app.add_option("--server", server, "CAMUS server HOST:PORT (env URS_SERVER)")->capture_default_str();
+  app.add_option("--token-file", token_file, "File holding the space's token (or env URS_TOKEN)");
+  app.add_option("--timeout-ms", timeout_ms, "Connection and built-in call timeout")->capture_default_str();
+  app.add_option("--log-level", log_level, urs::util::kLogLevels)->capture_default_str();
+
+  auto* ls = app.add_subcommand("ls", "List services (glob PATTERN)");
+  std::string pattern;
+  bool json_out = false;
+  ls->add_option("pattern", pattern, "Glob on service names");
+  ls->add_flag("--json", json_out, "Print the registry's JSON reply");
+
+  auto* describe = app.add_subcommand("describe", "Show the operations of a service's interface");
+  std::string service;
+  describe->add_option("service", service)->required();
+
+  auto* call = app.add_subcommand("call", "Call SERVICE OPERATION with JSON arguments; print the JSON reply");
+  std::string operation;
+  std::string args;
+  int deadline_ms = 0;
+  call->add_option("service", service)->required();
+  call->add_option("operation", operation)->required();
+  call->add_option("json", args, "Request as JSON (Protobuf JSON mapping); default {}");
+  call->add_option("--deadline-ms", deadline_ms, "Deadline of the call (default: the service's)");
+
+  auto* watch = app.add_subcommand("watch", "Print events whose topic matches PATTERN, one JSON line each");
+  int count = 0;
+  int for_ms = 0;
+  uint64_t resume_after = 0;
+  watch->add_option("pattern", pattern)->required();
+  watch->add_option("--count", count, "Exit after this many events");
+  watch->add_option("--for-ms", for_ms, "Exit after this long");
+  watch->add_option("--resume-after", resume_after, "Replay retained events with a larger sequence first");
+
+  auto* context = app.add_subcommand("context", "Read and write context entries");
+  context->require_subcommand(1);
+  std::string key;
+  std::string value;
+  int ttl_ms = 0;
+  auto* cget = context->add_subcommand("get", "Print the entry KEY");
+  cget->add_option("key", key)->required();
+  auto* cset = context->add_subcommand("set", "Set KEY to a JSON value");
+  cset->add_option("key", key)->required();
+  cset->add_option("json", value, "JSON value: number, string, bool, object, list or null")->required();
+  cset->add_option("--ttl-ms", ttl_ms, "Expire after this long (0 = never)");
+  auto* cls = context->add_subcommand("ls", "List entries (glob PATTERN)");
+  cls->add_option("pattern", pattern);
+  auto* crm = context->add_subcommand("rm", "Delete KEY");
+  crm->add_option("key", key)->required();
+
+  auto* task = app.add_subcommand("task", "Define, run, inspect and cancel tasks");
+  task->require_subcommand(1);
+  std::string name;
+  std::string file;
+  bool wait = false;
+  auto* tdefine = task->add_subcommand("define", "Define (or replace) a task from a YAML FILE");
+  tdefine->add_option("file", file)->required()->check(CLI::ExistingFile);
+  auto* trun = task->add_subcommand("run", "Run the task NAME, or the YAML FILE given with --file");
+  trun->add_option("name", name);
+  trun->add_option("--file", file, "Run this YAML definition inline")->check(CLI::ExistingFile);
+  trun->add_flag("--wait", wait, "Wait until the run ends; exit 1 unless it succeeded");
+  auto* tstatus = task->add_subcommand("status", "Status of run ID, or of the latest run of task NAME");
+  tstatus->add_option("run", name)->required();
+  auto* tcancel = task->add_subcommand("cancel", "Cancel run ID");
+  tcancel->add_option("run", name)->required();
+  auto* tls = task->add_subcommand("ls", "List task definitions and runs");
+
+  CLI11_PARSE(app, argc, argv);
+
+  urs::planet::ClientOptions options;
+  try {
+    urs::util::init_logging("urs", log_level);
+    auto endpoint = urs::util::parse_endpoint(server, "--server");
+    options.host = endpoint.host;
+    options.port = endpoint.port;
+    options.token = token_file.empty() ? env_or("URS_TOKEN", "") : urs::util::read_token_file(token_file);
+  } catch (const std::exception& e) {
+    std::cerr << "urs: " << e.what() << "\n";
+    return kUsage;
+  }
+  if (timeout_ms <= 0) {
+    std::cerr << "urs: --timeout-ms: " << timeout_ms << " must be positive\n";
+    return kUsage;
+  }
+  const auto timeout = std::chrono::milliseconds(timeout_ms);
+  options.peer_name = "urs-cli";
+  options.max_queued = 64;
+  urs::planet::Client client(options);
+  client.start();
+  if (!client.wait_connected(timeout)) {
+    auto why = client.last_error();
+    std::cerr << "urs: cannot reach the CAMUS server at " << server << ": "
+              << (why.empty() ? "no answer within " + std::to_string(timeout_ms) + " ms" : why) << "\n";
+    return kUnreachable;
+  }
+  urs::cli::DynamicCaller caller(client, timeout);
+
+  try {
+    if (*ls) {
+      camus::ListRequest request;
+      request.set_pattern(pattern);
+      camus::ListReply reply;
+      int rc = builtin(client, "camus.registry", "List", request, timeout, reply, json_out);
+      if (rc != kOk || json_out) return rc;
+      std::printf("%-32s %-28s %-24s %s\n", "SERVICE", "INTERFACE", "OWNER", "STATE");
+      for (const auto& s : reply.services()) {
+        std::printf("%-32s %-28s %-24s %s\n", s.name().c_str(), s.interface().c_str(), s.owner().c_str(),
+                    s.state().c_str());
+      }
+      return kOk;
+    }
+    if (*describe) {
+      std::string text;
+      auto result = caller.describe(service, text);
+      if (!result.ok()) return report("describe " + service, result);
+      std::cout << text;
+      return kOk;
+    }
+    if (*call) {
+      auto deadline = std::chrono::milliseconds(deadline_ms);
+      auto out = caller.call(service, operation, args, deadline);
+      if (!out.result.ok()) {
+        int rc = report(service + "." + operation, out.result, out.json);
+        return out.result.status == urs::planet::BAD_ARGUMENTS && out.result.payload.empty() ? kUsage : rc;
+      }
+      std::cout << (out.json.empty() ? "{}" : out.json) << "\n";
+      return kOk;
+    }
+    if (*watch) {
+      // Events arrive on the client's I/O thread, which must not block; decoding may need to
+      // ask the registry for an interface, so events are handed to this thread first.
+      std::mutex mutex;
+      std::condition_variable arrived;
+      std::deque<urs::planet::Event> inbox;
+      client.subscribe(
+          pattern,
+          [&](const urs::planet::Event& event) {
+            std::lock_guard<std::mutex> lock(mutex);
+            inbox.push_back(event);
+            arrived.notify_all();
+          },
+          resume_after);
+      const auto until = for_ms > 0 ? std::chrono::steady_clock::now() + std::chrono::milliseconds(for_ms)
+                                    : std::chrono::steady_clock::time_point::max();
+      int seen = 0;
+      while (count == 0 || seen < count) {
+        std::unique_lock<std::mutex> lock(mutex);
+        if (!arrived.wait_until(lock, until, [&] { return !inbox.empty(); })) break;
+        urs::planet::Event event = std::move(inbox.front());
+        inbox.pop_front();
+        lock.unlock();
+        std::cout << caller.event_json(event) << std::endl;
+        ++seen;
+      }
+      return count > 0 && seen < count ? kFailed : kOk;
+    }
+    if (*context) {
+      if (*cget) {
+        camus::ContextGetRequest request;
+        request.set_key(key);
+        camus::ContextEntry reply;
+        return builtin(client, "camus.context", "Get", request, timeout, reply);
+      }
+      if (*cset) {
+        camus::ContextSetRequest request;
+        request.set_key(key);
+        request.set_ttl_ms(static_cast<uint32_t>(ttl_ms));
+        auto error = urs::schema::json_to_message(value, *request.mutable_value());
+        if (!error.empty()) {
+          std::cerr << "urs: context set " << key << ": value '" << value << "' is not JSON: " << error << "\n";
+          return kUsage;
+        }
+        camus::ContextEntry reply;
+        return builtin(client, "camus.context", "Set", request, timeout, reply);
+      }
+      if (*cls) {
+        camus::ContextListRequest request;
+        request.set_pattern(pattern);
+        camus::ContextListReply reply;
+        return builtin(client, "camus.context", "List", request, timeout, reply);
+      }
+      camus::ContextDeleteRequest request;
+      request.set_key(key);
+      camus::ContextDeleteReply reply;
+      return builtin(client, "camus.context", "Delete", request, timeout, reply, false);
+    }
+    if (*task) {
+      if (*tdefine) {
+        camus::TaskDefinition request;
+        request.set_yaml(read_file(file));
+        camus::TaskDefineReply reply;
+        return builtin(client, "camus.tasks", "Define", request, timeout, reply);
+      }
+      if (*trun) {
+        if (name.empty() == file.empty()) {
+          std::cerr << "urs: task run: give a task NAME or --file FILE (exactly one)\n";
+          return kUsage;
+        }
+        camus::TaskRunRequest request;
+        if (!file.empty()) request.set_yaml(read_file(file));
+        request.set_name(name);
+        camus::TaskRun run;
+        if (!wait) return builtin(client, "camus.tasks", "Run", request, timeout, run);
+        // Subscribe before starting so that no state change can be missed.
+        std::mutex mutex;
+        std::condition_variable changed;
+        std::map<std::string, camus::TaskRun> latest;  // by run id
+        client.subscribe("task/#", [&](const urs::planet::Event& event) {
+          camus::TaskRun update;
+          if (!update.ParseFromString(event.payload())) return;
+          std::lock_guard<std::mutex> lock(mutex);
+          latest[update.run_id()] = update;
+          changed.notify_all();
+        });
+        int rc = builtin(client, "camus.tasks", "Run", request, timeout, run, false);
+        if (rc != kOk) return rc;
+        std::unique_lock<std::mutex> lock(mutex);
+        latest.emplace(run.run_id(), run);  // keeps a newer update if one arrived first
+        changed.wait(lock, [&] { return latest[run.run_id()].state() != "running"; });
+        const camus::TaskRun& last = latest[run.run_id()];
+        std::cout << to_json(last) << "\n";
+        return last.state() == "succeeded" ? kOk : kFailed;
+      }
+      if (*tstatus || *tcancel) {
+        camus::TaskRun reply;
+        if (*tcancel) {
+          camus::TaskCancelRequest request;
+          request.set_run_id(name);
+          return builtin(client, "camus.tasks", "Cancel", request, timeout, reply);
+        }
+        camus::TaskStatusRequest request;
+        // A run id or a task name: the server answers for whichever matches.
+        request.set_run_id(name);
+        request.set_name(name);
+        return builtin(client, "camus.tasks", "Status", request, timeout, reply);
+      }
+      if (*tls) {
+        camus::TaskListReply reply;
+        return builtin(client, "camus.tasks", "List", camus::TaskListRequest(), timeout, reply);
+      }
+    }
+  } catch (const std::exception& e) {
+    std::cerr << "urs: " << e.what() << "\n";
+    return kUsage;
+  }
+  return kUsage;
+}

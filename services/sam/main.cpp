@@ -1,0 +1,119 @@
+// urs-sam: a Service Agent Manager. Hosts the service agents listed in its config, registers them
+// with the CAMUS server and keeps them registered across server restarts and network cuts.
+
+#include <signal.h>
+#include <spdlog/spdlog.h>
+#include <unistd.h>
+
+#include <CLI/CLI.hpp>
+#include <atomic>
+#include <functional>
+#include <map>
+
+#include "diagnostic_agent.hpp"
+#include "sam_config.hpp"
+#include "urs/agent/agent.hpp"
+#include "urs/agent/client_sink.hpp"
+#include "urs/planet/client.hpp"
+#include "urs/util/cli.hpp"
+
+namespace {
+
+using AgentFactory = std::function<std::shared_ptr<urs::agent::ServiceAgent>(const urs::sam::AgentConfig&)>;
+
+// Agent types this binary can host. Registered here, explicitly, rather than by static
+// self-registration (which a linker may silently drop).
+std::map<std::string, AgentFactory> agent_catalog() {
+  return {
+      {"diagnostic", [](const urs::sam::AgentConfig&) { return std::make_shared<urs::sam::DiagnosticAgent>(); }},
+  };
+}
+
+std::string host_name() {
+  char buffer[256] = {};
+  if (gethostname(buffer, sizeof(buffer) - 1) != 0) return "localhost";
+  return buffer;
+}
+
+std::atomic<int> g_exit_code{0};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"urs-sam: Service Agent Manager of a CAMUS space"};
+  std::string space;
+  std::string server = "127.0.0.1:7600";
+  std::string config_path;
+  std::string token_file;
+  std::string log_level = "info";
+  app.add_option("--space", space, "Name of the space this SAM belongs to")->required();
+  app.add_option("--server", server, "CAMUS server HOST:PORT")->capture_default_str();
+  app.add_option("--config", config_path, "YAML file listing the agents to host")->required();
+  app.add_option("--token-file", token_file, "File holding the space's Planet token");
+  app.add_option("--log-level", log_level, urs::util::kLogLevels)->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+
+  urs::util::block_shutdown_signals();
+  auto catalog = agent_catalog();
+  urs::sam::SamConfig config;
+  urs::planet::ClientOptions options;
+  try {
+    urs::util::init_logging("urs-sam", log_level);
+    auto endpoint = urs::util::parse_endpoint(server, "--server");
+    std::set<std::string> types;
+    for (const auto& [type, factory] : catalog) types.insert(type);
+    config = urs::sam::load_sam_config(config_path, types, host_name());
+    options.host = endpoint.host;
+    options.port = endpoint.port;
+    options.token = urs::util::read_token_file(token_file);
+  } catch (const std::exception& e) {
+    fmt::print(stderr, "urs-sam: {}\n", e.what());
+    return 2;
+  }
+  options.peer_name = config.name;
+  options.role = urs::planet::SAM;
+
+  urs::planet::Client client(options);
+  urs::agent::ClientEventSink sink(client);
+  urs::agent::AgentHost host(config.workers, sink);
+  for (const auto& agent : config.agents) {
+    host.add({agent.name, catalog.at(agent.type)(agent), agent.properties, agent.deadline_ms});
+  }
+
+  client.set_request_handler([&host](const urs::planet::Request& request, urs::planet::Responder responder) {
+    host.dispatch(request, "", std::move(responder));
+  });
+  client.on_connected([&space, &server](const urs::planet::Welcome& welcome) {
+    if (welcome.space() != space) {
+      spdlog::critical("server {} serves space '{}' but this SAM was started with --space {}; stopping",
+                       server, welcome.space(), space);
+      g_exit_code = 2;
+      kill(getpid(), SIGTERM);
+      return;
+    }
+    spdlog::info("connected to {} (space {}, server instance {})", server, welcome.space(),
+                 welcome.server_instance());
+  });
+  client.on_disconnected([&server](const std::string& reason) {
+    spdlog::warn("lost the server {}: {}; reconnecting", server, reason);
+  });
+  for (const auto& service : host.services()) {
+    client.register_service(host.registration(service), [name = service.name](urs::planet::CallResult result) {
+      if (result.ok()) {
+        spdlog::info("registered service {}", name);
+      } else {
+        spdlog::error("registering service {} failed: {}: {}", name, urs::planet::status_name(result.status),
+                      result.message);
+      }
+    });
+  }
+  client.start();
+  host.start();
+  spdlog::info("{} hosting {} agent(s), server {}", config.name, config.agents.size(), server);
+
+  int sig = urs::util::wait_for_shutdown();
+  spdlog::info("signal {}: shutting down", sig);
+  host.stop();
+  client.stop();
+  return g_exit_code.load();
+}

@@ -1,0 +1,119 @@
+#!/usr/bin/env python3
+"""A Planet client written from docs/planet.md and the generated schema alone (no URSLink code).
+
+It proves the protocol is language-neutral: handshake with the space token, a call to the
+diagnostic agent, a subscription, and an event delivered to it.
+"""
+import argparse
+import socket
+import struct
+import sys
+
+
+def main():
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--server", required=True, help="HOST:PORT")
+    parser.add_argument("--token-file", required=True)
+    parser.add_argument("--pythonpath", required=True, help="colon-separated folders of generated modules")
+    args = parser.parse_args()
+    sys.path[:0] = args.pythonpath.split(":")
+    import planet_pb2
+    import Diagnostic_pb2
+
+    host, port = args.server.rsplit(":", 1)
+    sock = socket.create_connection((host, int(port)), timeout=10)
+    buffered = bytearray()
+    partial = {}  # Chunk.message_id -> bytearray
+
+    def send(frame):
+        data = frame.SerializeToString()
+        sock.sendall(struct.pack(">I", len(data)) + data)
+
+    def read_exact(n):
+        while len(buffered) < n:
+            piece = sock.recv(65536)
+            if not piece:
+                raise RuntimeError("server closed the connection")
+            buffered.extend(piece)
+        out = bytes(buffered[:n])
+        del buffered[:n]
+        return out
+
+    def receive():
+        """Next complete frame, answering pings and reassembling chunks on the way."""
+        while True:
+            (length,) = struct.unpack(">I", read_exact(4))
+            frame = planet_pb2.Frame()
+            frame.ParseFromString(read_exact(length))
+            kind = frame.WhichOneof("body")
+            if kind == "ping":
+                pong = planet_pb2.Frame()
+                pong.pong.nonce = frame.ping.nonce
+                send(pong)
+                continue
+            if kind == "chunk":
+                data = partial.setdefault(frame.chunk.message_id, bytearray())
+                data.extend(frame.chunk.data)
+                if not frame.chunk.last:
+                    continue
+                whole = planet_pb2.Frame()
+                whole.ParseFromString(bytes(partial.pop(frame.chunk.message_id)))
+                frame, kind = whole, whole.WhichOneof("body")
+            return kind, frame
+
+    hello = planet_pb2.Frame()
+    hello.hello.version = 1
+    hello.hello.token = open(args.token_file).read().strip()
+    hello.hello.peer_name = "python-client"
+    hello.hello.role = planet_pb2.CLIENT
+    hello.hello.session_id = "python-client-1"
+    send(hello)
+    kind, frame = receive()
+    if kind != "welcome":
+        print("handshake failed:", frame)
+        return 1
+    print("welcome: space", frame.welcome.space)
+
+    call = planet_pb2.Frame()
+    call.request.call_id = 1
+    call.request.service = "diag"
+    call.request.operation = "echo"
+    call.request.payload = Diagnostic_pb2.Diagnostic_echo_Request(text="hola").SerializeToString()
+    call.request.deadline_ms = 5000
+    send(call)
+    kind, frame = receive()
+    if kind != "reply" or frame.reply.status != planet_pb2.OK:
+        print("call failed:", frame)
+        return 1
+    reply = Diagnostic_pb2.Diagnostic_echo_Reply()
+    reply.ParseFromString(frame.reply.payload)
+    print("echo reply:", reply.result)
+
+    subscribe = planet_pb2.Frame()
+    subscribe.subscribe.subscription_id = 1
+    subscribe.subscribe.pattern = "lab/python"
+    send(subscribe)
+    kind, frame = receive()
+    if kind != "subscribe_ack" or frame.subscribe_ack.status != planet_pb2.OK:
+        print("subscribe failed:", frame)
+        return 1
+
+    notify = planet_pb2.Frame()
+    notify.request.call_id = 2
+    notify.request.service = "diag"
+    notify.request.operation = "notify"
+    notify.request.oneway = True
+    notify.request.payload = Diagnostic_pb2.Diagnostic_notify_Request(
+        topic="lab/python", text="from python").SerializeToString()
+    send(notify)
+    while True:
+        kind, frame = receive()
+        if kind == "event":
+            event = Diagnostic_pb2.Diagnostic_notify_Request()
+            event.ParseFromString(frame.event.payload)
+            print("event:", frame.event.topic, event.text, "seq", frame.event.seq)
+            return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,182 @@
+// The CAMUS space end to end on loopback: CLI → server → SAM → diagnostic agent, with faults.
+
+#include <thread>
+
+#include "Diagnostic.pb.h"
+#include <gmock/gmock.h>
+
+#include "space_fixture.hpp"
+#include "urs/planet/client.hpp"
+
+namespace urs::test {
+namespace {
+
+using ::testing::HasSubstr;
+using namespace std::chrono_literals;
+
+TEST_F(SpaceTest, CallThroughServerAndSamReturnsTheAgentsReply) {
+  auto r = urs({"call", "diag", "echo", R"({"text":"hello space"})"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.out, "{\"result\":\"hello space\"}\n");
+
+  r = urs({"call", "diag", "add", R"({"a":1.5,"b":2.25})"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.out, "{\"result\":3.75}\n");
+}
+
+TEST_F(SpaceTest, ListShowsTheServiceWithItsInterfaceAndOwner) {
+  auto r = urs({"ls"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("diag"));
+  EXPECT_THAT(r.out, HasSubstr("URS.Diagnostic"));
+  EXPECT_THAT(r.out, HasSubstr("available"));
+}
+
+TEST_F(SpaceTest, ErrorsAreTypedAndPrecise) {
+  auto r = urs({"call", "nosuch", "echo", "{}"});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, HasSubstr("UNKNOWN_SERVICE"));
+  EXPECT_THAT(r.err, HasSubstr("nosuch"));
+
+  r = urs({"call", "diag", "explode", "{}"});
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_THAT(r.err, HasSubstr("UNKNOWN_OPERATION"));
+  EXPECT_THAT(r.err, HasSubstr("explode"));
+
+  r = urs({"call", "diag", "add", R"({"a":"not a number"})"});
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.err, HasSubstr("BAD_ARGUMENTS"));
+
+  r = urs({"call", "diag", "fail", R"({"reason":"battery low","code":7})"});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, HasSubstr("USER_EXCEPTION URS.Failure"));
+  EXPECT_THAT(r.err, HasSubstr("battery low"));
+  EXPECT_THAT(r.err, HasSubstr("\"code\":7"));
+}
+
+TEST_F(SpaceTest, DeadlineExceededWhileOtherCallsKeepFlowing) {
+  std::thread slow([&] {
+    auto r = urs({"call", "diag", "sleep", R"({"ms":3000})", "--deadline-ms", "300"});
+    EXPECT_EQ(r.exit_code, 1);
+    EXPECT_THAT(r.err, HasSubstr("DEADLINE_EXCEEDED"));
+  });
+  // While the agent sleeps, another call through the same server and SAM is answered.
+  auto r = urs({"call", "diag", "echo", R"({"text":"still here"})"});
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  slow.join();
+}
+
+TEST_F(SpaceTest, WrongTokenIsRefusedWithTheReason) {
+  write(dir_ + "/bad-token", "wrong\n");
+  auto r = run_command({URS_CLI_BIN, "--server", server_address(), "--token-file", dir_ + "/bad-token",
+                        "--timeout-ms", "2000", "ls"});
+  EXPECT_EQ(r.exit_code, 3);
+  EXPECT_THAT(r.err, HasSubstr("wrong token"));
+}
+
+TEST_F(SpaceTest, EventsPublishedByAnAgentReachAWatcher) {
+  Process watcher({URS_CLI_BIN, "--server", server_address(), "--token-file", dir_ + "/token", "watch",
+                   "lab/#", "--count", "1", "--for-ms", "10000"},
+                  dir_ + "/watch.log");
+  // The watch subscription is in place once a probe event reaches it; publish until one does.
+  ASSERT_TRUE(wait_until(
+      [&] {
+        urs({"call", "diag", "notify", R"({"topic":"lab/door","text":"opened"})"});
+        return !watcher.running();
+      },
+      10s));
+  EXPECT_EQ(watcher.wait(1s), 0);
+  EXPECT_THAT(watcher.log(), HasSubstr("\"topic\":\"lab/door\""));
+  EXPECT_THAT(watcher.log(), HasSubstr("\"text\":\"opened\""));
+}
+
+TEST_F(SpaceTest, ContextSetGetAndTaskRun) {
+  auto r = urs({"context", "set", "room/light", R"({"on":true,"lux":420})"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  r = urs({"context", "get", "room/light"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("\"lux\":420"));
+
+  write(dir_ + "/task.yaml",
+        "name: greet\n"
+        "steps:\n"
+        "  - call: {service: diag, operation: echo, args: {text: hi}}\n"
+        "  - call: {service: diag, operation: add, args: {a: 1, b: 2}}\n");
+  r = urs({"task", "run", "--file", dir_ + "/task.yaml", "--wait"});
+  EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
+  EXPECT_THAT(r.out, HasSubstr("succeeded"));
+}
+
+TEST_F(SpaceTest, ServerKilledAndRestartedSamReRegistersWithoutRestart) {
+  const pid_t sam_pid = sam_->pid();
+  server_->kill9();
+  start_server(port_);
+  auto restarted = std::chrono::steady_clock::now();
+  ASSERT_TRUE(wait_for_service("diag", 2s)) << "diag not listed within 2 s of the restart";
+  auto listed_after = std::chrono::steady_clock::now() - restarted;
+  RecordProperty("relisted_ms", std::to_string(std::chrono::duration_cast<std::chrono::milliseconds>(listed_after).count()));
+  auto r = urs({"call", "diag", "echo", R"({"text":"after restart"})"});
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_TRUE(sam_->running());
+  EXPECT_EQ(sam_->pid(), sam_pid);
+}
+
+TEST_F(SpaceTest, LargeReplyDoesNotDelayASmallCallOnTheSameConnection) {
+  planet::ClientOptions options;
+  options.port = static_cast<uint16_t>(port_);
+  options.token = "s3cret-token";
+  planet::Client client(options);
+  client.start();
+  ASSERT_TRUE(client.wait_connected(5s));
+
+  // An image-sized reply arrives whole and intact through both chunked hops.
+  URS::Diagnostic_blob_Request image;
+  image.set_size(921600);
+  auto image_result = client.call("diag", "blob", image.SerializeAsString(), 10s);
+  ASSERT_TRUE(image_result.ok()) << image_result.message;
+  URS::Diagnostic_blob_Reply image_reply;
+  ASSERT_TRUE(image_reply.ParseFromString(image_result.payload));
+  ASSERT_EQ(image_reply.result().size(), 921600u);
+  EXPECT_EQ(static_cast<unsigned char>(image_reply.result()[921599]), 921599 % 251);
+
+  // Ordering: a small call made right after a large one is answered first, on the same
+  // connection. The large reply is 16 MiB so that its transfer (hundreds of chunks on each hop)
+  // outlasts any scheduling delay of the small call on a loaded machine; with one frame blocking
+  // the connection the small reply would have to wait for all of it.
+  std::mutex mutex;
+  std::condition_variable cv;
+  std::vector<std::string> order;
+  URS::Diagnostic_blob_Request big;
+  big.set_size(16u << 20);
+  URS::Diagnostic_echo_Request small;
+  small.set_text("tiny");
+  planet::CallResult big_result;
+  client.call_async("diag", "blob", big.SerializeAsString(), 30s, [&](planet::CallResult r) {
+    std::lock_guard<std::mutex> lock(mutex);
+    big_result = std::move(r);
+    order.push_back("blob");
+    cv.notify_all();
+  });
+  client.call_async("diag", "echo", small.SerializeAsString(), 30s, [&](planet::CallResult r) {
+    std::lock_guard<std::mutex> lock(mutex);
+    EXPECT_TRUE(r.ok()) << r.message;
+    order.push_back("echo");
+    cv.notify_all();
+  });
+  std::unique_lock<std::mutex> lock(mutex);
+  ASSERT_TRUE(cv.wait_for(lock, 30s, [&] { return order.size() == 2; }));
+  ASSERT_TRUE(big_result.ok()) << big_result.message;
+  EXPECT_EQ(order.front(), "echo") << "the small call waited for the 16 MiB reply";
+}
+
+TEST_F(SpaceTest, PythonClientCallsAndReceivesAnEventFromTheSpecAlone) {
+  auto r = run_command({"/usr/bin/python3", URS_PY_CLIENT, "--server", server_address(), "--token-file",
+                        dir_ + "/token", "--pythonpath", URS_PY_PATH},
+                       30s);
+  EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
+  EXPECT_THAT(r.out, HasSubstr("echo reply: hola"));
+  EXPECT_THAT(r.out, HasSubstr("event: lab/python"));
+}
+
+}  // namespace
+}  // namespace urs::test

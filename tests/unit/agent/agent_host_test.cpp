@@ -1,0 +1,204 @@
+// AgentHost: decoding, validation, worker-pool dispatch and encoding of outcomes.
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <condition_variable>
+#include <future>
+#include <mutex>
+
+#include <google/protobuf/descriptor.pb.h>
+
+#include <algorithm>
+
+#include "Diagnostic.pb.h"
+#include "diagnostic_agent.hpp"
+#include "sam_config.hpp"
+#include "urs/agent/agent.hpp"
+#include "urs/util/cli.hpp"
+
+namespace urs::agent {
+namespace {
+
+using namespace std::chrono_literals;
+using ::testing::HasSubstr;
+
+class RecordingSink : public EventSink {
+ public:
+  planet::CallResult publish(const std::string& topic, const google::protobuf::Message& event) override {
+    std::lock_guard<std::mutex> lock(mutex);
+    topics.push_back(topic);
+    types.push_back(event.GetTypeName());
+    return planet::CallResult::success({});
+  }
+  std::mutex mutex;
+  std::vector<std::string> topics;
+  std::vector<std::string> types;
+};
+
+// Calls dispatch() and waits for the Responder to be answered.
+class HostTest : public ::testing::Test {
+ protected:
+  HostTest() : host_(2, sink_) {
+    host_.add({"diag", std::make_shared<sam::DiagnosticAgent>(), {{"room", "lab"}}, 1500});
+    host_.start();
+  }
+
+  planet::CallResult call(const std::string& service, const std::string& op, const std::string& payload,
+                          uint32_t deadline_ms = 0) {
+    planet::Request request;
+    request.set_service(service);
+    request.set_operation(op);
+    request.set_payload(payload);
+    request.set_deadline_ms(deadline_ms);
+    auto promise = std::make_shared<std::promise<planet::CallResult>>();
+    auto future = promise->get_future();
+    host_.dispatch(request, "tester",
+                   planet::Responder::from_callback([promise](planet::CallResult r) { promise->set_value(r); }));
+    if (future.wait_for(5s) != std::future_status::ready) return planet::CallResult::error(planet::INTERNAL, "no answer");
+    return future.get();
+  }
+
+  RecordingSink sink_;
+  AgentHost host_;
+};
+
+TEST_F(HostTest, CallsTheAgentAndEncodesTheReply) {
+  URS::Diagnostic_add_Request request;
+  request.set_a(2);
+  request.set_b(40);
+  auto result = call("diag", "add", request.SerializeAsString());
+  ASSERT_TRUE(result.ok()) << result.message;
+  URS::Diagnostic_add_Reply reply;
+  ASSERT_TRUE(reply.ParseFromString(result.payload));
+  EXPECT_EQ(reply.result(), 42);
+}
+
+TEST_F(HostTest, UnknownServiceAndOperationAreNamed) {
+  auto result = call("nope", "add", "");
+  EXPECT_EQ(result.status, planet::UNKNOWN_SERVICE);
+  EXPECT_THAT(result.message, HasSubstr("'nope'"));
+  result = call("diag", "explode", "");
+  EXPECT_EQ(result.status, planet::UNKNOWN_OPERATION);
+  EXPECT_EQ(result.message, "interface URS.Diagnostic has no operation 'explode'");
+}
+
+TEST_F(HostTest, UnparsablePayloadIsBadArguments) {
+  auto result = call("diag", "add", std::string("\xff\xff\xff", 3));
+  EXPECT_EQ(result.status, planet::BAD_ARGUMENTS);
+  EXPECT_THAT(result.message, HasSubstr("URS.Diagnostic_add_Request"));
+}
+
+TEST_F(HostTest, DeclaredExceptionTravelsTyped) {
+  URS::Diagnostic_fail_Request request;
+  request.set_reason("battery low");
+  request.set_code(7);
+  auto result = call("diag", "fail", request.SerializeAsString());
+  ASSERT_EQ(result.status, planet::USER_EXCEPTION);
+  EXPECT_EQ(result.exception_type, "URS.Failure");
+  URS::Failure failure;
+  ASSERT_TRUE(failure.ParseFromString(result.payload));
+  EXPECT_EQ(failure.reason(), "battery low");
+  EXPECT_EQ(failure.code(), 7);
+}
+
+TEST_F(HostTest, ASlowCallDoesNotBlockAnother) {
+  URS::Diagnostic_sleep_Request sleep;
+  sleep.set_ms(800);
+  auto slow = std::async(std::launch::async, [&] { return call("diag", "sleep", sleep.SerializeAsString()); });
+  URS::Diagnostic_echo_Request echo;
+  echo.set_text("quick");
+  auto quick = call("diag", "echo", echo.SerializeAsString());
+  EXPECT_TRUE(quick.ok());
+  EXPECT_EQ(slow.wait_for(0s), std::future_status::timeout) << "echo was answered only after sleep finished";
+  EXPECT_TRUE(slow.get().ok());
+}
+
+TEST_F(HostTest, AgentEventsGoToTheSink) {
+  URS::Diagnostic_notify_Request request;
+  request.set_topic("lab/door");
+  request.set_text("opened");
+  auto result = call("diag", "notify", request.SerializeAsString());
+  ASSERT_TRUE(result.ok()) << result.message;
+  std::lock_guard<std::mutex> lock(sink_.mutex);
+  ASSERT_EQ(sink_.topics.size(), 1u);
+  EXPECT_EQ(sink_.topics[0], "lab/door");
+  EXPECT_EQ(sink_.types[0], "URS.Diagnostic_notify_Request");
+}
+
+TEST_F(HostTest, BlobBytesFollowThePattern) {
+  for (uint32_t size : {0u, 1u, 250u, 251u, 252u, 1000u, 921600u}) {
+    URS::Diagnostic_blob_Request request;
+    request.set_size(size);
+    auto result = call("diag", "blob", request.SerializeAsString());
+    ASSERT_TRUE(result.ok()) << result.message;
+    URS::Diagnostic_blob_Reply reply;
+    ASSERT_TRUE(reply.ParseFromString(result.payload));
+    ASSERT_EQ(reply.result().size(), size);
+    for (uint32_t i = 0; i < size; ++i) {
+      ASSERT_EQ(static_cast<unsigned char>(reply.result()[i]), i % 251) << "size " << size << " byte " << i;
+    }
+  }
+}
+
+TEST_F(HostTest, OversizedBlobIsRefusedNotAllocated) {
+  URS::Diagnostic_blob_Request request;
+  request.set_size(1u << 30);
+  auto result = call("diag", "blob", request.SerializeAsString());
+  EXPECT_EQ(result.status, planet::BAD_ARGUMENTS);
+  EXPECT_THAT(result.message, HasSubstr("over the limit"));
+}
+
+TEST_F(HostTest, RegistrationCarriesInterfaceAndItsDescription) {
+  auto reg = host_.registration(*host_.find("diag"));
+  EXPECT_EQ(reg.service().name(), "diag");
+  EXPECT_EQ(reg.service().interface(), "URS.Diagnostic");
+  EXPECT_EQ(reg.service().deadline_ms(), 1500u);
+  EXPECT_EQ(reg.service().properties().at("room"), "lab");
+  google::protobuf::FileDescriptorSet set;
+  ASSERT_TRUE(set.ParseFromString(reg.descriptor_set()));
+  bool found = false;
+  for (const auto& file : set.file()) {
+    for (const auto& service : file.service()) found = found || service.name() == "Diagnostic";
+  }
+  EXPECT_TRUE(found);
+}
+
+TEST(AgentHostConfig, DuplicateServiceNamesAreRefused) {
+  RecordingSink sink;
+  AgentHost host(1, sink);
+  host.add({"diag", std::make_shared<sam::DiagnosticAgent>(), {}, 0});
+  EXPECT_THROW(host.add({"diag", std::make_shared<sam::DiagnosticAgent>(), {}, 0}), std::invalid_argument);
+}
+
+TEST(AgentHostStop, QueuedCallsAreAnsweredWhenTheHostStops) {
+  RecordingSink sink;
+  AgentHost host(1, sink);
+  host.add({"diag", std::make_shared<sam::DiagnosticAgent>(), {}, 0});
+  host.start();
+  URS::Diagnostic_sleep_Request sleep;
+  sleep.set_ms(300);
+  planet::Request request;
+  request.set_service("diag");
+  request.set_operation("sleep");
+  request.set_payload(sleep.SerializeAsString());
+  std::mutex mutex;
+  std::vector<planet::Status> answers;
+  for (int i = 0; i < 3; ++i) {
+    host.dispatch(request, "t", planet::Responder::from_callback([&](planet::CallResult r) {
+      std::lock_guard<std::mutex> lock(mutex);
+      answers.push_back(r.status);
+    }));
+  }
+  host.stop();
+  std::lock_guard<std::mutex> lock(mutex);
+  ASSERT_EQ(answers.size(), 3u) << "a queued call was dropped without an answer";
+  // One worker: at most the first call started before stop(); the queued ones are refused.
+  EXPECT_GE(std::count(answers.begin(), answers.end(), planet::UNAVAILABLE), 2);
+  EXPECT_EQ(std::count(answers.begin(), answers.end(), planet::UNAVAILABLE) +
+                std::count(answers.begin(), answers.end(), planet::OK),
+            3);
+}
+
+}  // namespace
+}  // namespace urs::agent
