@@ -1,0 +1,63 @@
+#!/usr/bin/env bash
+# The main job: installs what is missing, builds, and runs a CAMUS space on this machine
+# (urs-camus-server + urs-sam with the diagnostic agent), then drives it with the `urs` CLI:
+# list, call, an exception, a deadline, an event, context, a task, and a server crash with
+# the SAM re-registering by itself. Everything runs on 127.0.0.1; logs go to $URS_DEMO_DIR.
+set -euo pipefail
+root=$(cd "$(dirname "$0")/.." && pwd)
+if [[ -z "${URS_DEMO_NO_BUILD:-}" ]]; then  # the e2e test runs the demo on binaries already built
+  "$root/deploy/install-deps.sh"
+  "$root/deploy/build.sh"
+fi
+bin=${URS_BUILD_DIR:-$root/build}/services
+work=${URS_DEMO_DIR:-$(mktemp -d /tmp/urs-demo-XXXXXX)}
+mkdir -p "$work"
+echo "demo-token-$RANDOM$RANDOM" > "$work/token"
+pids=()
+cleanup() { for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done; wait 2>/dev/null || true; }
+trap cleanup EXIT
+
+start_server() {
+  "$bin/camus-server/urs-camus-server" --space demo --listen "127.0.0.1:${1}" --token-file "$work/token" \
+    --data-dir "$work/data" --port-file "$work/port" >>"$work/server.log" 2>&1 &
+  server_pid=$!
+  pids+=("$server_pid")
+  for _ in $(seq 100); do [[ -s "$work/port" ]] && return 0; sleep 0.05; done
+  echo "server did not start; see $work/server.log" >&2; exit 1
+}
+step() { printf '\n\033[1m== %s\033[0m\n' "$*"; }
+urs() { "$bin/cli/urs" --server "127.0.0.1:$(cat "$work/port")" --token-file "$work/token" "$@"; }
+
+rm -f "$work/port"
+start_server 0
+"$bin/sam/urs-sam" --space demo --server "127.0.0.1:$(cat "$work/port")" --token-file "$work/token" \
+  --config "$root/services/sam/diagnostic.yaml" >>"$work/sam.log" 2>&1 &
+pids+=("$!")
+for _ in $(seq 100); do urs ls diag 2>/dev/null | grep -q '^diag ' && break; sleep 0.05; done
+
+step "services in space 'demo'"; urs ls
+step "interface of diag"; urs describe diag
+step "call diag.echo"; urs call diag echo '{"text":"hello from the demo"}'
+step "call diag.fail (an IDL exception travels back typed)"; urs call diag fail '{"reason":"battery low","code":7}' || true
+step "call diag.sleep 2 s with a 300 ms deadline"; urs call diag sleep '{"ms":2000}' --deadline-ms 300 || true
+step "an agent's event reaches a watcher"
+urs watch 'demo/#' --count 1 --for-ms 5000 & watch_pid=$!
+sleep 0.3; urs call diag notify '{"topic":"demo/door","text":"opened"}'; wait $watch_pid || true
+step "context"; urs context set room/light '{"on":true,"lux":420}'; urs context get room/light
+step "a declarative task"
+cat > "$work/task.yaml" <<'YAML'
+name: greet
+steps:
+  - call: {service: diag, operation: echo, args: {text: hi}}
+  - sleep: {ms: 100}
+  - call: {service: diag, operation: add, args: {a: 1, b: 2}}
+YAML
+urs task run --file "$work/task.yaml" --wait
+step "kill -9 the server and restart it; the SAM re-registers by itself"
+port=$(cat "$work/port"); kill -9 "$server_pid"; wait "$server_pid" 2>/dev/null || true
+start_server "$port"; t0=$(date +%s%N)
+until urs --timeout-ms 500 ls diag 2>/dev/null | grep -q '^diag '; do sleep 0.02; done
+echo "diag listed again $(( ($(date +%s%N) - t0) / 1000000 )) ms after the restart"
+urs call diag echo '{"text":"still here"}'
+urs context get room/light
+step "done; logs in $work"

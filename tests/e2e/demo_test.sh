@@ -1,0 +1,22 @@
+#!/usr/bin/env bash
+# e2e: runs the README's main job (deploy/demo.sh) on the built binaries and checks what a user
+# would see at each step. Fails on the first missing line, printing the demo's output.
+set -uo pipefail
+root=$1
+build=$2
+out=$(URS_DEMO_NO_BUILD=1 URS_BUILD_DIR="$build" "$root/deploy/demo.sh" 2>&1)
+rc=$?
+fail() { echo "demo_test: $1"; echo "---- demo output"; echo "$out"; exit 1; }
+[[ $rc -eq 0 ]] || fail "demo exited with $rc"
+expect() { grep -qE -- "$1" <<<"$out" || fail "missing: $1"; }
+expect '^diag +URS\.Diagnostic +sam@'
+expect 'echo\(URS\.Diagnostic_echo_Request\) -> URS\.Diagnostic_echo_Reply'
+expect '^\{"result":"hello from the demo"\}$'
+expect 'USER_EXCEPTION URS\.Failure \{"reason":"battery low","code":7\}'
+expect 'DEADLINE_EXCEEDED'
+expect '"topic":"demo/door".*"text":"opened"'
+expect '"lux":420'
+expect '"state":"succeeded"'
+expect 'diag listed again [0-9]+ ms after the restart'
+expect '^\{"result":"still here"\}$'
+echo "demo_test: every step of the demo produced what it should"
