@@ -1,12 +1,8 @@
 // urs-camus-server as a real process: Planet clients and SAMs talk to it over TCP on loopback.
 
-#include <arpa/inet.h>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
-#include <netinet/in.h>
-#include <poll.h>
 #include <signal.h>
-#include <sys/socket.h>
 #include <unistd.h>
 
 #include <google/protobuf/descriptor.pb.h>
@@ -22,6 +18,7 @@
 
 #include "camus.pb.h"
 #include "process.hpp"
+#include "raw_peer.hpp"
 #include "urs/planet/client.hpp"
 
 namespace urs::camus_server::test {
@@ -250,49 +247,19 @@ TEST_F(CamusServerTest, Kill9AndRestartKeepsContextAndTasks) {
   EXPECT_TRUE(urs::test::wait_until([&] { return task_status(client, waiting_run).state() == "succeeded"; }, 5s));
 }
 
-// A raw TCP connection that sends bytes and reports whether the server closed it.
-class RawConnection {
- public:
-  explicit RawConnection(uint16_t port) : fd_(::socket(AF_INET, SOCK_STREAM, 0)) {
-    sockaddr_in address{};
-    address.sin_family = AF_INET;
-    address.sin_port = htons(port);
-    address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    if (fd_ < 0 || ::connect(fd_, reinterpret_cast<sockaddr*>(&address), sizeof address) != 0) {
-      throw std::runtime_error("cannot connect to port " + std::to_string(port));
-    }
-  }
-  ~RawConnection() { ::close(fd_); }
-  void send(const std::string& bytes) { (void)::send(fd_, bytes.data(), bytes.size(), MSG_NOSIGNAL); }
-  // True once the peer has closed (EOF or reset) within `timeout`.
-  bool closed_by_peer(std::chrono::milliseconds timeout) {
-    const auto deadline = std::chrono::steady_clock::now() + timeout;
-    char buffer[4096];
-    while (std::chrono::steady_clock::now() < deadline) {
-      pollfd p{fd_, POLLIN, 0};
-      if (::poll(&p, 1, 50) <= 0) continue;
-      ssize_t n = ::recv(fd_, buffer, sizeof buffer, 0);
-      if (n <= 0) return true;
-    }
-    return false;
-  }
-
- private:
-  int fd_;
-};
 
 TEST_F(CamusServerTest, GarbageOnOneConnectionDoesNotDisturbOthers) {
   start_server();
   auto& client = connect("cli@test");
   ASSERT_TRUE(set_context(client, "k", 1).ok());
-  RawConnection garbage(port_);
+  urs::test::RawPeer garbage(port_);
   std::string bytes(4, '\xff');  // a length prefix far over any limit
   for (int i = 0; i < 4096; ++i) bytes.push_back(static_cast<char>(i * 37));
-  garbage.send(bytes);
-  RawConnection half(port_);
-  half.send(std::string("\x00\x00\x00\x10garbage", 11));  // a truncated frame, then silence
+  garbage.send_bytes(bytes);
+  urs::test::RawPeer half(port_);
+  half.send_bytes(std::string("\x00\x00\x00\x10garbage", 11));  // a truncated frame, then silence
   for (int i = 0; i < 20; ++i) ASSERT_TRUE(set_context(client, "k", i).ok());
-  EXPECT_TRUE(garbage.closed_by_peer(5s));
+  EXPECT_TRUE(garbage.closed_by_server(5s));
   EXPECT_TRUE(server_->running());
   EXPECT_TRUE(set_context(client, "k", 99).ok());
 }

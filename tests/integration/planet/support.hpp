@@ -26,6 +26,7 @@
 #include "camus.pb.h"
 #include "urs/planet/codec.hpp"
 #include "urs/planet/server.hpp"
+#include "raw_peer.hpp"
 
 namespace urs::planet::testing {
 
@@ -48,98 +49,7 @@ inline long elapsed_ms(Clock::time_point since) {
       std::chrono::duration_cast<std::chrono::milliseconds>(Clock::now() - since).count());
 }
 
-// A TCP connection driven by hand. Reads are bounded by a timeout, never blocking forever.
-class RawPeer {
- public:
-  explicit RawPeer(uint16_t port) : fd_(::socket(AF_INET, SOCK_STREAM, 0)) {
-    sockaddr_in address{};
-    address.sin_family = AF_INET;
-    address.sin_port = htons(port);
-    address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    if (fd_ < 0 || ::connect(fd_, reinterpret_cast<sockaddr*>(&address), sizeof address) != 0) {
-      throw std::runtime_error("RawPeer cannot connect to port " + std::to_string(port));
-    }
-  }
-  explicit RawPeer(int fd) : fd_(fd) {}
-  ~RawPeer() {
-    if (fd_ >= 0) ::close(fd_);
-  }
-  RawPeer(const RawPeer&) = delete;
-  RawPeer& operator=(const RawPeer&) = delete;
-
-  void send_bytes(const std::string& bytes) {
-    size_t offset = 0;
-    while (offset < bytes.size()) {
-      ssize_t sent = ::send(fd_, bytes.data() + offset, bytes.size() - offset, MSG_NOSIGNAL);
-      if (sent <= 0) return;
-      offset += static_cast<size_t>(sent);
-    }
-  }
-  void send_frame(const Frame& frame) { send_bytes(encode_frame(frame)); }
-  void send_hello(uint32_t version = kProtocolVersion, const std::string& token = "",
-                  const std::string& name = "raw") {
-    Frame frame;
-    frame.mutable_hello()->set_version(version);
-    frame.mutable_hello()->set_token(token);
-    frame.mutable_hello()->set_peer_name(name);
-    frame.mutable_hello()->set_session_id("raw-" + name);
-    send_frame(frame);
-  }
-
-  // The next frame, or nullopt on end of stream or after `timeout`.
-  std::optional<Frame> read_frame(std::chrono::milliseconds timeout = 5s) {
-    const auto deadline = Clock::now() + timeout;
-    while (frames_.empty()) {
-      if (eof_) return std::nullopt;
-      const auto left =
-          std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()).count();
-      if (left <= 0) return std::nullopt;
-      pollfd poll_fd{fd_, POLLIN, 0};
-      if (::poll(&poll_fd, 1, static_cast<int>(left)) <= 0) continue;
-      char buffer[65536];
-      const ssize_t got = ::recv(fd_, buffer, sizeof buffer, 0);
-      if (got <= 0) {
-        eof_ = true;
-        continue;
-      }
-      try {
-        decoder_.feed(std::string_view(buffer, static_cast<size_t>(got)),
-                      [this](Frame&& frame) { frames_.push_back(std::move(frame)); });
-      } catch (const ProtocolError&) {
-        eof_ = true;
-      }
-    }
-    Frame frame = std::move(frames_.front());
-    frames_.pop_front();
-    return frame;
-  }
-
-  // The next frame that is not a Ping.
-  std::optional<Frame> read_non_ping(std::chrono::milliseconds timeout = 5s) {
-    const auto deadline = Clock::now() + timeout;
-    for (;;) {
-      auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now());
-      if (left.count() <= 0) return std::nullopt;
-      auto frame = read_frame(left);
-      if (!frame || !frame->has_ping()) return frame;
-    }
-  }
-
-  // Reads (and drops) frames until the server closes; false if it did not within `timeout`.
-  bool closed_by_server(std::chrono::milliseconds timeout = 5s) {
-    const auto deadline = Clock::now() + timeout;
-    while (!eof_ && Clock::now() < deadline) {
-      read_frame(std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()));
-    }
-    return eof_;
-  }
-
- private:
-  int fd_;
-  bool eof_ = false;
-  MessageDecoder decoder_{CodecLimits{64u << 20, 64u << 20, 16}};
-  std::deque<Frame> frames_;
-};
+using urs::test::RawPeer;
 
 // A listening socket on 127.0.0.1, port chosen by the kernel.
 class RawListener {

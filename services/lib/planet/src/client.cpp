@@ -100,16 +100,7 @@ void validate(const ClientOptions& options) {
   if (options.default_deadline.count() <= 0) {
     errors.push_back("default_deadline " + ms(options.default_deadline) + " must be > 0");
   }
-  if (options.chunk_bytes < kMinChunkBytes) {
-    errors.push_back("chunk_bytes " + std::to_string(options.chunk_bytes) +
-                     " is below the minimum " + std::to_string(kMinChunkBytes));
-  }
-  if (options.max_message_bytes < options.chunk_bytes ||
-      options.max_message_bytes > kMaxMessageBytesCeiling) {
-    errors.push_back("max_message_bytes " + std::to_string(options.max_message_bytes) +
-                     " must be between chunk_bytes (" + std::to_string(options.chunk_bytes) +
-                     ") and " + std::to_string(kMaxMessageBytesCeiling));
-  }
+  check_message_limits(options.chunk_bytes, options.max_message_bytes, errors);
   if (errors.empty()) return;
   std::string message = "invalid Planet ClientOptions:";
   for (const auto& error : errors) message += "\n  " + error;

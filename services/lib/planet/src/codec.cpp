@@ -673,4 +673,15 @@ void Outbox::clear() {
   queued_frames_ = 0;
 }
 
+void check_message_limits(uint32_t chunk_bytes, uint64_t max_message_bytes, std::vector<std::string>& errors) {
+  if (chunk_bytes < kMinChunkBytes) {
+    errors.push_back("chunk_bytes " + std::to_string(chunk_bytes) + " is below the minimum " +
+                     std::to_string(kMinChunkBytes));
+  }
+  if (max_message_bytes < chunk_bytes || max_message_bytes > kMaxMessageBytesCeiling) {
+    errors.push_back("max_message_bytes " + std::to_string(max_message_bytes) + " must be between chunk_bytes (" +
+                     std::to_string(chunk_bytes) + ") and " + std::to_string(kMaxMessageBytesCeiling));
+  }
+}
+
 }  // namespace urs::planet

@@ -46,16 +46,7 @@ void validate(const ServerOptions& options) {
   if (options.handshake_timeout.count() <= 0) {
     errors.push_back("handshake_timeout " + ms(options.handshake_timeout) + " must be > 0");
   }
-  if (options.chunk_bytes < kMinChunkBytes) {
-    errors.push_back("chunk_bytes " + std::to_string(options.chunk_bytes) +
-                     " is below the minimum " + std::to_string(kMinChunkBytes));
-  }
-  if (options.max_message_bytes < options.chunk_bytes ||
-      options.max_message_bytes > kMaxMessageBytesCeiling) {
-    errors.push_back("max_message_bytes " + std::to_string(options.max_message_bytes) +
-                     " must be between chunk_bytes (" + std::to_string(options.chunk_bytes) +
-                     ") and " + std::to_string(kMaxMessageBytesCeiling));
-  }
+  check_message_limits(options.chunk_bytes, options.max_message_bytes, errors);
   if (options.max_send_queue_bytes < options.chunk_bytes) {
     errors.push_back("max_send_queue_bytes " + std::to_string(options.max_send_queue_bytes) +
                      " must be at least chunk_bytes (" + std::to_string(options.chunk_bytes) + ")");

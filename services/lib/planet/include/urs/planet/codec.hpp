@@ -42,6 +42,10 @@ inline constexpr uint32_t kMinChunkBytes = 512;
 // protobuf can parse; max_message_bytes is clamped to this.
 inline constexpr uint64_t kMaxMessageBytesCeiling = (1ull << 31) - 1;
 
+// Appends to `errors` one message per limit that is out of range (client and server options
+// share these rules).
+void check_message_limits(uint32_t chunk_bytes, uint64_t max_message_bytes, std::vector<std::string>& errors);
+
 enum class ProtocolErrorCode {
   kFrameTooLarge,           // length prefix over max_frame_bytes
   kEmptyFrame,              // length prefix 0

@@ -1,0 +1,116 @@
+#pragma once
+// A Planet peer driven by hand over a real TCP connection, for tests that send what a
+// well-behaved client never would (garbage, oversized frames, silence). Header-only; link
+// urs::planet.
+
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <deque>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+
+#include "urs/planet/codec.hpp"
+
+namespace urs::test {
+
+// A TCP connection driven by hand. Reads are bounded by a timeout, never blocking forever.
+class RawPeer {
+ public:
+  explicit RawPeer(uint16_t port) : fd_(::socket(AF_INET, SOCK_STREAM, 0)) {
+    sockaddr_in address{};
+    address.sin_family = AF_INET;
+    address.sin_port = htons(port);
+    address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    if (fd_ < 0 || ::connect(fd_, reinterpret_cast<sockaddr*>(&address), sizeof address) != 0) {
+      throw std::runtime_error("RawPeer cannot connect to port " + std::to_string(port));
+    }
+  }
+  explicit RawPeer(int fd) : fd_(fd) {}
+  ~RawPeer() {
+    if (fd_ >= 0) ::close(fd_);
+  }
+  RawPeer(const RawPeer&) = delete;
+  RawPeer& operator=(const RawPeer&) = delete;
+
+  void send_bytes(const std::string& bytes) {
+    size_t offset = 0;
+    while (offset < bytes.size()) {
+      ssize_t sent = ::send(fd_, bytes.data() + offset, bytes.size() - offset, MSG_NOSIGNAL);
+      if (sent <= 0) return;
+      offset += static_cast<size_t>(sent);
+    }
+  }
+  void send_frame(const planet::Frame& frame) { send_bytes(planet::encode_frame(frame)); }
+  void send_hello(uint32_t version = planet::kProtocolVersion, const std::string& token = "",
+                  const std::string& name = "raw") {
+    planet::Frame frame;
+    frame.mutable_hello()->set_version(version);
+    frame.mutable_hello()->set_token(token);
+    frame.mutable_hello()->set_peer_name(name);
+    frame.mutable_hello()->set_session_id("raw-" + name);
+    send_frame(frame);
+  }
+
+  // The next frame, or nullopt on end of stream or after `timeout`.
+  std::optional<planet::Frame> read_frame(std::chrono::milliseconds timeout = std::chrono::seconds(5)) {
+    const auto deadline = std::chrono::steady_clock::now() + timeout;
+    while (frames_.empty()) {
+      if (eof_) return std::nullopt;
+      const auto left =
+          std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now()).count();
+      if (left <= 0) return std::nullopt;
+      pollfd poll_fd{fd_, POLLIN, 0};
+      if (::poll(&poll_fd, 1, static_cast<int>(left)) <= 0) continue;
+      char buffer[65536];
+      const ssize_t got = ::recv(fd_, buffer, sizeof buffer, 0);
+      if (got <= 0) {
+        eof_ = true;
+        continue;
+      }
+      try {
+        decoder_.feed(std::string_view(buffer, static_cast<size_t>(got)),
+                      [this](planet::Frame&& frame) { frames_.push_back(std::move(frame)); });
+      } catch (const planet::ProtocolError&) {
+        eof_ = true;
+      }
+    }
+    planet::Frame frame = std::move(frames_.front());
+    frames_.pop_front();
+    return frame;
+  }
+
+  // The next frame that is not a Ping.
+  std::optional<planet::Frame> read_non_ping(std::chrono::milliseconds timeout = std::chrono::seconds(5)) {
+    const auto deadline = std::chrono::steady_clock::now() + timeout;
+    for (;;) {
+      auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
+      if (left.count() <= 0) return std::nullopt;
+      auto frame = read_frame(left);
+      if (!frame || !frame->has_ping()) return frame;
+    }
+  }
+
+  // Reads (and drops) frames until the server closes; false if it did not within `timeout`.
+  bool closed_by_server(std::chrono::milliseconds timeout = std::chrono::seconds(5)) {
+    const auto deadline = std::chrono::steady_clock::now() + timeout;
+    while (!eof_ && std::chrono::steady_clock::now() < deadline) {
+      read_frame(std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now()));
+    }
+    return eof_;
+  }
+
+ private:
+  int fd_;
+  bool eof_ = false;
+  planet::MessageDecoder decoder_{planet::CodecLimits{64u << 20, 64u << 20, 16}};
+  std::deque<planet::Frame> frames_;
+};
+
+}  // namespace urs::test
