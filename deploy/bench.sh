@@ -12,7 +12,7 @@ table=$(mktemp)
 {
   cat "$root/tests/bench/report-header.md"
   echo
-  echo "Measured $(date -u +%Y-%m-%d) on $(nproc) cores, $(uname -sr), by \`deploy/bench.sh $*\`."
+  echo "Measured $(date -u +%Y-%m-%d) on $(nproc) cores, $(uname -sr), by \`deploy/bench.sh${*:+ $*}\`."
   echo
   cat "$table"
   echo
