@@ -26,6 +26,7 @@
 #include "camus.pb.h"
 #include "urs/planet/codec.hpp"
 #include "urs/planet/server.hpp"
+#include "process.hpp"
 #include "raw_peer.hpp"
 
 namespace urs::planet::testing {
@@ -33,15 +34,10 @@ namespace urs::planet::testing {
 using namespace std::chrono_literals;
 using Clock = std::chrono::steady_clock;
 
-// Polls `condition` until it holds or `timeout` passes. Returns the last value.
+// urs::test::wait_until with this suite's default timeout.
 inline bool eventually(const std::function<bool()>& condition,
                        std::chrono::milliseconds timeout = 10s) {
-  const auto deadline = Clock::now() + timeout;
-  while (!condition()) {
-    if (Clock::now() >= deadline) return condition();
-    std::this_thread::sleep_for(2ms);
-  }
-  return true;
+  return urs::test::wait_until(condition, timeout);
 }
 
 inline long elapsed_ms(Clock::time_point since) {
