@@ -136,3 +136,79 @@ function(urs_idl_library target)
   target_sources(${target} PRIVATE ${py_dir}/urs_options_pb2.py)
   set_target_properties(${target} PROPERTIES URS_IDL_PROTO_DIR ${out_dir})
 endfunction()
+
+# urs_corba_idl_library(<target> IDLS <file.idl>... [INCLUDE_DIRS <dir>...] [LINK <target>...])
+#   Compiles CORBA IDL files with omniidl's C++ back-end (omniORB 4) into one static library
+#   <target> (alias urs::<target>) linking omniORB4 and omniDynamic4 (pkg-config).
+#   Per IDL file <name>.idl, ${CMAKE_CURRENT_BINARY_DIR}/<target>/ receives <name>.hh (stubs and
+#   skeletons), <name>SK.cc and <name>DynSK.cc (TypeCodes and Any operators: -Wba). Code includes
+#   "<name>.hh"; the folder is a SYSTEM include directory so strict warnings on the includer do
+#   not fire on generated code, which itself is compiled with -w.
+#   - omniidl's C++ back-end takes one file at a time: an IDL file #included by another must be
+#     listed too (its stubs are emitted only for it); IDL base names must be unique.
+#   - Every output is regenerated when any listed IDL file changes (includes are not tracked).
+#   - The directory of every IDL file is on the include path; INCLUDE_DIRS adds more.
+function(urs_corba_idl_library target)
+  cmake_parse_arguments(ARG "" "" "IDLS;INCLUDE_DIRS;LINK" ${ARGN})
+  if(ARG_UNPARSED_ARGUMENTS)
+    message(FATAL_ERROR "urs_corba_idl_library(${target}): unexpected arguments "
+                        "'${ARG_UNPARSED_ARGUMENTS}'")
+  endif()
+  if(NOT ARG_IDLS)
+    message(FATAL_ERROR "urs_corba_idl_library(${target}): IDLS is empty")
+  endif()
+  if(NOT URS_OMNIIDL)
+    message(FATAL_ERROR "urs_corba_idl_library(${target}): omniidl not found: run "
+                        "deploy/install-deps.sh (Debian package omniidl) or set URS_OMNIIDL to its path")
+  endif()
+  # GLOBAL: the imported target is linked from other directories (the library's users).
+  if(NOT TARGET PkgConfig::OMNIORB)
+    pkg_check_modules(OMNIORB REQUIRED IMPORTED_TARGET GLOBAL omniORB4 omniDynamic4)
+  endif()
+  set(out_dir ${CMAKE_CURRENT_BINARY_DIR}/${target})
+  set(abs_idls)
+  set(names)
+  set(include_args)
+  foreach(dir IN LISTS ARG_INCLUDE_DIRS)
+    get_filename_component(abs_dir ${dir} ABSOLUTE)
+    list(APPEND include_args -I${abs_dir})
+  endforeach()
+  foreach(idl IN LISTS ARG_IDLS)
+    get_filename_component(abs ${idl} ABSOLUTE)
+    get_filename_component(dir ${abs} DIRECTORY)
+    get_filename_component(name ${abs} NAME_WE)
+    if(NOT EXISTS ${abs})
+      message(FATAL_ERROR "urs_corba_idl_library(${target}): IDL file '${abs}' does not exist")
+    endif()
+    if(name IN_LIST names)
+      message(FATAL_ERROR "urs_corba_idl_library(${target}): two IDL files are named '${name}'")
+    endif()
+    list(APPEND names ${name})
+    list(APPEND abs_idls ${abs})
+    list(APPEND include_args -I${dir})
+  endforeach()
+  list(REMOVE_DUPLICATES include_args)
+  set(srcs)
+  set(hdrs)
+  foreach(abs IN LISTS abs_idls)
+    get_filename_component(name ${abs} NAME_WE)
+    set(outs ${out_dir}/${name}.hh ${out_dir}/${name}SK.cc ${out_dir}/${name}DynSK.cc)
+    add_custom_command(
+      OUTPUT ${outs}
+      COMMAND ${CMAKE_COMMAND} -E make_directory ${out_dir}
+      COMMAND ${URS_OMNIIDL} -bcxx -Wba -Wbh=.hh -Wbs=SK.cc -Wbd=DynSK.cc -C ${out_dir}
+              ${include_args} ${abs}
+      DEPENDS ${abs_idls} ${URS_OMNIIDL}
+      COMMENT "omniidl cxx ${target}: ${name}.idl"
+      VERBATIM)
+    list(APPEND hdrs ${out_dir}/${name}.hh)
+    list(APPEND srcs ${out_dir}/${name}SK.cc ${out_dir}/${name}DynSK.cc)
+  endforeach()
+  add_library(${target} STATIC ${srcs} ${hdrs})
+  add_library(urs::${target} ALIAS ${target})
+  set_target_properties(${target} PROPERTIES POSITION_INDEPENDENT_CODE ON
+                        URS_CORBA_IDL_DIR ${out_dir})
+  target_include_directories(${target} SYSTEM PUBLIC ${out_dir})
+  target_link_libraries(${target} PUBLIC PkgConfig::OMNIORB ${ARG_LINK})
+  target_compile_options(${target} PRIVATE -w)
+endfunction()
