@@ -17,22 +17,6 @@ namespace {
 using ::testing::ElementsAre;
 using ::testing::HasSubstr;
 
-ServerOptions server_options(uint16_t port = 0) {
-  ServerOptions options;
-  options.host = "127.0.0.1";
-  options.port = port;
-  options.space = "kr";
-  return options;
-}
-
-ClientOptions client_options(uint16_t port, const std::string& name) {
-  ClientOptions options;
-  options.port = port;
-  options.peer_name = name;
-  options.reconnect_min = 20ms;
-  options.reconnect_max = 200ms;
-  return options;
-}
 
 // Collects replies in arrival order.
 class Replies {

@@ -17,22 +17,6 @@ namespace {
 using ::testing::AllOf;
 using ::testing::HasSubstr;
 
-ServerOptions server_options() {
-  ServerOptions options;
-  options.host = "127.0.0.1";
-  options.port = 0;
-  options.space = "kr";
-  return options;
-}
-
-ClientOptions client_options(uint16_t port, const std::string& name) {
-  ClientOptions options;
-  options.port = port;
-  options.peer_name = name;
-  options.reconnect_min = 20ms;
-  options.reconnect_max = 200ms;
-  return options;
-}
 
 TEST(PlanetServer, HandshakeSucceedsAndWelcomeCarriesTheSettings) {
   TestHandler handler;

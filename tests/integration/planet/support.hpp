@@ -25,6 +25,7 @@
 
 #include "camus.pb.h"
 #include "urs/planet/codec.hpp"
+#include "urs/planet/client.hpp"
 #include "urs/planet/server.hpp"
 #include "process.hpp"
 #include "raw_peer.hpp"
@@ -38,6 +39,24 @@ using Clock = std::chrono::steady_clock;
 inline bool eventually(const std::function<bool()>& condition,
                        std::chrono::milliseconds timeout = 10s) {
   return urs::test::wait_until(condition, timeout);
+}
+
+// Options of a server on 127.0.0.1 (space "kr") and of a client that reconnects quickly.
+inline ServerOptions server_options(uint16_t port = 0) {
+  ServerOptions options;
+  options.host = "127.0.0.1";
+  options.port = port;
+  options.space = "kr";
+  return options;
+}
+
+inline ClientOptions client_options(uint16_t port, const std::string& name) {
+  ClientOptions options;
+  options.port = port;
+  options.peer_name = name;
+  options.reconnect_min = 20ms;
+  options.reconnect_max = 200ms;
+  return options;
 }
 
 inline long elapsed_ms(Clock::time_point since) {

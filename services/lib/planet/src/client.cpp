@@ -87,6 +87,13 @@ void run_all(Deferred& callbacks) {
   callbacks.clear();
 }
 
+// Queues `handler(result)` to run after the client's mutex is released.
+void defer_reply(Deferred& out, ReplyHandler handler, CallResult result) {
+  out.push_back([handler = std::move(handler), result = std::move(result)]() mutable {
+    handler(std::move(result));
+  });
+}
+
 void validate(const ClientOptions& options) {
   std::vector<std::string> errors;
   auto ms = [](milliseconds value) { return std::to_string(value.count()) + " ms"; };
@@ -603,9 +610,7 @@ void ClientCore::on_link_frame(const std::shared_ptr<ClientLink>& from, Frame&& 
         result.message = std::move(*reply.mutable_message());
         result.payload = std::move(*reply.mutable_payload());
         result.exception_type = std::move(*reply.mutable_exception_type());
-        out.push_back([handler = std::move(handler), result = std::move(result)]() mutable {
-          handler(std::move(result));
-        });
+        defer_reply(out, std::move(handler), std::move(result));
       }
       break;
     }
@@ -855,17 +860,13 @@ void ClientCore::call_async(const std::string& service, const std::string& opera
     std::lock_guard<std::mutex> lock(mutex);
     if (stopping) {
       if (handler) {
-        out.push_back([handler = std::move(handler)] {
-          handler(CallResult::error(Status::UNAVAILABLE, "client stopped"));
-        });
+        defer_reply(out, std::move(handler), CallResult::error(Status::UNAVAILABLE, "client stopped"));
       }
       if (accepted) *accepted = false;
     } else if (phase != Phase::kOpen && queued_locked() >= options.max_queued) {
       const std::string message = queue_full_message_locked();
       if (handler) {
-        out.push_back([handler = std::move(handler), message] {
-          handler(CallResult::error(Status::UNAVAILABLE, message));
-        });
+        defer_reply(out, std::move(handler), CallResult::error(Status::UNAVAILABLE, message));
       } else {
         spdlog::warn("planet: dropping oneway {}.{}: {}", service, operation, message);
       }
@@ -959,9 +960,7 @@ void ClientCore::register_service(const camus::RegisterRequest& registration,
     std::lock_guard<std::mutex> lock(mutex);
     if (stopping) {
       if (handler) {
-        out.push_back([handler = std::move(handler)] {
-          handler(CallResult::error(Status::UNAVAILABLE, "client stopped"));
-        });
+        defer_reply(out, std::move(handler), CallResult::error(Status::UNAVAILABLE, "client stopped"));
       }
     } else {
       const std::string& name = registration.service().name();
