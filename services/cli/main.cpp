@@ -1,7 +1,8 @@
-// urs: the command-line client of a CAMUS space (rtshell-like). See docs/camus.md.
+// urs: the command-line client of a CAMUS space (rtshell-like; docs/camus.md) and, with
+// `urs rtc ...`, of the RT side's naming service and components (docs/rtc.md).
 //
 // Exit codes: 0 success; 1 the call or operation failed (one-line reason on stderr);
-// 2 bad usage or arguments; 3 the server cannot be reached.
+// 2 bad usage or arguments; 3 the server (or naming service) cannot be reached.
 
 #include <google/protobuf/util/json_util.h>
 #include <spdlog/spdlog.h>
@@ -18,6 +19,7 @@
 
 #include "camus.pb.h"
 #include "dynamic_caller.hpp"
+#include "rtc_commands.hpp"
 #include "urs/planet/client.hpp"
 #include "urs/util/cli.hpp"
 
@@ -149,7 +151,14 @@ int main(int argc, char** argv) {
   tcancel->add_option("run", name)->required();
   auto* tls = task->add_subcommand("ls", "List task definitions and runs");
 
-  CLI11_PARSE(app, argc, argv);
+  urs::cli::RtcCommands rtc(app);
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? kOk : kUsage;  // --help exits 0; anything else is bad usage
+  }
+  if (rtc.selected()) return rtc.run(log_level);
 
   urs::planet::ClientOptions options;
   try {

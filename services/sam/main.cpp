@@ -3,7 +3,6 @@
 
 #include <signal.h>
 #include <spdlog/spdlog.h>
-#include <unistd.h>
 
 #include <CLI/CLI.hpp>
 #include <atomic>
@@ -27,12 +26,6 @@ std::map<std::string, AgentFactory> agent_catalog() {
   return {
       {"diagnostic", [](const urs::sam::AgentConfig&) { return std::make_shared<urs::sam::DiagnosticAgent>(); }},
   };
-}
-
-std::string host_name() {
-  char buffer[256] = {};
-  if (gethostname(buffer, sizeof(buffer) - 1) != 0) return "localhost";
-  return buffer;
 }
 
 std::atomic<int> g_exit_code{0};
@@ -62,7 +55,7 @@ int main(int argc, char** argv) {
     auto endpoint = urs::util::parse_endpoint(server, "--server");
     std::set<std::string> types;
     for (const auto& [type, factory] : catalog) types.insert(type);
-    config = urs::sam::load_sam_config(config_path, types, host_name());
+    config = urs::sam::load_sam_config(config_path, types, urs::util::host_name());
     options.host = endpoint.host;
     options.port = endpoint.port;
     options.token = urs::util::read_token_file(token_file);

@@ -1,18 +1,15 @@
 #include "sam_config.hpp"
 
-#include <sstream>
-
 #include "urs/util/cli.hpp"
+#include "urs/util/yaml_config.hpp"
 
 namespace urs::sam {
 
 namespace {
 
-std::string join(const std::set<std::string>& items) {
-  std::string out;
-  for (const auto& item : items) out += (out.empty() ? "" : ", ") + item;
-  return out;
-}
+using util::check_keys;
+using util::join;
+using util::read_scalar;
 
 std::string substitute(std::string text, const std::string& host) {
   const std::string token = "{host}";
@@ -22,39 +19,11 @@ std::string substitute(std::string text, const std::string& host) {
   return text;
 }
 
-template <class T>
-bool read_scalar(const YAML::Node& node, const std::string& where, T& out, std::vector<std::string>& errors) {
-  try {
-    out = node.as<T>();
-    return true;
-  } catch (const YAML::Exception&) {
-    errors.push_back(where + ": '" + YAML::Dump(node) + "' is not a valid value");
-    return false;
-  }
-}
-
-void check_keys(const YAML::Node& node, const std::string& where, const std::set<std::string>& allowed,
-                std::vector<std::string>& errors) {
-  for (const auto& kv : node) {
-    auto key = kv.first.as<std::string>();
-    if (allowed.count(key) == 0) {
-      errors.push_back(where + (where.empty() ? "" : ".") + key + ": unknown key (allowed: " + join(allowed) + ")");
-    }
-  }
-}
-
 }  // namespace
 
 SamConfig load_sam_config(const std::string& path, const std::set<std::string>& known_types,
                           const std::string& host) {
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(path);
-  } catch (const YAML::BadFile&) {
-    throw util::ConfigError("--config: cannot read '" + path + "'");
-  } catch (const YAML::Exception& e) {
-    throw util::ConfigError("--config: '" + path + "' is not valid YAML: " + e.what());
-  }
+  const YAML::Node root = util::load_yaml_file(path, "--config");
   if (!root.IsMap()) throw util::ConfigError("--config: '" + path + "' must be a YAML map with an 'agents' list");
 
   std::vector<std::string> errors;
@@ -117,12 +86,7 @@ SamConfig load_sam_config(const std::string& path, const std::set<std::string>& 
       config.agents.push_back(std::move(agent));
     }
   }
-  if (!errors.empty()) {
-    std::ostringstream out;
-    out << "--config '" << path << "' has " << errors.size() << " error(s):";
-    for (const auto& e : errors) out << "\n  " << e;
-    throw util::ConfigError(out.str());
-  }
+  util::throw_if_errors(errors, path, "--config");
   return config;
 }
 

@@ -1,5 +1,5 @@
 // CDR layouts of urs::rtc_idl data types as OpenRTM-aist's CORBA_CDR data ports carry them: the
-// raw CDR of the struct, aligned from offset 0, no encapsulation octet (RTC-INTEROP.md).
+// raw CDR of the struct, aligned from offset 0, no encapsulation octet (docs/rtc.md).
 #include <gtest/gtest.h>
 
 #include <omniORB4/CORBA.h>

@@ -1,5 +1,5 @@
 // Repository IDs of urs::rtc_idl: the prefixes (omg.org, the reversed org.omg, openrtm.aist.go.jp,
-// none) are what OpenRTM-aist peers compare on the wire (RTC-INTEROP.md).
+// none) are what OpenRTM-aist peers compare on the wire (docs/rtc.md).
 #include <gtest/gtest.h>
 
 #include <string>

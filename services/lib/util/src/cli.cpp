@@ -1,6 +1,7 @@
 #include "urs/util/cli.hpp"
 
 #include <signal.h>
+#include <unistd.h>
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
@@ -100,6 +101,12 @@ void write_file_atomically(const std::string& path, const std::string& content) 
   if (std::rename(tmp.c_str(), path.c_str()) != 0) {
     throw ConfigError("cannot rename '" + tmp + "' to '" + path + "'");
   }
+}
+
+std::string host_name() {
+  char buffer[256] = {};
+  if (gethostname(buffer, sizeof(buffer) - 1) != 0 || buffer[0] == '\0') return "localhost";
+  return buffer;
 }
 
 }  // namespace urs::util

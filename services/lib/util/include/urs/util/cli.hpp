@@ -36,6 +36,9 @@ std::string read_token_file(const std::string& path);
 void block_shutdown_signals();
 int wait_for_shutdown();  // returns the signal number
 
+// This machine's host name ("localhost" if it cannot be read); names replicas and RT contexts.
+std::string host_name();
+
 // Writes `content` to `path` atomically (temp file + rename), e.g. the bound port for tests.
 void write_file_atomically(const std::string& path, const std::string& content);
 

@@ -1,0 +1,521 @@
+#include "rtc_commands.hpp"
+
+#include <algorithm>
+#include <iostream>
+#include <sstream>
+#include <stdexcept>
+
+#include "urs/rtc/naming.hpp"
+#include "urs/rtc/nvlist.hpp"
+#include "urs/rtc/orb.hpp"
+#include "urs/rtc/tools.hpp"
+#include "urs/util/cli.hpp"
+
+namespace urs::cli {
+namespace {
+
+constexpr int kOk = 0;
+constexpr int kFailed = 1;
+constexpr int kUsage = 2;
+constexpr int kUnreachable = 3;
+
+// Ends one command (or, for act/deact/reset, one of its paths) with an exit code and a reason.
+class Failure : public std::runtime_error {
+ public:
+  Failure(int code, const std::string& what) : std::runtime_error(what), code_(code) {}
+  int code() const { return code_; }
+
+ private:
+  int code_;
+};
+
+// Naming paths are written relative to the root; a leading or trailing '/' is tolerated.
+std::string normalize_path(const std::string& text) {
+  const auto first = text.find_first_not_of('/');
+  if (first == std::string::npos) return "";
+  const auto last = text.find_last_not_of('/');
+  return text.substr(first, last - first + 1);
+}
+
+struct PortAddress {
+  std::string path;
+  std::string port;
+};
+
+// "PATH:PORT". Naming paths hold no ':' in practice, host names included, so the last one splits.
+PortAddress parse_port_address(const std::string& text) {
+  const auto colon = text.rfind(':');
+  PortAddress address;
+  if (colon != std::string::npos) {
+    address.path = normalize_path(text.substr(0, colon));
+    address.port = text.substr(colon + 1);
+  }
+  if (address.path.empty() || address.port.empty()) {
+    throw Failure(kUsage, "'" + text + "' is not PATH:PORT (e.g. myhost.host_cxt/Diagnostic0.rtc:diagnostic)");
+  }
+  return address;
+}
+
+// Why a call on a component failed. A dead process behind a stale binding gives TRANSIENT or
+// OBJECT_NOT_EXIST, a hung one TIMEOUT: all of them mean the component cannot be reached.
+std::string reason(const CORBA::SystemException& e) {
+  const bool unreachable = CORBA::TRANSIENT::_downcast(&e) || CORBA::COMM_FAILURE::_downcast(&e) ||
+                           CORBA::OBJECT_NOT_EXIST::_downcast(&e) || CORBA::TIMEOUT::_downcast(&e);
+  return unreachable ? "unreachable (" + rtc::describe(e) + ")" : rtc::describe(e);
+}
+
+// Runs calls on the component or port at `what`, naming it in the failure.
+template <class Body>
+auto calling(const std::string& what, Body&& body) -> decltype(body()) {
+  try {
+    return body();
+  } catch (const CORBA::SystemException& e) {
+    throw Failure(kFailed, what + ": " + reason(e));
+  }
+}
+
+std::string leaf_name(const rtc::NamingClient::Entry& entry) {
+  return entry.kind.empty() ? entry.id : entry.id + "." + entry.kind;
+}
+
+// "<instance>.<port>" without the instance, as ports are named within their component.
+std::string short_port_name(const std::string& name) {
+  const auto dot = name.find('.');
+  return dot == std::string::npos ? name : name.substr(dot + 1);
+}
+
+std::string port_type(const RTC::PortProfile& port) {
+  std::string type = rtc::nv_string(port.properties, "port.port_type").value_or("-");
+  if (const auto data_type = rtc::nv_string(port.properties, "dataport.data_type")) type += " " + *data_type;
+  return type;
+}
+
+std::string padded(const std::string& text, std::size_t width) {
+  return text + std::string(width > text.size() ? width - text.size() : 0, ' ');
+}
+
+std::string plural(std::size_t n, const std::string& noun) {
+  return std::to_string(n) + " " + noun + (n == 1 ? "" : "s");
+}
+
+const char* kind_name(RTC::ExecutionKind kind) {
+  switch (kind) {
+    case RTC::PERIODIC: return "periodic";
+    case RTC::EVENT_DRIVEN: return "event-driven";
+    default: return "other";
+  }
+}
+
+class Session {
+ public:
+  Session(const std::string& naming, std::chrono::milliseconds call_timeout)
+      : orb_(options(call_timeout)), naming_(orb_, naming) {}
+
+  rtc::NamingClient& naming() { return naming_; }
+
+  CORBA::Object_ptr resolve(const std::string& path) {
+    try {
+      return naming_.resolve(path);
+    } catch (const rtc::NamingUnreachable&) {
+      throw;
+    } catch (const rtc::NamingError& e) {
+      throw Failure(kFailed, e.what());
+    }
+  }
+
+  RTC::RTObject_ptr component(const std::string& path) {
+    CORBA::Object_var object = resolve(path);
+    RTC::RTObject_var target = calling(path, [&] { return RTC::RTObject::_narrow(object); });
+    if (CORBA::is_nil(target)) throw Failure(kFailed, path + ": not an RT-Component");
+    return target._retn();
+  }
+
+  RTC::PortService_ptr port(const PortAddress& address) {
+    RTC::RTObject_var target = component(address.path);
+    RTC::PortService_var port = calling(address.path, [&] { return rtc::find_port(target, address.port); });
+    if (CORBA::is_nil(port)) {
+      std::string names;
+      calling(address.path, [&] {
+        RTC::PortServiceList_var ports = target->get_ports();
+        for (CORBA::ULong i = 0; i < ports->length(); ++i) {
+          RTC::PortProfile_var profile = ports[i]->get_port_profile();
+          names += (names.empty() ? "" : ", ") + short_port_name(profile->name.in());
+        }
+      });
+      throw Failure(kFailed, address.path + ": no port '" + address.port + "' (ports: " +
+                                 (names.empty() ? "none" : names) + ")");
+    }
+    return port._retn();
+  }
+
+ private:
+  static rtc::OrbOptions options(std::chrono::milliseconds call_timeout) {
+    rtc::OrbOptions options;
+    options.call_timeout = call_timeout;
+    options.connect_timeout = std::min(call_timeout, options.connect_timeout);
+    return options;
+  }
+
+  rtc::Orb orb_;
+  rtc::NamingClient naming_;
+};
+
+// ---- ls ----------------------------------------------------------------------------------
+
+// The state of the component bound at `path` and, if asked, one line per port. Whatever goes
+// wrong with this one object is shown in place of its state; the listing goes on.
+std::string component_summary(Session& session, const std::string& path, bool with_ports,
+                              std::vector<std::string>& port_lines) {
+  try {
+    CORBA::Object_var object = session.naming().resolve(path);
+    RTC::RTObject_var component = RTC::RTObject::_narrow(object);
+    if (CORBA::is_nil(component)) return "not an RT-Component";
+    const std::string state = rtc::state_name(rtc::component_state(component));
+    if (!with_ports) return state;
+    std::vector<RTC::PortProfile_var> profiles;
+    RTC::PortServiceList_var ports = component->get_ports();
+    std::size_t name_width = 0;
+    std::size_t type_width = 0;
+    for (CORBA::ULong i = 0; i < ports->length(); ++i) {
+      profiles.emplace_back(ports[i]->get_port_profile());
+      name_width = std::max(name_width, short_port_name(profiles.back()->name.in()).size());
+      type_width = std::max(type_width, port_type(profiles.back().in()).size());
+    }
+    for (const auto& profile : profiles) {
+      port_lines.push_back(padded(short_port_name(profile->name.in()), name_width) + "  " +
+                           padded(port_type(profile.in()), type_width) + "  " +
+                           plural(profile->connector_profiles.length(), "connection"));
+    }
+    return state;
+  } catch (const CORBA::SystemException&) {
+    port_lines.clear();
+    return "unreachable";
+  } catch (const rtc::NamingError&) {
+    return "no longer bound";
+  }
+}
+
+void print_object(Session& session, const rtc::NamingClient::Entry& entry, const std::string& label,
+                  std::size_t width, const std::string& indent, bool with_ports) {
+  if (entry.kind != "rtc") {
+    std::cout << indent << label << "\n";
+    return;
+  }
+  std::vector<std::string> port_lines;
+  const std::string summary = component_summary(session, entry.path, with_ports, port_lines);
+  std::cout << indent << padded(label, width) << "  " << summary << "\n";
+  for (const std::string& line : port_lines) std::cout << indent << "    " << line << "\n";
+}
+
+std::vector<rtc::NamingClient::Entry> sorted_bindings(Session& session, const std::string& context) {
+  std::vector<rtc::NamingClient::Entry> entries = session.naming().list(context);
+  std::sort(entries.begin(), entries.end(), [](const auto& a, const auto& b) { return a.path < b.path; });
+  return entries;
+}
+
+// A context that cannot be listed (one kept by another naming server that is gone) is marked in
+// place, as a dead object is.
+void print_tree(Session& session, const std::vector<rtc::NamingClient::Entry>& entries, const std::string& indent,
+                bool with_ports) {
+  std::size_t width = 0;
+  for (const auto& entry : entries) width = std::max(width, leaf_name(entry).size());
+  for (const auto& entry : entries) {
+    if (!entry.is_context) {
+      print_object(session, entry, leaf_name(entry), width, indent, with_ports);
+      continue;
+    }
+    std::vector<rtc::NamingClient::Entry> children;
+    try {
+      children = sorted_bindings(session, entry.path);
+    } catch (const rtc::NamingError&) {
+      std::cout << indent << leaf_name(entry) << "/  unreachable\n";
+      continue;
+    }
+    std::cout << indent << leaf_name(entry) << "/\n";
+    print_tree(session, children, indent + "  ", with_ports);
+  }
+}
+
+int list(Session& session, const std::string& path, bool with_ports) {
+  if (path.empty()) {
+    print_tree(session, sorted_bindings(session, ""), "", with_ports);
+    return kOk;
+  }
+  // Whether PATH is a context or an object is the binding's type, read from its parent's
+  // listing: asking the object itself would fail for a stale binding.
+  const auto slash = path.rfind('/');
+  const std::string parent = slash == std::string::npos ? "" : path.substr(0, slash);
+  std::vector<rtc::NamingClient::Entry> siblings;
+  try {
+    siblings = session.naming().list(parent);
+  } catch (const rtc::NamingUnreachable&) {
+    throw;
+  } catch (const rtc::NamingError& e) {
+    throw Failure(kFailed, e.what());
+  }
+  const auto found = std::find_if(siblings.begin(), siblings.end(), [&](const auto& e) { return e.path == path; });
+  if (found == siblings.end()) throw Failure(kFailed, path + ": not bound");
+  if (found->is_context) {
+    print_tree(session, sorted_bindings(session, path), "", with_ports);
+  } else {
+    print_object(session, *found, path, 0, "", with_ports);
+  }
+  return kOk;
+}
+
+// ---- cat ---------------------------------------------------------------------------------
+
+void print_properties(const SDOPackage::NVList& properties, const std::string& indent) {
+  if (properties.length() == 0) return;
+  std::cout << indent << "properties:\n";
+  for (const std::string& line : rtc::nv_lines(properties)) std::cout << indent << "  " << line << "\n";
+}
+
+std::string port_name_of(RTC::PortService_ptr port) {
+  try {
+    RTC::PortProfile_var profile = port->get_port_profile();
+    return profile->name.in();
+  } catch (const CORBA::SystemException& e) {
+    return "<" + reason(e) + ">";
+  }
+}
+
+void print_port(const RTC::PortProfile& port, const std::string& indent) {
+  std::cout << indent << port.name.in() << "  " << port_type(port) << "\n";
+  const std::string inner = indent + "  ";
+  if (port.interfaces.length() > 0) std::cout << inner << "interfaces:\n";
+  for (CORBA::ULong i = 0; i < port.interfaces.length(); ++i) {
+    const RTC::PortInterfaceProfile& interface = port.interfaces[i];
+    std::cout << inner << "  " << (interface.polarity == RTC::PROVIDED ? "provided" : "required") << "  "
+              << interface.type_name.in() << "  " << interface.instance_name.in() << "\n";
+  }
+  print_properties(port.properties, inner);
+  std::cout << inner << plural(port.connector_profiles.length(), "connection")
+            << (port.connector_profiles.length() > 0 ? ":" : "") << "\n";
+  for (CORBA::ULong i = 0; i < port.connector_profiles.length(); ++i) {
+    const RTC::ConnectorProfile& connector = port.connector_profiles[i];
+    std::cout << inner << "  " << connector.connector_id.in() << "  name: " << connector.name.in() << "\n";
+    std::string peers;
+    for (CORBA::ULong j = 0; j < connector.ports.length(); ++j) {
+      peers += (j > 0 ? ", " : "") + port_name_of(connector.ports[j]);
+    }
+    std::cout << inner << "    ports: " << peers << "\n";
+    print_properties(connector.properties, inner + "    ");
+  }
+}
+
+void print_contexts(RTC::RTObject_ptr target, const RTC::ExecutionContextList& contexts, const char* relation,
+                    const std::string& indent) {
+  for (CORBA::ULong i = 0; i < contexts.length(); ++i) {
+    std::cout << indent << relation << " " << i << ": ";
+    try {
+      std::ostringstream line;
+      line << kind_name(contexts[i]->get_kind()) << ", " << contexts[i]->get_rate() << " Hz, "
+           << rtc::state_name(contexts[i]->get_component_state(target));
+      std::cout << line.str() << "\n";
+    } catch (const CORBA::SystemException& e) {
+      std::cout << reason(e) << "\n";
+    }
+  }
+}
+
+int cat_component(Session& session, const std::string& path) {
+  RTC::RTObject_var target = session.component(path);
+  calling(path, [&] {
+    RTC::ComponentProfile_var profile = target->get_component_profile();
+    RTC::ExecutionContextList_var owned = target->get_owned_contexts();
+    RTC::ExecutionContextList_var participating = target->get_participating_contexts();
+    RTC::PortServiceList_var ports = target->get_ports();
+    std::vector<RTC::PortProfile_var> port_profiles;
+    for (CORBA::ULong i = 0; i < ports->length(); ++i) port_profiles.emplace_back(ports[i]->get_port_profile());
+    const std::string state = rtc::state_name(rtc::component_state(target));
+
+    std::cout << path << "  " << state << "\n";
+    const std::pair<const char*, const char*> fields[] = {
+        {"instance", profile->instance_name.in()}, {"type", profile->type_name.in()},
+        {"description", profile->description.in()}, {"vendor", profile->vendor.in()},
+        {"version", profile->version.in()}, {"category", profile->category.in()},
+    };
+    for (const auto& [name, value] : fields) std::cout << "  " << padded(std::string(name) + ":", 13) << value << "\n";
+    std::cout << "  execution contexts:\n";
+    print_contexts(target, owned.in(), "owned", "    ");
+    print_contexts(target, participating.in(), "participating", "    ");
+    print_properties(profile->properties, "  ");
+    std::cout << "  " << plural(port_profiles.size(), "port") << (port_profiles.empty() ? "" : ":") << "\n";
+    for (const auto& port : port_profiles) print_port(port.in(), "    ");
+  });
+  return kOk;
+}
+
+int cat(Session& session, const std::string& target) {
+  // A ':' marks PATH:PORT; a plain naming path holds none.
+  if (target.find(':') == std::string::npos) {
+    return cat_component(session, normalize_path(target));
+  }
+  const PortAddress address = parse_port_address(target);
+  RTC::PortService_var port = session.port(address);
+  RTC::PortProfile_var profile = calling(target, [&] { return port->get_port_profile(); });
+  print_port(profile.in(), "");
+  return kOk;
+}
+
+// ---- act / deact / reset -------------------------------------------------------------------
+
+RTC::ReturnCode_t transition(const std::string& command, RTC::ExecutionContext_ptr context,
+                              RTC::RTObject_ptr target) {
+  if (command == "act") return context->activate_component(target);
+  if (command == "deact") return context->deactivate_component(target);
+  return context->reset_component(target);
+}
+
+// Applies the command's transition to each component in its first owned context; every path is
+// tried and each failure reported on its own line.
+int change_state(Session& session, const std::string& command, const std::vector<std::string>& paths) {
+  int rc = kOk;
+  for (const std::string& given : paths) {
+    const std::string path = normalize_path(given);
+    try {
+      RTC::RTObject_var target = session.component(path);
+      const RTC::ReturnCode_t code = calling(path, [&] {
+        RTC::ExecutionContextList_var contexts = target->get_owned_contexts();
+        if (contexts->length() == 0 || CORBA::is_nil(contexts[0])) {
+          throw Failure(kFailed, path + ": owns no execution context");
+        }
+        return transition(command, contexts[0], target);
+      });
+      if (code != RTC::RTC_OK) throw Failure(kFailed, path + ": " + rtc::return_code_name(code));
+    } catch (const Failure& failure) {
+      std::cerr << "urs: rtc " << command << ": " << failure.what() << "\n";
+      rc = std::max(rc, failure.code());
+    }
+  }
+  return rc;
+}
+
+// ---- con / dis -----------------------------------------------------------------------------
+
+SDOPackage::NVList parse_properties(const std::vector<std::string>& pairs) {
+  std::vector<std::pair<std::string, std::string>> parsed;
+  for (const std::string& pair : pairs) {
+    const auto equals = pair.find('=');
+    if (equals == std::string::npos || equals == 0) {
+      throw Failure(kUsage, "connector property '" + pair + "' is not key=value");
+    }
+    parsed.emplace_back(pair.substr(0, equals), pair.substr(equals + 1));
+  }
+  return rtc::nv_from(parsed);
+}
+
+int connect(Session& session, const std::string& first, const std::string& second,
+            const std::vector<std::string>& properties, std::string name, const std::string& id) {
+  const PortAddress first_address = parse_port_address(first);
+  const PortAddress second_address = parse_port_address(second);
+  const SDOPackage::NVList extra = parse_properties(properties);
+  RTC::PortService_var a = session.port(first_address);
+  RTC::PortService_var b = session.port(second_address);
+  const std::string what = first + " " + second;
+  // Without --name the connector is named after the ports it joins.
+  if (name.empty()) name = port_name_of(a) + "_" + port_name_of(b);
+  const rtc::Connection connection = calling(what, [&] { return rtc::connect_ports({a.in(), b.in()}, name, extra, id); });
+  if (connection.code != RTC::RTC_OK) throw Failure(kFailed, what + ": " + rtc::return_code_name(connection.code));
+  std::cout << connection.profile.connector_id.in() << "\n";
+  return kOk;
+}
+
+int disconnect(Session& session, const std::string& first, const std::string& second, bool all) {
+  if (all == !second.empty()) throw Failure(kUsage, "give a second PORT or --all (exactly one)");
+  const PortAddress first_address = parse_port_address(first);
+  const PortAddress second_address = all ? PortAddress{} : parse_port_address(second);
+  RTC::PortService_var a = session.port(first_address);
+  if (all) {
+    const RTC::ReturnCode_t code = calling(first, [&] { return a->disconnect_all(); });
+    if (code != RTC::RTC_OK) throw Failure(kFailed, first + ": " + rtc::return_code_name(code));
+    return kOk;
+  }
+  RTC::PortService_var b = session.port(second_address);
+  const int count = calling(first, [&] { return rtc::disconnect_ports(a, b); });
+  if (count == 0) throw Failure(kFailed, first + " and " + second + " are not connected");
+  return kOk;
+}
+
+}  // namespace
+
+RtcCommands::RtcCommands(CLI::App& app) {
+  rtc_ = app.add_subcommand("rtc", "Browse and drive RT-Components in a naming service (rtshell-like)");
+  rtc_->require_subcommand(1);
+  // Lets the options of `rtc` follow its subcommand too: `urs rtc ls --naming HOST:PORT`.
+  rtc_->fallthrough();
+  naming_ = "127.0.0.1:2809";
+  rtc_->add_option("--naming", naming_, "Naming service HOST:PORT")->envname("URS_NAMING")->capture_default_str();
+  rtc_->add_option("--call-timeout-ms", call_timeout_ms_, "Bound on every CORBA call")
+      ->check(CLI::Range(1, 3600000))
+      ->capture_default_str();
+
+  ls_ = rtc_->add_subcommand("ls", "Tree of the naming service under PATH, with component states");
+  ls_->add_option("path", path_, "Naming path (default: the root)");
+  ls_->add_flag("-l,--long", long_, "Also list each component's ports");
+
+  cat_ = rtc_->add_subcommand("cat", "Profile of the component PATH or of the port PATH:PORT");
+  cat_->add_option("target", path_, "PATH or PATH:PORT")->required();
+
+  auto transition = [&](const char* name, const char* help) {
+    CLI::App* command = rtc_->add_subcommand(name, help);
+    command->add_option("paths", paths_, "Naming paths of components")->required();
+    return command;
+  };
+  act_ = transition("act", "Activate the components in their first owned execution context");
+  deact_ = transition("deact", "Deactivate the components in their first owned execution context");
+  reset_ = transition("reset", "Reset the components (from Error) in their first owned execution context");
+
+  con_ = rtc_->add_subcommand("con", "Connect two ports; prints the connector id");
+  con_->add_option("port", first_port_, "PATH:PORT")->required();
+  con_->add_option("peer", second_port_, "PATH:PORT")->required();
+  con_->add_option("properties", properties_, "Connector properties key=value");
+  con_->add_option("--name", connector_name_, "Connector name (default: <port>_<peer>)");
+  con_->add_option("--id", connector_id_, "Connector id (default: the port assigns a UUID)");
+
+  dis_ = rtc_->add_subcommand("dis", "Disconnect two ports, or every connection of one port with --all");
+  dis_->add_option("port", first_port_, "PATH:PORT")->required();
+  dis_->add_option("peer", second_port_, "PATH:PORT");
+  dis_->add_flag("--all", all_, "Remove every connection of PORT");
+}
+
+bool RtcCommands::selected() const { return rtc_->parsed(); }
+
+int RtcCommands::run(const std::string& log_level) {
+  const CLI::App* chosen = rtc_->get_subcommands().front();
+  const std::string command = chosen->get_name();
+  try {
+    urs::util::init_logging("urs", log_level);
+    urs::util::parse_endpoint(naming_, "--naming");
+  } catch (const std::exception& e) {
+    std::cerr << "urs: rtc: " << e.what() << "\n";
+    return kUsage;
+  }
+  try {
+    Session session(naming_, std::chrono::milliseconds(call_timeout_ms_));
+    if (chosen == ls_) return list(session, normalize_path(path_), long_);
+    if (chosen == cat_) return cat(session, path_);
+    if (chosen == act_ || chosen == deact_ || chosen == reset_) return change_state(session, command, paths_);
+    if (chosen == con_) return connect(session, first_port_, second_port_, properties_, connector_name_, connector_id_);
+    if (chosen == dis_) return disconnect(session, first_port_, second_port_, all_);
+  } catch (const Failure& failure) {
+    std::cerr << "urs: rtc " << command << ": " << failure.what() << "\n";
+    return failure.code();
+  } catch (const std::invalid_argument& e) {  // a malformed naming path
+    std::cerr << "urs: rtc " << command << ": " << e.what() << "\n";
+    return kUsage;
+  } catch (const rtc::NamingUnreachable& e) {
+    std::cerr << "urs: rtc " << command << ": " << e.what() << "\n";
+    return kUnreachable;
+  } catch (const rtc::NamingError& e) {
+    std::cerr << "urs: rtc " << command << ": " << e.what() << "\n";
+    return kFailed;
+  } catch (const CORBA::Exception& e) {
+    std::cerr << "urs: rtc " << command << ": " << rtc::describe(e) << "\n";
+    return kFailed;
+  }
+  return kUsage;
+}
+
+}  // namespace urs::cli

@@ -1,0 +1,57 @@
+#pragma once
+// The process's one omniORB ORB and its root POA, started with the options URSLink's RT side
+// needs: where to listen (or an ephemeral port), the client call timeout, the address published
+// in object references. omniORB serves requests on its own thread pool once the POA manager is
+// active; no thread has to sit in ORB::run().
+
+#include <omniORB4/CORBA.h>
+
+#include <chrono>
+#include <string>
+
+namespace urs::rtc {
+
+struct OrbOptions {
+  // giop:tcp:<host>:<port> to listen on; empty lets omniORB choose (all interfaces, ephemeral port).
+  std::string endpoint;
+  // Bound on every outgoing call (OpenRTM-aist's default is 10 s). 0 leaves calls unbounded.
+  std::chrono::milliseconds call_timeout{10000};
+  // Bound on establishing a connection to a peer that does not answer (0: omniORB's default).
+  std::chrono::milliseconds connect_timeout{2000};
+};
+
+class Orb {
+ public:
+  explicit Orb(const OrbOptions& options = {});
+  ~Orb();  // shuts the ORB down and destroys it (waits for calls in progress)
+  Orb(const Orb&) = delete;
+  Orb& operator=(const Orb&) = delete;
+
+  CORBA::ORB_ptr orb() const { return orb_.in(); }
+  PortableServer::POA_ptr poa() const { return poa_.in(); }
+
+  // Activates `servant` in the root POA; the returned reference is owned by the caller.
+  CORBA::Object_ptr activate(PortableServer::ServantBase* servant);
+  // Deactivates the servant's object (no-op if it is not active); in-progress calls complete.
+  void deactivate(PortableServer::ServantBase* servant);
+
+  std::string object_to_string(CORBA::Object_ptr object) const;
+  // Throws std::invalid_argument with omniORB's reason for a malformed IOR or corbaloc URL.
+  CORBA::Object_ptr string_to_object(const std::string& text) const;
+
+ private:
+  CORBA::ORB_var orb_;
+  PortableServer::POA_var poa_;
+};
+
+// "giop:tcp:<host>:<port>" from "HOST:PORT" (as given to --listen); throws urs::util::ConfigError.
+std::string endpoint_from_address(const std::string& host_port, const std::string& what);
+
+// True if `object` is nil, does not exist any more, or cannot be reached (any system exception).
+bool is_gone(CORBA::Object_ptr object);
+
+// The text of a CORBA exception: "TRANSIENT (TRANSIENT_ConnectFailed)", "BAD_PARAM", or the
+// repository ID of a user exception.
+std::string describe(const CORBA::Exception& e);
+
+}  // namespace urs::rtc

@@ -1,0 +1,95 @@
+#include "urs/rtc/orb.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <stdexcept>
+#include <vector>
+
+#include "urs/util/cli.hpp"
+
+namespace urs::rtc {
+
+Orb::Orb(const OrbOptions& options) {
+  const std::string call_timeout = std::to_string(options.call_timeout.count());
+  const std::string connect_timeout = std::to_string(options.connect_timeout.count());
+  const char* table[5][2] = {};
+  int n = 0;
+  auto option = [&](const char* name, const char* value) {
+    table[n][0] = name;
+    table[n][1] = value;
+    ++n;
+  };
+  if (!options.endpoint.empty()) option("endPoint", options.endpoint.c_str());
+  option("clientCallTimeOutPeriod", call_timeout.c_str());
+  if (options.connect_timeout.count() > 0) option("clientConnectTimeOutPeriod", connect_timeout.c_str());
+  // Camera frames (921,600 bytes) and larger blobs travel as one GIOP message.
+  option("giopMaxMsgSize", "67108864");
+  int argc = 0;
+  orb_ = CORBA::ORB_init(argc, nullptr, "omniORB4", table);
+  CORBA::Object_var object = orb_->resolve_initial_references("RootPOA");
+  poa_ = PortableServer::POA::_narrow(object);
+  PortableServer::POAManager_var manager = poa_->the_POAManager();
+  manager->activate();
+}
+
+Orb::~Orb() {
+  try {
+    orb_->shutdown(true);
+    orb_->destroy();
+  } catch (const CORBA::Exception& e) {
+    spdlog::warn("ORB shutdown: {}", describe(e));
+  }
+}
+
+CORBA::Object_ptr Orb::activate(PortableServer::ServantBase* servant) {
+  PortableServer::ObjectId_var id = poa_->activate_object(servant);
+  return poa_->id_to_reference(id.in());
+}
+
+void Orb::deactivate(PortableServer::ServantBase* servant) {
+  try {
+    PortableServer::ObjectId_var id = poa_->servant_to_id(servant);
+    poa_->deactivate_object(id.in());
+  } catch (const PortableServer::POA::ServantNotActive&) {
+  } catch (const PortableServer::POA::ObjectNotActive&) {
+  } catch (const PortableServer::POA::WrongPolicy&) {
+  }
+}
+
+std::string Orb::object_to_string(CORBA::Object_ptr object) const {
+  CORBA::String_var text = orb_->object_to_string(object);
+  return text.in();
+}
+
+CORBA::Object_ptr Orb::string_to_object(const std::string& text) const {
+  try {
+    return orb_->string_to_object(text.c_str());
+  } catch (const CORBA::Exception& e) {
+    throw std::invalid_argument("not an object reference (" + describe(e) + "): " +
+                                text.substr(0, 40) + (text.size() > 40 ? "..." : ""));
+  }
+}
+
+std::string endpoint_from_address(const std::string& host_port, const std::string& what) {
+  const util::Endpoint endpoint = util::parse_endpoint(host_port, what);
+  return "giop:tcp:" + endpoint.host + ":" + std::to_string(endpoint.port);
+}
+
+bool is_gone(CORBA::Object_ptr object) {
+  if (CORBA::is_nil(object)) return true;
+  try {
+    return object->_non_existent();
+  } catch (const CORBA::SystemException&) {
+    return true;
+  }
+}
+
+std::string describe(const CORBA::Exception& e) {
+  if (const auto* system = CORBA::SystemException::_downcast(&e)) {
+    const char* minor = system->NP_minorString();
+    return std::string(system->_name()) + (minor ? std::string(" (") + minor + ")" : std::string());
+  }
+  return e._rep_id();
+}
+
+}  // namespace urs::rtc

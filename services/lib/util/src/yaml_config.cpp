@@ -1,0 +1,43 @@
+#include "urs/util/yaml_config.hpp"
+
+#include <sstream>
+
+#include "urs/util/cli.hpp"
+
+namespace urs::util {
+
+YAML::Node load_yaml_file(const std::string& path, const std::string& flag) {
+  try {
+    return YAML::LoadFile(path);
+  } catch (const YAML::BadFile&) {
+    throw ConfigError(flag + ": cannot read '" + path + "'");
+  } catch (const YAML::Exception& e) {
+    throw ConfigError(flag + ": '" + path + "' is not valid YAML: " + e.what());
+  }
+}
+
+std::string join(const std::set<std::string>& items) {
+  std::string out;
+  for (const auto& item : items) out += (out.empty() ? "" : ", ") + item;
+  return out;
+}
+
+void check_keys(const YAML::Node& node, const std::string& where, const std::set<std::string>& allowed,
+                std::vector<std::string>& errors) {
+  for (const auto& kv : node) {
+    auto key = kv.first.as<std::string>();
+    if (allowed.count(key) == 0) {
+      errors.push_back(where + (where.empty() ? "" : ".") + key + ": unknown key (allowed: " + join(allowed) + ")");
+    }
+  }
+}
+
+void throw_if_errors(const std::vector<std::string>& errors, const std::string& path, const std::string& flag) {
+  if (errors.empty()) return;
+  std::ostringstream out;
+  out << flag << " '" << path << "' has " << errors.size() << " error(s):";
+  for (const auto& e : errors) out << "\n  " << e;
+  throw ConfigError(out.str());
+}
+
+}  // namespace urs::util

@@ -1,0 +1,328 @@
+// `urs rtc` against real processes: omniNames, urs-rtc-manager hosting Diagnostic,
+// DiagnosticCaller, Counter and Sink under testhost.host_cxt, and the urs binary.
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <signal.h>
+
+#include <algorithm>
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "naming_service.hpp"
+#include "process.hpp"
+
+namespace urs::test {
+namespace {
+
+using ::testing::ContainsRegex;
+using ::testing::HasSubstr;
+using ::testing::Not;
+using namespace std::chrono_literals;
+
+class RtcCliTest : public ::testing::Test {
+ public:
+  CommandResult urs(const std::vector<std::string>& args) {
+    std::vector<std::string> argv = {URS_CLI_BIN, "rtc", "--naming", naming_->address()};
+    argv.insert(argv.end(), args.begin(), args.end());
+    return run_command(argv, 30s);
+  }
+
+ protected:
+  void SetUp() override {
+    dir_ = make_temp_dir("rtc_cli");
+    naming_ = std::make_unique<NamingService>(dir_);
+    manager_ = start_manager("testhost", {"Diagnostic", "DiagnosticCaller", "Counter", "Sink"});
+  }
+
+  void TearDown() override {
+    if (HasFailure()) std::cerr << "---- manager log\n" << (manager_ ? manager_->log() : "");
+    if (manager_) {
+      manager_->signal(SIGTERM);
+      manager_->wait(5s);
+    }
+    manager_.reset();
+    naming_.reset();
+    std::filesystem::remove_all(dir_);
+  }
+
+  // A manager binding one component of each type under "<host>.host_cxt", up once its ready
+  // file is written.
+  std::unique_ptr<Process> start_manager(const std::string& host, const std::vector<std::string>& types) {
+    const std::string config = dir_ + "/" + host + ".yaml";
+    const std::string ready = dir_ + "/" + host + ".ready";
+    std::ofstream out(config);
+    out << "components:\n";
+    for (const std::string& type : types) out << "  - type: " << type << "\n";
+    out.close();
+    auto manager = std::make_unique<Process>(
+        std::vector<std::string>{URS_RTC_MANAGER_BIN, "--space", "lab", "--naming", naming_->address(), "--host",
+                                 host, "--config", config, "--ready-file", ready, "--log-level", "debug"},
+        dir_ + "/" + host + ".log");
+    const bool up = wait_until([&] { return std::filesystem::exists(ready) || !manager->running(); }, 20s);
+    if (!up || !manager->running()) throw std::runtime_error("urs-rtc-manager did not come up:\n" + manager->log());
+    return manager;
+  }
+
+  static std::string path(const std::string& instance) { return "testhost.host_cxt/" + instance + ".rtc"; }
+
+  // The state `ls` shows for one component: its line is "PATH  STATE".
+  std::string state(const std::string& instance) {
+    const CommandResult r = urs({"ls", path(instance)});
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    const std::string prefix = path(instance) + "  ";
+    if (r.out.rfind(prefix, 0) != 0 || r.out.back() != '\n') return "unexpected: " + r.out;
+    return r.out.substr(prefix.size(), r.out.size() - prefix.size() - 1);
+  }
+
+  std::string dir_;
+  std::unique_ptr<NamingService> naming_;
+  std::unique_ptr<Process> manager_;
+};
+
+TEST_F(RtcCliTest, LsShowsTheTreeWithComponentStates) {
+  CommandResult r = urs({"ls"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("testhost.host_cxt/\n"));
+  for (const std::string instance : {"Diagnostic0", "DiagnosticCaller0", "Counter0", "Sink0"}) {
+    EXPECT_THAT(r.out, ContainsRegex("\n  " + instance + "\\.rtc +Inactive\n"));
+  }
+
+  // A context lists its contents; an object, itself. A leading '/' is accepted.
+  r = urs({"ls", "/testhost.host_cxt"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, ContainsRegex("^Counter0\\.rtc +Inactive\n"));
+  EXPECT_THAT(r.out, Not(HasSubstr("host_cxt")));
+  r = urs({"ls", "/" + path("Diagnostic0")});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.out, path("Diagnostic0") + "  Inactive\n");
+}
+
+TEST_F(RtcCliTest, LsLongAddsPortsWithTypeAndConnectionCount) {
+  const CommandResult r = urs({"ls", "-l", "testhost.host_cxt"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, ContainsRegex("Diagnostic0\\.rtc +Inactive\n    diagnostic  CorbaPort  0 connections\n"));
+  EXPECT_THAT(r.out, ContainsRegex("\n    count +DataOutPort [^\n]*TimedLong[^\n]* 0 connections\n"));
+  EXPECT_THAT(r.out, ContainsRegex("\n    pose +DataInPort [^\n]*TimedPose2D[^\n]* 0 connections\n"));
+}
+
+TEST_F(RtcCliTest, ActDeactResetFollowTheLifecycle) {
+  CommandResult r = urs({"act", path("Diagnostic0")});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.out, "");
+  EXPECT_EQ(state("Diagnostic0"), "Active");
+
+  r = urs({"act", path("Diagnostic0")});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.err, "urs: rtc act: " + path("Diagnostic0") + ": PRECONDITION_NOT_MET\n");
+
+  r = urs({"deact", path("Diagnostic0")});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(state("Diagnostic0"), "Inactive");
+
+  // Only a component in Error can be reset.
+  r = urs({"reset", path("Diagnostic0")});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, HasSubstr("PRECONDITION_NOT_MET"));
+}
+
+TEST_F(RtcCliTest, ActTriesEveryPathAndReportsEachFailure) {
+  const CommandResult r = urs({"act", path("Diagnostic0"), path("Nope0"), path("Counter0")});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.err, "urs: rtc act: " + path("Nope0") + ": not bound\n");
+  EXPECT_EQ(state("Diagnostic0"), "Active");
+  EXPECT_EQ(state("Counter0"), "Active");
+}
+
+TEST_F(RtcCliTest, CatShowsProfileContextsPropertiesAndPorts) {
+  CommandResult r = urs({"cat", path("Diagnostic0")});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr(path("Diagnostic0") + "  Inactive\n"));
+  EXPECT_THAT(r.out, ContainsRegex("\n  instance: +Diagnostic0\n"));
+  EXPECT_THAT(r.out, ContainsRegex("\n  type: +Diagnostic\n"));
+  EXPECT_THAT(r.out, ContainsRegex("\n  vendor: +URSLink\n"));
+  EXPECT_THAT(r.out, ContainsRegex("\n    owned 0: periodic, [0-9.]+ Hz, Inactive\n"));
+  EXPECT_THAT(r.out, HasSubstr("urslink.space=lab"));
+  EXPECT_THAT(r.out, HasSubstr("  1 port:\n    Diagnostic0.diagnostic  CorbaPort\n"));
+  EXPECT_THAT(r.out, ContainsRegex("\n        provided  [^\n]*Diagnostic  diagnostic\n"));
+  EXPECT_THAT(r.out, HasSubstr("port.port_type=CorbaPort"));
+
+  // One port, by its short or its full name.
+  r = urs({"cat", path("DiagnosticCaller0") + ":diagnostic"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, ContainsRegex("^DiagnosticCaller0\\.diagnostic  CorbaPort\n"));
+  EXPECT_THAT(r.out, ContainsRegex("\n    required  [^\n]*Diagnostic  diagnostic\n"));
+  EXPECT_THAT(r.out, Not(HasSubstr("instance:")));
+  r = urs({"cat", path("Sink0") + ":Sink0.count"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, ContainsRegex("^Sink0\\.count  DataInPort "));
+}
+
+TEST_F(RtcCliTest, ConShowsTheConnectionOnBothPortsAndDisRemovesIt) {
+  const std::string caller = path("DiagnosticCaller0") + ":diagnostic";
+  const std::string provider = path("Diagnostic0") + ":Diagnostic0.diagnostic";
+  CommandResult r = urs({"con", caller, provider, "--name", "diag-link", "test.note=hello"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  ASSERT_THAT(r.out, ContainsRegex("^[^\n ]+\n$"));
+  const std::string id = r.out.substr(0, r.out.size() - 1);
+
+  for (const std::string& port : {caller, provider}) {
+    r = urs({"cat", port});
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_THAT(r.out, HasSubstr("  1 connection:\n    " + id + "  name: diag-link\n"));
+    EXPECT_THAT(r.out, HasSubstr("      ports: DiagnosticCaller0.diagnostic, Diagnostic0.diagnostic\n"));
+    EXPECT_THAT(r.out, HasSubstr("test.note=hello"));
+  }
+  r = urs({"ls", "-l", path("Diagnostic0")});
+  EXPECT_THAT(r.out, HasSubstr("diagnostic  CorbaPort  1 connection\n"));
+
+  r = urs({"dis", provider, caller});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  for (const std::string& port : {caller, provider}) {
+    r = urs({"cat", port});
+    EXPECT_THAT(r.out, HasSubstr("  0 connections\n"));
+  }
+  r = urs({"dis", caller, provider});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, HasSubstr("are not connected"));
+
+  // A connector id chosen by the caller is kept; the same id twice is refused.
+  r = urs({"con", caller, provider, "--id", "my-link-1"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.out, "my-link-1\n");
+  r = urs({"con", caller, provider, "--id", "my-link-1"});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, HasSubstr("BAD_PARAMETER"));
+}
+
+TEST_F(RtcCliTest, DataPortsConnectWithTheDefaultPropertiesAndDisAllRemovesThem) {
+  CommandResult r = urs({"con", path("Counter0") + ":count", path("Sink0") + ":count"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  r = urs({"con", path("Counter0") + ":count", path("Sink0") + ":pose"});
+  EXPECT_EQ(r.exit_code, 1) << "a TimedLong out port connected to a TimedPose2D in port";
+  EXPECT_THAT(r.err, ContainsRegex(": [A-Z_]+\n$"));
+
+  r = urs({"cat", path("Sink0") + ":count"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("  1 connection:\n"));
+  EXPECT_THAT(r.out, HasSubstr("name: Counter0.count_Sink0.count\n"));
+  EXPECT_THAT(r.out, HasSubstr("dataport.interface_type=corba_cdr"));
+  EXPECT_THAT(r.out, HasSubstr("dataport.dataflow_type=push"));
+
+  r = urs({"dis", path("Sink0") + ":count", "--all"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  for (const std::string& port : {path("Counter0") + ":count", path("Sink0") + ":count"}) {
+    r = urs({"cat", port});
+    EXPECT_THAT(r.out, HasSubstr("  0 connections\n"));
+  }
+}
+
+TEST_F(RtcCliTest, StaleBindingIsShownUnreachableWithoutFailingTheListing) {
+  auto gone = start_manager("gonehost", {"Diagnostic"});
+  gone->kill9();
+
+  for (const std::vector<std::string>& args : {std::vector<std::string>{"ls"}, {"ls", "-l"}}) {
+    const CommandResult r = urs(args);
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_EQ(r.err, "");
+    EXPECT_THAT(r.out, HasSubstr("gonehost.host_cxt/\n  Diagnostic0.rtc  unreachable\n"));
+    EXPECT_THAT(r.out, ContainsRegex("testhost.host_cxt/\n  Counter0\\.rtc +Inactive\n"));
+  }
+  const std::string stale = "gonehost.host_cxt/Diagnostic0.rtc";
+  CommandResult r = urs({"act", stale});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, HasSubstr(stale + ": unreachable ("));
+  r = urs({"cat", stale});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, HasSubstr(stale + ": unreachable ("));
+}
+
+TEST_F(RtcCliTest, HungComponentIsShownUnreachableWithinTheCallTimeout) {
+  auto hung = start_manager("hunghost", {"Diagnostic"});
+  hung->signal(SIGSTOP);
+  const auto start = std::chrono::steady_clock::now();
+  const CommandResult r = urs({"ls", "--call-timeout-ms", "500"});
+  const auto took = std::chrono::steady_clock::now() - start;
+  hung->signal(SIGCONT);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("hunghost.host_cxt/\n  Diagnostic0.rtc  unreachable\n"));
+  EXPECT_THAT(r.out, ContainsRegex("testhost.host_cxt/\n  Counter0\\.rtc +Inactive\n"));
+  EXPECT_LT(took, 5s);
+}
+
+TEST_F(RtcCliTest, UnknownPathsAndPortsFailWithAPreciseMessage) {
+  CommandResult r = urs({"cat", path("Nope0")});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.err, "urs: rtc cat: " + path("Nope0") + ": not bound\n");
+
+  r = urs({"ls", "nohost.host_cxt"});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.err, "urs: rtc ls: nohost.host_cxt: not bound\n");
+
+  r = urs({"cat", path("Diagnostic0") + ":nosuch"});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.err, "urs: rtc cat: " + path("Diagnostic0") + ": no port 'nosuch' (ports: diagnostic)\n");
+
+  r = urs({"con", path("Counter0") + ":count", path("Sink0") + ":nosuch"});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, HasSubstr("no port 'nosuch' (ports: "));
+}
+
+void expect_usage_errors(RtcCliTest& test, const std::vector<std::vector<std::string>>& cases) {
+  for (const auto& args : cases) {
+    const CommandResult r = test.urs(args);
+    EXPECT_EQ(r.exit_code, 2) << ::testing::PrintToString(args) << "\n" << r.err;
+    EXPECT_FALSE(r.err.empty()) << ::testing::PrintToString(args);
+  }
+}
+
+TEST_F(RtcCliTest, BadArgumentsExitWithTwo) {
+  expect_usage_errors(*this, {
+                                 {"con", path("Counter0") + ":count", path("Sink0") + ":count", "no-equals-sign"},
+                                 {"con", path("Counter0"), path("Sink0") + ":count"},
+                                 {"dis", path("Counter0") + ":count"},
+                                 {"dis", path("Counter0") + ":count", path("Sink0") + ":count", "--all"},
+                                 {"cat", "testhost.host_cxt//Diagnostic0.rtc"},
+                                 {"cat", path("Diagnostic0") + ":"},
+                             });
+  const CommandResult r = run_command({URS_CLI_BIN, "rtc", "--naming", "no-port-here", "ls"}, 30s);
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_THAT(r.err, HasSubstr("--naming"));
+}
+
+TEST_F(RtcCliTest, CommandLineParseErrorsExitWithTwo) {
+  expect_usage_errors(*this, {
+                                 {"con", path("Counter0") + ":count"},
+                                 {"act"},
+                                 {"frobnicate"},
+                                 {"ls", "--no-such-flag"},
+                             });
+}
+
+TEST_F(RtcCliTest, UnreachableNamingServiceExitsWithThreeAndOneLine) {
+  const std::string nowhere = "127.0.0.1:" + std::to_string(free_tcp_port());
+  for (const std::vector<std::string>& args :
+       {std::vector<std::string>{"ls"}, {"cat", path("Diagnostic0")}, {"act", path("Diagnostic0")}}) {
+    std::vector<std::string> argv = {URS_CLI_BIN, "rtc", "--naming", nowhere};
+    argv.insert(argv.end(), args.begin(), args.end());
+    const CommandResult r = run_command(argv, 30s);
+    EXPECT_EQ(r.exit_code, 3) << r.err;
+    EXPECT_THAT(r.err, HasSubstr("naming service " + nowhere + " unreachable"));
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  }
+}
+
+TEST_F(RtcCliTest, NamingAddressComesFromTheEnvironmentToo) {
+  const CommandResult r = run_command({"/usr/bin/env", "URS_NAMING=" + naming_->address(), URS_CLI_BIN, "rtc", "ls"}, 30s);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, ContainsRegex("Diagnostic0\\.rtc +Inactive"));
+}
+
+}  // namespace
+}  // namespace urs::test

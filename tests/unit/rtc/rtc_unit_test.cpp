@@ -1,0 +1,187 @@
+// Pieces of the RT runtime that need no peer: naming paths, NVList helpers, the connector
+// properties tools compute, connector ids, the manager's configuration file.
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <regex>
+
+#include "urs/rtc/manager.hpp"
+#include "urs/rtc/naming.hpp"
+#include "urs/rtc/nvlist.hpp"
+#include "urs/rtc/orb.hpp"
+#include "urs/rtc/port.hpp"
+#include "urs/rtc/tools.hpp"
+#include "urs/util/cli.hpp"
+
+namespace urs::rtc {
+namespace {
+
+// Strings in an Any need the ORB's code-set converters, which ORB_init installs.
+Orb& orb() {
+  static Orb instance;
+  return instance;
+}
+
+class RtcUnit : public ::testing::Test {
+ protected:
+  void SetUp() override { orb(); }
+};
+
+TEST_F(RtcUnit, NamingPathsSplitIdAndKindAtTheLastDot) {
+  const CosNaming::Name name = to_name("lab.example.org.host_cxt/Robot0.rtc");
+  ASSERT_EQ(name.length(), 2u);
+  EXPECT_STREQ(name[0].id.in(), "lab.example.org");
+  EXPECT_STREQ(name[0].kind.in(), "host_cxt");
+  EXPECT_STREQ(name[1].id.in(), "Robot0");
+  EXPECT_STREQ(name[1].kind.in(), "rtc");
+  EXPECT_EQ(to_path(name), "lab.example.org.host_cxt/Robot0.rtc");
+  EXPECT_EQ(to_path(to_name("plain")), "plain");
+  EXPECT_EQ(component_path("h", "Robot0"), "h.host_cxt/Robot0.rtc");
+  EXPECT_THROW(to_name(""), std::invalid_argument);
+  EXPECT_THROW(to_name("a//b"), std::invalid_argument);
+}
+
+TEST_F(RtcUnit, NvListKeepsOneEntryPerNameAndReadsOnlyStrings) {
+  SDOPackage::NVList list;
+  nv_set(list, "a", "1");
+  nv_set(list, "a", "2");
+  nv_set(list, "b", "x");
+  list.length(3);
+  list[2].name = CORBA::string_dup("n");
+  list[2].value <<= static_cast<CORBA::Long>(7);
+  EXPECT_EQ(list.length(), 3u);
+  EXPECT_EQ(nv_string(list, "a"), "2");
+  EXPECT_EQ(nv_string(list, "n"), std::nullopt);  // a long, not a string
+  EXPECT_EQ(nv_string(list, "missing"), std::nullopt);
+  EXPECT_TRUE(nv_has(list, "n"));
+  EXPECT_EQ(any_to_text(list[2].value), "7");
+  EXPECT_EQ(nv_lines(list), (std::vector<std::string>{"a=2", "b=x", "n=7"}));
+  nv_append(list, nv_from({{"b", "y"}, {"c", "z"}}));
+  EXPECT_EQ(nv_lines(list), (std::vector<std::string>{"a=2", "b=y", "n=7", "c=z"}));
+  CORBA::Object_var none = nv_object(list, "a");
+  EXPECT_TRUE(CORBA::is_nil(none));
+}
+
+RTC::PortProfile port_profile(const std::string& name, const std::string& type,
+                              std::vector<std::tuple<std::string, std::string, RTC::PortInterfacePolarity>> interfaces,
+                              const std::string& data_type = {}) {
+  RTC::PortProfile profile;
+  profile.name = CORBA::string_dup(name.c_str());
+  profile.interfaces.length(static_cast<CORBA::ULong>(interfaces.size()));
+  for (CORBA::ULong i = 0; i < interfaces.size(); ++i) {
+    profile.interfaces[i].instance_name = CORBA::string_dup(std::get<0>(interfaces[i]).c_str());
+    profile.interfaces[i].type_name = CORBA::string_dup(std::get<1>(interfaces[i]).c_str());
+    profile.interfaces[i].polarity = std::get<2>(interfaces[i]);
+  }
+  nv_set(profile.properties, "port.port_type", type);
+  if (!data_type.empty()) nv_set(profile.properties, "dataport.data_type", data_type);
+  return profile;
+}
+
+TEST_F(RtcUnit, ConnectorPropertiesMapARequiredInterfaceToItsOnlyProvider) {
+  const auto consumer = port_profile("Caller0.diagnostic", "CorbaPort", {{"mine", "URS::Diagnostic", RTC::REQUIRED}});
+  const auto provider = port_profile("Diagnostic0.diagnostic", "CorbaPort", {{"diagnostic", "URS::Diagnostic", RTC::PROVIDED}});
+  const auto props = connector_properties({consumer, provider}, {});
+  EXPECT_EQ(nv_string(props, "Caller0.port.diagnostic.required.URS::Diagnostic.mine"),
+            "Diagnostic0.port.diagnostic.provided.URS::Diagnostic.diagnostic");
+  EXPECT_FALSE(nv_has(props, "dataport.interface_type"));  // no data port involved
+
+  // Two providers of the type: the choice is the caller's, nothing is guessed.
+  const auto other = port_profile("Diagnostic1.diagnostic", "CorbaPort", {{"diagnostic", "URS::Diagnostic", RTC::PROVIDED}});
+  EXPECT_FALSE(nv_has(connector_properties({consumer, provider, other}, {}),
+                      "Caller0.port.diagnostic.required.URS::Diagnostic.mine"));
+  // What the caller sets wins.
+  const auto given = connector_properties(
+      {consumer, provider}, nv_from({{"Caller0.port.diagnostic.required.URS::Diagnostic.mine", "x"}}));
+  EXPECT_EQ(nv_string(given, "Caller0.port.diagnostic.required.URS::Diagnostic.mine"), "x");
+}
+
+TEST_F(RtcUnit, ConnectorPropertiesFillDataPortDefaultsFromTheOutPort) {
+  const auto out = port_profile("Counter0.count", "DataOutPort", {}, "IDL:RTC/TimedLong:1.0");
+  const auto in = port_profile("Sink0.count", "DataInPort", {}, "IDL:RTC/TimedLong:1.0");
+  const auto props = connector_properties({in, out}, nv_from({{"dataport.subscription_type", "new"}}));
+  EXPECT_EQ(nv_string(props, "dataport.interface_type"), "corba_cdr");
+  EXPECT_EQ(nv_string(props, "dataport.dataflow_type"), "push");
+  EXPECT_EQ(nv_string(props, "dataport.subscription_type"), "new");
+  EXPECT_EQ(nv_string(props, "dataport.serializer.cdr.endian"), "little");
+  EXPECT_EQ(nv_string(props, "dataport.data_type"), "IDL:RTC/TimedLong:1.0");
+}
+
+TEST_F(RtcUnit, ReturnCodeAndStateNames) {
+  EXPECT_STREQ(return_code_name(RTC::PRECONDITION_NOT_MET), "PRECONDITION_NOT_MET");
+  EXPECT_STREQ(state_name(RTC::ACTIVE), "Active");
+  EXPECT_STREQ(state_name(RTC::ERROR), "Error");
+}
+
+TEST_F(RtcUnit, ConnectorIdsAreVersion4Uuids) {
+  const std::regex uuid("[0-9a-f]{8}-[0-9a-f]{4}-4[0-9a-f]{3}-[89ab][0-9a-f]{3}-[0-9a-f]{12}");
+  const std::string a = make_uuid();
+  EXPECT_TRUE(std::regex_match(a, uuid)) << a;
+  EXPECT_NE(a, make_uuid());
+}
+
+TEST_F(RtcUnit, EndpointFromAddress) {
+  EXPECT_EQ(endpoint_from_address("127.0.0.1:2809", "--listen"), "giop:tcp:127.0.0.1:2809");
+  EXPECT_THROW(endpoint_from_address("nonsense", "--listen"), util::ConfigError);
+}
+
+class ManagerConfigFile : public ::testing::Test {
+ protected:
+  void TearDown() override { std::filesystem::remove(path_); }
+  ManagerConfig load(const std::string& text) {
+    std::ofstream(path_) << text;
+    return load_manager_config(path_);
+  }
+  std::string error_of(const std::string& text) {
+    try {
+      load(text);
+    } catch (const util::ConfigError& e) {
+      return e.what();
+    }
+    return "no error";
+  }
+  const std::string path_ = ::testing::TempDir() + "/manager-config.yaml";
+};
+
+TEST_F(ManagerConfigFile, ReadsComponentsWithDefaults) {
+  const ManagerConfig config = load(
+      "rate: 50\n"
+      "components:\n"
+      "  - type: Diagnostic\n"
+      "  - type: Connector\n    instance: Connector7\n    rate: 5\n    activate: true\n"
+      "    config:\n      poll_ms: 100\n");
+  EXPECT_DOUBLE_EQ(config.rate_hz, 50.0);
+  ASSERT_EQ(config.components.size(), 2u);
+  EXPECT_EQ(config.components[0].type, "Diagnostic");
+  EXPECT_TRUE(config.components[0].instance_name.empty());
+  EXPECT_FALSE(config.components[0].activate);
+  EXPECT_EQ(config.components[1].instance_name, "Connector7");
+  EXPECT_DOUBLE_EQ(config.components[1].rate_hz, 5.0);
+  EXPECT_TRUE(config.components[1].activate);
+  EXPECT_EQ(config.components[1].config["poll_ms"].as<int>(), 100);
+}
+
+TEST_F(ManagerConfigFile, ReportsEveryErrorWithItsKey) {
+  const std::string error = error_of(
+      "rate: fast\n"
+      "speed: 3\n"
+      "components:\n"
+      "  - instance: X\n"
+      "  - type: Diagnostic\n    rate: 0\n    activate: maybe\n"
+      "  - just a string\n");
+  EXPECT_NE(error.find("has 6 error(s)"), std::string::npos) << error;
+  for (const char* expected : {"rate: 'fast' is not a valid value", "speed: unknown key", "components[0].type: missing",
+                               "components[1].rate: 0 is not a positive rate", "components[1].activate",
+                               "components[2]: must be a map"}) {
+    EXPECT_NE(error.find(expected), std::string::npos) << expected << " in " << error;
+  }
+  EXPECT_NE(error_of("components: 3\n").find("components: a list of components is required"), std::string::npos);
+  EXPECT_NE(error_of("[1, 2]\n").find("must be a YAML map"), std::string::npos);
+  std::filesystem::remove(path_);
+  EXPECT_NE(error_of("").find("must be a YAML map"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace urs::rtc
