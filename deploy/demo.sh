@@ -1,8 +1,11 @@
 #!/usr/bin/env bash
-# The main job: installs what is missing, builds, and runs a CAMUS space on this machine
-# (urs-camus-server + urs-sam with the diagnostic agent), then drives it with the `urs` CLI:
-# list, call, an exception, a deadline, an event, context, a task, and a server crash with
-# the SAM re-registering by itself. Everything runs on 127.0.0.1; logs go to $URS_DEMO_DIR.
+# The main job: installs what is missing, builds, and runs on this machine
+# - a CAMUS space (urs-camus-server + urs-sam with the diagnostic agent) driven with the `urs`
+#   CLI: list, call, an exception, a deadline, an event, context, a task, and a server crash with
+#   the SAM re-registering by itself;
+# - an RT space (omniNames + urs-rtc-manager) driven with `urs rtc`: the connector wiring a
+#   service port by itself, lifecycle, a data port in big-endian CDR.
+# Everything runs on 127.0.0.1; logs go to $URS_DEMO_DIR.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 if [[ -z "${URS_DEMO_NO_BUILD:-}" ]]; then  # the e2e test runs the demo on binaries already built
@@ -60,4 +63,35 @@ until urs --timeout-ms 500 ls diag 2>/dev/null | grep -q '^diag '; do sleep 0.02
 echo "diag listed again $(( ($(date +%s%N) - t0) / 1000000 )) ms after the restart"
 urs call diag echo '{"text":"still here"}'
 urs context get room/light
+
+step "RT space: omniNames and urs-rtc-manager (services/rtc-manager/example.yaml)"
+naming_port=$(python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')
+mkdir -p "$work/naming"
+omniNames -start "$naming_port" -datadir "$work/naming" -ORBendPoint "giop:tcp:127.0.0.1:$naming_port" \
+  >>"$work/omninames.log" 2>&1 &
+pids+=("$!")
+for _ in $(seq 100); do (exec 3<>"/dev/tcp/127.0.0.1/$naming_port") 2>/dev/null && break; sleep 0.05; done
+"$bin/rtc-manager/urs-rtc-manager" --space demo --naming "127.0.0.1:$naming_port" --host demo-host \
+  --config "$root/services/rtc-manager/example.yaml" --ready-file "$work/rtc.ready" >>"$work/rtc-manager.log" 2>&1 &
+pids+=("$!")
+for _ in $(seq 200); do [[ -s "$work/rtc.ready" ]] && break; sleep 0.05; done
+[[ -s "$work/rtc.ready" ]] || { echo "urs-rtc-manager did not start; see $work/rtc-manager.log" >&2; exit 1; }
+rtc() { "$bin/cli/urs" rtc --naming "127.0.0.1:$naming_port" "$@"; }
+h=demo-host.host_cxt
+rtc ls -l
+step "the connector wired DiagnosticCaller0 to Diagnostic0 by itself; activate both"
+for _ in $(seq 100); do rtc cat "$h/Diagnostic0.rtc:diagnostic" | grep -q '1 connection' && break; sleep 0.05; done
+rtc cat "$h/Diagnostic0.rtc:diagnostic" | grep -E 'connection|ports:'
+rtc act "$h/Diagnostic0.rtc" "$h/DiagnosticCaller0.rtc"
+sleep 0.5
+rtc deact "$h/DiagnosticCaller0.rtc"
+grep -oE 'DiagnosticCaller0: [0-9]+ echo replies, [0-9]+ failures' "$work/rtc-manager.log"
+step "deactivating an inactive component is refused as the standard says"
+rtc deact "$h/DiagnosticCaller0.rtc" || true
+step "a data port: Counter0.count -> Sink0.count in big-endian CDR"
+rtc con "$h/Counter0.rtc:count" "$h/Sink0.rtc:count" dataport.serializer.cdr.endian=big
+rtc act "$h/Sink0.rtc" "$h/Counter0.rtc"
+sleep 0.5
+rtc deact "$h/Counter0.rtc" "$h/Sink0.rtc"
+grep -oE 'Sink0: received [0-9]+ counts' "$work/rtc-manager.log"
 step "done; logs in $work"

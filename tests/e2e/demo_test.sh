@@ -19,4 +19,8 @@ expect '"lux":420'
 expect '"state":"succeeded"'
 expect 'diag listed again [0-9]+ ms after the restart'
 expect '^\{"result":"still here"\}$'
+expect '^  Diagnostic0\.rtc +Inactive'
+expect 'DiagnosticCaller0: [1-9][0-9]* echo replies, 0 failures'
+expect 'urs: rtc deact: demo-host\.host_cxt/DiagnosticCaller0\.rtc: PRECONDITION_NOT_MET'
+expect 'Sink0: received [1-9][0-9]* counts'
 echo "demo_test: every step of the demo produced what it should"
