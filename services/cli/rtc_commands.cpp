@@ -319,6 +319,21 @@ void print_contexts(RTC::RTObject_ptr target, const RTC::ExecutionContextList& c
   }
 }
 
+// The active configuration set, as rtcat shows it. A component without the SDO Configuration
+// interface (it may raise InterfaceNotImplemented or NotAvailable) shows none.
+void print_configuration(RTC::RTObject_ptr target) {
+  try {
+    SDOPackage::Configuration_var configuration = target->get_configuration();
+    if (CORBA::is_nil(configuration)) return;
+    SDOPackage::ConfigurationSet_var active = configuration->get_active_configuration_set();
+    std::cout << "  configuration set " << active->id.in() << " (active):";
+    if (active->configuration_data.length() == 0) std::cout << " no parameters";
+    std::cout << "\n";
+    for (const std::string& line : rtc::nv_lines(active->configuration_data)) std::cout << "    " << line << "\n";
+  } catch (const CORBA::UserException&) {
+  }
+}
+
 int cat_component(Session& session, const std::string& path) {
   RTC::RTObject_var target = session.component(path);
   calling(path, [&] {
@@ -341,6 +356,7 @@ int cat_component(Session& session, const std::string& path) {
     print_contexts(target, owned.in(), "owned", "    ");
     print_contexts(target, participating.in(), "participating", "    ");
     print_properties(profile->properties, "  ");
+    print_configuration(target);
     std::cout << "  " << plural(port_profiles.size(), "port") << (port_profiles.empty() ? "" : ":") << "\n";
     for (const auto& port : port_profiles) print_port(port.in(), "    ");
   });

@@ -45,6 +45,9 @@ class CounterComponent : public rtc::Component {
 
  protected:
   RTC::ReturnCode_t handle_initialize() override {
+    declare_parameter("start", std::to_string(settings_.start));
+    declare_parameter("radius", std::to_string(settings_.radius_m));
+    declare_parameter("period", std::to_string(settings_.period_s));
     add_port(count_port_);
     add_port(pose_port_);
     return RTC::RTC_OK;

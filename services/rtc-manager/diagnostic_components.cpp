@@ -87,6 +87,7 @@ class DiagnosticCallerComponent : public rtc::Component {
 
  protected:
   RTC::ReturnCode_t handle_initialize() override {
+    declare_parameter("text", text_);
     add_port(port_);
     return RTC::RTC_OK;
   }

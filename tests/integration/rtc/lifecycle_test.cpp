@@ -25,6 +25,10 @@ class ProbeComponent : public rtc::Component {
   std::atomic<bool> fail_execute{false}, fail_reset{false};
 
  protected:
+  RTC::ReturnCode_t handle_initialize() override {
+    declare_parameter("gain", "2.5");
+    return RTC::RTC_OK;
+  }
   RTC::ReturnCode_t handle_activated(RTC::ExecutionContextHandle_t) override {
     ++activated;
     return RTC::RTC_OK;
@@ -187,7 +191,22 @@ TEST_F(Lifecycle, SdoOperationsAnswerWithoutCrashing) {
   EXPECT_THROW(ref_a_->get_service_profile("x"), SDOPackage::InvalidParameter);
   EXPECT_THROW(ref_a_->get_sdo_service("x"), SDOPackage::InvalidParameter);
   EXPECT_THROW(ref_a_->get_status("x"), SDOPackage::InvalidParameter);
-  EXPECT_THROW(ref_a_->get_configuration(), SDOPackage::InterfaceNotImplemented);
+  SDOPackage::Configuration_var configuration = ref_a_->get_configuration();
+  ASSERT_FALSE(CORBA::is_nil(configuration));
+  SDOPackage::ConfigurationSet_var active = configuration->get_active_configuration_set();
+  EXPECT_STREQ(active->id.in(), "default");
+  SDOPackage::ConfigurationSetList_var sets = configuration->get_configuration_sets();
+  ASSERT_EQ(sets->length(), 1u);
+  EXPECT_TRUE(configuration->activate_configuration_set("default"));
+  EXPECT_THROW(configuration->activate_configuration_set("other"), SDOPackage::InvalidParameter);
+  EXPECT_THROW(configuration->get_configuration_set("other"), SDOPackage::NotAvailable);
+  EXPECT_FALSE(configuration->add_configuration_set(active.in()));  // read-only from outside
+  ASSERT_EQ(active->configuration_data.length(), 1u);
+  CORBA::Any_var gain = configuration->get_configuration_parameter_value("gain");
+  const char* text = nullptr;
+  ASSERT_TRUE(gain.in() >>= text);
+  EXPECT_STREQ(text, "2.5");
+  EXPECT_THROW(configuration->get_configuration_parameter_value("nope"), SDOPackage::InvalidParameter);
   EXPECT_THROW(ref_a_->get_monitoring(), SDOPackage::InterfaceNotImplemented);
   EXPECT_EQ(ref_a_->finalize(), RTC::PRECONDITION_NOT_MET);
   EXPECT_EQ(ref_a_->initialize(), RTC::PRECONDITION_NOT_MET);  // already initialized
@@ -224,6 +243,9 @@ TEST_F(ManagedLifecycle, ToolsActivateAComponentFoundInTheNamingService) {
 
   RTC::ComponentProfile_var profile = rtc->get_component_profile();
   EXPECT_STREQ(profile->instance_name.in(), "Diagnostic0");
+  SDOPackage::Configuration_var configuration = rtc->get_configuration();
+  SDOPackage::NVList_var values = configuration->get_configuration_parameter_values();
+  EXPECT_EQ(values->length(), 0u);  // Diagnostic declares no parameter
   ASSERT_EQ(profile->port_profiles.length(), 1u);
   EXPECT_STREQ(profile->port_profiles[0].name.in(), "Diagnostic0.diagnostic");
 

@@ -152,6 +152,9 @@ TEST_F(RtcCliTest, CatShowsProfileContextsPropertiesAndPorts) {
   EXPECT_THAT(r.out, HasSubstr("  1 port:\n    Diagnostic0.diagnostic  CorbaPort\n"));
   EXPECT_THAT(r.out, ContainsRegex("\n        provided  [^\n]*Diagnostic  diagnostic\n"));
   EXPECT_THAT(r.out, HasSubstr("port.port_type=CorbaPort"));
+  EXPECT_THAT(r.out, HasSubstr("  configuration set default (active): no parameters\n"));
+  r = urs({"cat", path("DiagnosticCaller0")});
+  EXPECT_THAT(r.out, HasSubstr("  configuration set default (active):\n    text=ping\n"));
 
   // One port, by its short or its full name.
   r = urs({"cat", path("DiagnosticCaller0") + ":diagnostic"});

@@ -2,6 +2,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include "urs/rtc/configuration.hpp"
 #include "urs/rtc/execution_context.hpp"
 #include "urs/rtc/nvlist.hpp"
 #include "urs/rtc/orb.hpp"
@@ -9,11 +10,15 @@
 
 namespace urs::rtc {
 
-Component::Component(ComponentInfo info) : info_(std::move(info)) {}
+Component::Component(ComponentInfo info)
+    : info_(std::move(info)), configuration_(std::make_unique<ComponentConfiguration>()) {}
 
 Component::~Component() {
   if (context_) context_->shutdown();
-  if (orb_ != nullptr) orb_->deactivate(this);
+  if (orb_ != nullptr) {
+    orb_->deactivate(configuration_.get());
+    orb_->deactivate(this);
+  }
 }
 
 void Component::setup(Orb& orb, const std::string& instance_name, double rate_hz,
@@ -25,6 +30,12 @@ void Component::setup(Orb& orb, const std::string& instance_name, double rate_hz
   self_ = RTC::RTObject::_narrow(object);
   context_ = std::make_unique<PeriodicExecutionContext>(orb, rate_hz);
   context_->bind_owner(self_.in());
+  CORBA::Object_var configuration = orb.activate(configuration_.get());
+  configuration_ref_ = SDOPackage::Configuration::_narrow(configuration);
+}
+
+void Component::declare_parameter(const std::string& name, const std::string& value) {
+  configuration_->declare(name, value);
 }
 
 void Component::on_exit(std::function<void()> callback) {
@@ -303,7 +314,7 @@ SDOPackage::SDOService_ptr Component::get_sdo_service(const char* id) {
 }
 
 SDOPackage::Configuration_ptr Component::get_configuration() {
-  throw SDOPackage::InterfaceNotImplemented("URSLink components have no SDO Configuration interface");
+  return SDOPackage::Configuration::_duplicate(configuration_ref_.in());
 }
 
 SDOPackage::Monitoring_ptr Component::get_monitoring() {

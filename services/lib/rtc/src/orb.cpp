@@ -2,12 +2,20 @@
 
 #include <spdlog/spdlog.h>
 
+#include <chrono>
 #include <stdexcept>
+#include <thread>
 #include <vector>
 
 #include "urs/util/cli.hpp"
 
 namespace urs::rtc {
+namespace {
+
+// How long deactivate() waits for the calls in progress on an object to return.
+constexpr std::chrono::seconds kReleaseWait{10};
+
+}  // namespace
 
 Orb::Orb(const OrbOptions& options) {
   const std::string call_timeout = std::to_string(options.call_timeout.count());
@@ -47,12 +55,28 @@ CORBA::Object_ptr Orb::activate(PortableServer::ServantBase* servant) {
 }
 
 void Orb::deactivate(PortableServer::ServantBase* servant) {
+  // The POA holds a reference to an active servant and gives it back only once the calls in
+  // progress on the object have returned (a reply may already be on its way to a peer that
+  // answers us before the upcall's bookkeeping is done). Destroying the servant earlier
+  // aborts the process, so this waits for that release.
+  const CORBA::ULong held = servant->_refcount_value();
   try {
     PortableServer::ObjectId_var id = poa_->servant_to_id(servant);
     poa_->deactivate_object(id.in());
   } catch (const PortableServer::POA::ServantNotActive&) {
+    return;
   } catch (const PortableServer::POA::ObjectNotActive&) {
+    return;
   } catch (const PortableServer::POA::WrongPolicy&) {
+    return;
+  }
+  const auto deadline = std::chrono::steady_clock::now() + kReleaseWait;
+  while (servant->_refcount_value() >= held) {
+    if (std::chrono::steady_clock::now() > deadline) {
+      spdlog::warn("a deactivated object still has a call in progress after {} s", kReleaseWait.count());
+      return;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
   }
 }
 

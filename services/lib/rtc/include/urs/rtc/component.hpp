@@ -7,7 +7,8 @@
 //
 // SDO features URSLink does not offer answer as the specification allows: empty lists for
 // organizations, service profiles and status; InvalidParameter for an unknown id or status name;
-// InterfaceNotImplemented for get_configuration and get_monitoring.
+// InterfaceNotImplemented for get_monitoring. get_configuration gives a read-only Configuration
+// with one active set, "default", holding the parameters the component declares.
 
 #include <functional>
 #include <map>
@@ -23,6 +24,7 @@ namespace urs::rtc {
 class Orb;
 class PortBase;
 class PeriodicExecutionContext;
+class ComponentConfiguration;
 
 struct ComponentInfo {
   std::string type_name;  // instance names are <type_name><N>
@@ -115,6 +117,8 @@ class Component : public virtual POA_OpenRTM::DataFlowComponent {
   // Registers a port (a member of the derived class) and activates it; from handle_initialize().
   void add_port(PortBase& port);
   Orb& orb() const { return *orb_; }
+  // Shows a parameter (and its current value) in the "default" configuration set tools read.
+  void declare_parameter(const std::string& name, const std::string& value);
   // A property given at setup ("" if absent).
   std::string property(const std::string& name) const;
 
@@ -128,6 +132,8 @@ class Component : public virtual POA_OpenRTM::DataFlowComponent {
   std::vector<std::pair<std::string, std::string>> properties_;
   RTC::RTObject_var self_;
   std::unique_ptr<PeriodicExecutionContext> context_;
+  std::unique_ptr<ComponentConfiguration> configuration_;
+  SDOPackage::Configuration_var configuration_ref_;
 
   mutable std::mutex mutex_;
   bool initialized_ = false;

@@ -32,7 +32,9 @@ class Orb {
 
   // Activates `servant` in the root POA; the returned reference is owned by the caller.
   CORBA::Object_ptr activate(PortableServer::ServantBase* servant);
-  // Deactivates the servant's object (no-op if it is not active); in-progress calls complete.
+  // Deactivates the servant's object (no-op if it is not active) and returns once the calls in
+  // progress on it have returned, so that the servant may be destroyed. Never call it for a
+  // servant from inside a call on that same servant (it would wait for itself, then give up).
   void deactivate(PortableServer::ServantBase* servant);
 
   std::string object_to_string(CORBA::Object_ptr object) const;
