@@ -16,6 +16,8 @@ PACKAGES=(
   libfastrtps-dev libfastcdr-dev fastddsgen
   # supporting libraries
   libasio-dev libcli11-dev libyaml-cpp-dev libsqlite3-dev
+  libespeak-ng-dev libpocketsphinx-dev libsphinxbase-dev pocketsphinx-en-us  # speech devices
+  libqrencode-dev libzbar-dev libpng-dev  # camera device: QR markers, their recognition, PNG frames
   # tools used by tests and scripts
   python3 procps iproute2
 )

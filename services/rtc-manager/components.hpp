@@ -13,7 +13,8 @@
 
 namespace urs::rtc_manager {
 
-// Diagnostic: provider port "diagnostic" offering URS::Diagnostic (instance "diagnostic").
+// Diagnostic: the diagnostic service agent hosted generically (urs::corba_agent): provider port
+// "diagnostic" offering URS::Diagnostic (instance "diagnostic"); config keys as for any hosted agent.
 std::unique_ptr<rtc::Component> make_diagnostic(const YAML::Node& config, const rtc::ComponentEnv& env);
 // DiagnosticCaller: consumer port "diagnostic" requiring URS::Diagnostic (instance "diagnostic");
 // while active it calls echo at its rate and counts the replies.

@@ -11,6 +11,8 @@
 #include <fstream>
 
 #include "components.hpp"
+#include "urs/corba_agent/agent_component.hpp"
+#include "urs/devices/catalog.hpp"
 #include "urs/rtc/manager.hpp"
 #include "urs/rtc/naming.hpp"
 #include "urs/rtc/orb.hpp"
@@ -27,6 +29,10 @@ void add_catalog(urs::rtc::Manager& manager) {
   manager.add_factory("Counter", make_counter);
   manager.add_factory("Sink", make_sink);
   manager.add_factory("Connector", make_connector);
+  for (const auto& [name, device] : urs::devices::catalog()) {
+    manager.add_factory(device.component_type,
+                        urs::corba_agent::agent_component_factory(device.component_type, device.make));
+  }
 }
 
 }  // namespace

@@ -9,10 +9,11 @@
 #include <functional>
 #include <map>
 
-#include "diagnostic_agent.hpp"
 #include "sam_config.hpp"
 #include "urs/agent/agent.hpp"
 #include "urs/agent/client_sink.hpp"
+#include "urs/devices/catalog.hpp"
+#include "urs/diagnostic/diagnostic_agent.hpp"
 #include "urs/planet/client.hpp"
 #include "urs/util/cli.hpp"
 
@@ -23,9 +24,13 @@ using AgentFactory = std::function<std::shared_ptr<urs::agent::ServiceAgent>(con
 // Agent types this binary can host. Registered here, explicitly, rather than by static
 // self-registration (which a linker may silently drop).
 std::map<std::string, AgentFactory> agent_catalog() {
-  return {
-      {"diagnostic", [](const urs::sam::AgentConfig&) { return std::make_shared<urs::sam::DiagnosticAgent>(); }},
+  std::map<std::string, AgentFactory> catalog = {
+      {"diagnostic", [](const urs::sam::AgentConfig&) { return std::make_shared<urs::diagnostic::DiagnosticAgent>(); }},
   };
+  for (const auto& [name, device] : urs::devices::catalog()) {
+    catalog[name] = [make = device.make](const urs::sam::AgentConfig& agent) { return make(agent.params); };
+  }
+  return catalog;
 }
 
 std::atomic<int> g_exit_code{0};

@@ -7,6 +7,7 @@
 
 #include <chrono>
 #include <filesystem>
+#include <random>
 #include <stdexcept>
 
 namespace urs::test {
@@ -23,6 +24,17 @@ sockaddr_in loopback(int port) {
 }  // namespace
 
 int free_tcp_port() {
+  // Below Linux's ephemeral range (32768..60999), where every process's own listening sockets
+  // and outgoing connections take their ports, so the port stays free until it is used.
+  static std::mt19937 random{std::random_device{}()};
+  for (int attempt = 0; attempt < 100; ++attempt) {
+    const int port = std::uniform_int_distribution<int>(20000, 32000)(random);
+    const int fd = socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+    sockaddr_in address = loopback(port);
+    const bool free = fd >= 0 && bind(fd, reinterpret_cast<sockaddr*>(&address), sizeof address) == 0;
+    if (fd >= 0) close(fd);
+    if (free) return port;
+  }
   const int fd = socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
   sockaddr_in address = loopback(0);
   socklen_t length = sizeof address;
@@ -54,8 +66,11 @@ NamingService::NamingService(const std::string& dir) {
         std::vector<std::string>{URS_OMNINAMES_BIN, "-start", std::to_string(port_), "-datadir", data_dir,
                                  "-ORBendPoint", "giop:tcp:127.0.0.1:" + std::to_string(port_)},
         dir + "/omninames.log");
-    if (wait_until([&] { return !process_->running() || accepts_tcp(port_); }, std::chrono::seconds(10)) &&
-        process_->running()) {
+    // Up means omniNames itself has bound the port and announced its root context: a bare TCP
+    // answer could come from another process that took the port in the meantime.
+    const auto up = [&] { return process_->log().find("Root context is") != std::string::npos && accepts_tcp(port_); };
+    if (wait_until([&] { return !process_->running() || up(); }, std::chrono::seconds(10)) && process_->running() &&
+        up()) {
       return;
     }
     failures += process_->log();

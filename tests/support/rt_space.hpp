@@ -27,6 +27,19 @@ inline rtc::Orb& test_orb() {
   return orb;
 }
 
+// The minimal foreign route: connect() on a port with a profile naming only that port, as a
+// client that has no port of its own does. The profile comes back with what the port published
+// (a provider's IOR under both key styles); `code` is connect()'s answer.
+inline RTC::ConnectorProfile connect_alone(RTC::PortService_ptr port, RTC::ReturnCode_t& code) {
+  RTC::ConnectorProfile profile;
+  profile.name = CORBA::string_dup("foreign");
+  profile.connector_id = CORBA::string_dup("");
+  profile.ports.length(1);
+  profile.ports[0] = RTC::PortService::_duplicate(port);
+  code = port->connect(profile);
+  return profile;
+}
+
 // A component of type `type_name` with one consumer port "diagnostic" that requires
 // URS::Diagnostic under the interface name `interface_name`.
 class DiagnosticConsumer : public rtc::Component {

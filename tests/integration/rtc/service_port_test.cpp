@@ -141,12 +141,9 @@ TEST_F(ServicePort, TheRequiredKeyPicksAProviderWhoseInstanceNameDiffers) {
 }
 
 TEST_F(ServicePort, TheMinimalForeignRouteNeedsOnlyTheProvidersPort) {
-  RTC::ConnectorProfile profile;
-  profile.name = CORBA::string_dup("foreign");
-  profile.connector_id = CORBA::string_dup("");
-  profile.ports.length(1);
-  profile.ports[0] = RTC::PortService::_duplicate(provider_port_);
-  ASSERT_EQ(provider_port_->connect(profile), RTC::RTC_OK);
+  RTC::ReturnCode_t code = RTC::RTC_ERROR;
+  const RTC::ConnectorProfile profile = connect_alone(provider_port_, code);
+  ASSERT_EQ(code, RTC::RTC_OK);
   EXPECT_EQ(std::string(profile.connector_id.in()).size(), 36u);  // a UUID was assigned
   const auto ior = rtc::nv_string(profile.properties, kOldKey);
   ASSERT_TRUE(ior);

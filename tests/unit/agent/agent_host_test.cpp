@@ -12,7 +12,7 @@
 #include <algorithm>
 
 #include "Diagnostic.pb.h"
-#include "diagnostic_agent.hpp"
+#include "urs/diagnostic/diagnostic_agent.hpp"
 #include "sam_config.hpp"
 #include "urs/agent/agent.hpp"
 #include "urs/util/cli.hpp"
@@ -40,7 +40,7 @@ class RecordingSink : public EventSink {
 class HostTest : public ::testing::Test {
  protected:
   HostTest() : host_(2, sink_) {
-    host_.add({"diag", std::make_shared<sam::DiagnosticAgent>(), {{"room", "lab"}}, 1500});
+    host_.add({"diag", std::make_shared<diagnostic::DiagnosticAgent>(), {{"room", "lab"}}, 1500});
     host_.start();
   }
 
@@ -167,14 +167,14 @@ TEST_F(HostTest, RegistrationCarriesInterfaceAndItsDescription) {
 TEST(AgentHostConfig, DuplicateServiceNamesAreRefused) {
   RecordingSink sink;
   AgentHost host(1, sink);
-  host.add({"diag", std::make_shared<sam::DiagnosticAgent>(), {}, 0});
-  EXPECT_THROW(host.add({"diag", std::make_shared<sam::DiagnosticAgent>(), {}, 0}), std::invalid_argument);
+  host.add({"diag", std::make_shared<diagnostic::DiagnosticAgent>(), {}, 0});
+  EXPECT_THROW(host.add({"diag", std::make_shared<diagnostic::DiagnosticAgent>(), {}, 0}), std::invalid_argument);
 }
 
 TEST(AgentHostStop, QueuedCallsAreAnsweredWhenTheHostStops) {
   RecordingSink sink;
   AgentHost host(1, sink);
-  host.add({"diag", std::make_shared<sam::DiagnosticAgent>(), {}, 0});
+  host.add({"diag", std::make_shared<diagnostic::DiagnosticAgent>(), {}, 0});
   host.start();
   URS::Diagnostic_sleep_Request sleep;
   sleep.set_ms(300);

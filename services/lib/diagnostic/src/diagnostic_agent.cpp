@@ -1,11 +1,11 @@
-#include "diagnostic_agent.hpp"
+#include "urs/diagnostic/diagnostic_agent.hpp"
 
 #include <thread>
 
 #include "Diagnostic.pb.h"
 #include "urs/diagnostic/diagnostic.hpp"
 
-namespace urs::sam {
+namespace urs::diagnostic {
 
 using agent::CallContext;
 using agent::Outcome;
@@ -24,19 +24,19 @@ DiagnosticAgent::DiagnosticAgent()
       });
   on<URS::Diagnostic_sleep_Request, URS::Diagnostic_sleep_Reply>(
       "sleep", [](const auto& req, auto&, const CallContext&) {
-        if (auto refused = diagnostic::check_sleep(req.ms())) return Outcome::error(planet::BAD_ARGUMENTS, *refused);
+        if (auto refused = check_sleep(req.ms())) return Outcome::error(planet::BAD_ARGUMENTS, *refused);
         std::this_thread::sleep_for(std::chrono::milliseconds(req.ms()));
         return Outcome::ok();
       });
   on<URS::Diagnostic_blob_Request, URS::Diagnostic_blob_Reply>(
       "blob", [](const auto& req, auto& rep, const CallContext&) {
-        if (auto refused = diagnostic::check_blob(req.size())) return Outcome::error(planet::BAD_ARGUMENTS, *refused);
-        rep.set_result(diagnostic::patterned_bytes(req.size()));
+        if (auto refused = check_blob(req.size())) return Outcome::error(planet::BAD_ARGUMENTS, *refused);
+        rep.set_result(patterned_bytes(req.size()));
         return Outcome::ok();
       });
   on<URS::Diagnostic_checksum_Request, URS::Diagnostic_checksum_Reply>(
       "checksum", [](const auto& req, auto& rep, const CallContext&) {
-        rep.set_result(diagnostic::fnv1a64(req.data().data(), req.data().size()));
+        rep.set_result(fnv1a64(req.data().data(), req.data().size()));
         return Outcome::ok();
       });
   on<URS::Diagnostic_fail_Request, URS::Diagnostic_fail_Reply>(
@@ -56,4 +56,4 @@ DiagnosticAgent::DiagnosticAgent()
   check_complete();
 }
 
-}  // namespace urs::sam
+}  // namespace urs::diagnostic

@@ -1,0 +1,69 @@
+#pragma once
+// The simulated global position sensor (a StarLITE-like ceiling-tag localizer) as a service agent
+// implementing URC::Localization (idl/urc/Localization.idl); reference in docs/devices.md.
+//
+// Between start() and stop() it reads one robot's ground truth from the DDS topic
+// "urs/world/pose", and `rate` times per simulated second adds Gaussian noise to the latest pose
+// and publishes the measurement on "urs/localizer/pose" (the robot closes its loop on it) and as
+// the event "<prefix>/pose" (URC::PoseWithCovariance).
+
+#include <yaml-cpp/yaml.h>
+
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <random>
+#include <string>
+
+#include "Localization.pb.h"
+#include "urs/agent/typed_agent.hpp"
+
+namespace urs::world {
+class World;
+class SimLoop;
+struct PoseSample;
+}  // namespace urs::world
+
+namespace urs::devices {
+
+struct LocalizerConfig {
+  std::string name = "localizer";  // DDS participant name
+  std::string robot = "robot";     // the robot measured (its `name` param)
+  std::string prefix;              // event topic prefix; empty = name
+  uint32_t domain = 0;             // DDS domain id
+  double time_scale = 1;           // simulated seconds per wall second; as the robot's
+  double rate = 10;                // Hz of simulated time
+  double noise_xy = 0.02;          // m, standard deviation on x and on y
+  double noise_theta = 0.01;       // rad, standard deviation on theta
+  std::string frame = "map";       // frame of reference reported with each pose
+  uint32_t seed = 0;               // of the noise; 0 = a different one each run
+};
+
+// Throws urs::util::ConfigError naming every bad key.
+LocalizerConfig parse_localizer_config(const YAML::Node& params);
+
+class LocalizerAgent : public agent::TypedAgent {
+ public:
+  explicit LocalizerAgent(LocalizerConfig config);
+  ~LocalizerAgent() override;
+
+  void start(agent::EventSink& events) override;  // throws std::runtime_error if DDS fails
+  void stop() override;
+
+ private:
+  void on_truth(const world::PoseSample& truth);
+  void measure();
+
+  const LocalizerConfig config_;
+  std::mutex mutex_;
+  std::unique_ptr<world::PoseSample> truth_;  // the latest ground truth, null until one arrived
+  std::optional<URC::PoseWithCovariance> latest_;
+  std::mt19937 random_;
+  agent::EventSink* events_ = nullptr;
+  std::unique_ptr<world::World> world_;
+  std::unique_ptr<world::SimLoop> loop_;
+};
+
+std::shared_ptr<agent::ServiceAgent> make_localizer_agent(const YAML::Node& params);
+
+}  // namespace urs::devices
