@@ -13,7 +13,7 @@ PACKAGES=(
   libspdlog-dev libfmt-dev
   libgtest-dev libgmock-dev
   libomniorb4-dev omniidl omniorb-nameserver omniorb
-  libfastrtps-dev libfastcdr-dev fastddsgen
+  libfastrtps-dev libfastcdr-dev fastddsgen default-jre-headless  # fastddsgen runs on Java
   # supporting libraries
   libasio-dev libcli11-dev libyaml-cpp-dev libsqlite3-dev
   libespeak-ng-dev libpocketsphinx-dev libsphinxbase-dev pocketsphinx-en-us  # speech devices
