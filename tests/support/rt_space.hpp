@@ -17,7 +17,9 @@
 #include "urs/rtc/component.hpp"
 #include "urs/rtc/corba_port.hpp"
 #include "urs/rtc/naming.hpp"
+#include "urs/rtc/nvlist.hpp"
 #include "urs/rtc/orb.hpp"
+#include "urs/rtc/tools.hpp"
 
 namespace urs::test {
 
@@ -99,6 +101,27 @@ class RtSpaceTest : public ::testing::Test {
                                std::chrono::seconds(20));
     EXPECT_TRUE(up && std::filesystem::exists(ready)) << name << " did not come up:\n" << process.log();
     return std::filesystem::exists(ready) ? read_text(ready) : std::string();
+  }
+
+  // The object the service port `port` of the component at `path` provides, got the way a
+  // foreign client gets it: connect_alone(), then the old-style key "port.<type>.<name>". Adds a
+  // test failure and returns nil if any step fails.
+  CORBA::Object_ptr provided_object(const std::string& path, const std::string& port, const std::string& type,
+                                    const std::string& interface_name) {
+    auto rtc = resolve<RTC::RTObject>(path);
+    RTC::PortService_var service_port = CORBA::is_nil(rtc) ? RTC::PortService::_nil() : rtc::find_port(rtc, port);
+    if (CORBA::is_nil(service_port)) {
+      ADD_FAILURE() << path << " has no port " << port;
+      return CORBA::Object::_nil();
+    }
+    RTC::ReturnCode_t code = RTC::RTC_ERROR;
+    const RTC::ConnectorProfile profile = connect_alone(service_port, code);
+    const auto ior = rtc::nv_string(profile.properties, "port." + type + "." + interface_name);
+    if (code != RTC::RTC_OK || !ior) {
+      ADD_FAILURE() << path << ":" << port << " published no " << type << " " << interface_name;
+      return CORBA::Object::_nil();
+    }
+    return test_orb().string_to_object(*ior);
   }
 
   Process& manager(const std::string& name) { return *managers_.at(name); }

@@ -255,15 +255,9 @@ class ManagedDiagnostic : public RtSpaceTest {};
 
 TEST_F(ManagedDiagnostic, TheGenericDiagnosticComponentAnswersAndLogsUnroutedEvents) {
   start_manager("m", "labhost", "components:\n  - type: Diagnostic\n    config: {interface_instance: diag}\n");
-  auto rtc = resolve<RTC::RTObject>("labhost.host_cxt/Diagnostic0.rtc");
-  RTC::PortService_var port = rtc::find_port(rtc, "diagnostic");
-  ASSERT_FALSE(CORBA::is_nil(port));
-  RTC::ReturnCode_t code = RTC::RTC_ERROR;
-  const RTC::ConnectorProfile profile = connect_alone(port, code);
-  ASSERT_EQ(code, RTC::RTC_OK);
-  const auto ior = rtc::nv_string(profile.properties, "port.URS::Diagnostic.diag");
-  ASSERT_TRUE(ior);
-  CORBA::Object_var object = test_orb().string_to_object(*ior);
+  CORBA::Object_var object =
+      provided_object("labhost.host_cxt/Diagnostic0.rtc", "diagnostic", "URS::Diagnostic", "diag");
+  ASSERT_FALSE(CORBA::is_nil(object));
   URS::Diagnostic_var diagnostic = URS::Diagnostic::_narrow(object);
   EXPECT_THROW(diagnostic->sleep(diagnostic::kMaxSleepMs + 1), CORBA::BAD_PARAM);
   diagnostic->notify("alerts", "hello");

@@ -161,19 +161,10 @@ TEST_F(SamHosting, EveryDeviceAnswersAsAServiceAgent) {
 
 class RtcHosting : public RtSpaceTest {
  protected:
-  // The provider object of a device component, the way a foreign consumer gets it: connect() on
-  // its port with a profile naming only that port, then the published IOR.
+  // A device component's provider, narrowed to its IDL interface.
   template <typename T>
   typename T::_var_type provider(const std::string& component, const std::string& port, const std::string& type) {
-    auto rtc = resolve<RTC::RTObject>("labhost.host_cxt/" + component + ".rtc");
-    RTC::PortService_var service_port = rtc::find_port(rtc, port);
-    EXPECT_FALSE(CORBA::is_nil(service_port)) << component << " has no port " << port;
-    RTC::ReturnCode_t code = RTC::RTC_ERROR;
-    const RTC::ConnectorProfile profile = connect_alone(service_port, code);
-    EXPECT_EQ(code, RTC::RTC_OK);
-    const auto ior = rtc::nv_string(profile.properties, "port." + type + "." + port);
-    EXPECT_TRUE(ior) << "no provider key for " << type;
-    CORBA::Object_var object = test_orb().string_to_object(ior.value_or(""));
+    CORBA::Object_var object = provided_object("labhost.host_cxt/" + component + ".rtc", port, type, port);
     return T::_narrow(object);
   }
 };

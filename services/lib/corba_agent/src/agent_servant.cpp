@@ -69,6 +69,10 @@ void insert(CORBA::Any& any, CORBA::TypeCode_ptr type, const Marshal& what) {
     case planet::DEADLINE_EXCEEDED: throw CORBA::TIMEOUT(0, CORBA::COMPLETED_MAYBE);
     case planet::UNKNOWN_OPERATION: throw CORBA::BAD_OPERATION(0, CORBA::COMPLETED_NO);
     case planet::UNAVAILABLE: throw CORBA::TRANSIENT(0, CORBA::COMPLETED_NO);
+    // A service reached through a bridge (urs::bridge) that is not there, or went away mid-call:
+    // the caller may retry later, as for UNAVAILABLE.
+    case planet::UNKNOWN_SERVICE: throw CORBA::TRANSIENT(0, CORBA::COMPLETED_NO);
+    case planet::PROVIDER_GONE: throw CORBA::TRANSIENT(0, CORBA::COMPLETED_MAYBE);
     default: throw CORBA::INTERNAL(0, CORBA::COMPLETED_MAYBE);
   }
 }

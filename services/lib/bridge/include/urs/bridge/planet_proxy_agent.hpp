@@ -1,0 +1,56 @@
+#pragma once
+// PlanetProxyAgent: a service agent that forwards every call to a CAMUS service over Planet.
+//
+// It knows nothing of the interface at compile time: the descriptor it is given (typically the
+// service's description fetched from the CAMUS registry by describe_service()) drives everything,
+// so any host of service agents (corba_agent::AgentServant, an AgentHost) can offer a CAMUS
+// service the program was not compiled with.
+//
+// Outcomes: the reply of a successful call fills `reply`; a declared IDL exception is raised as
+// that exception's message; every other Planet status is returned as is, with its message (the
+// host maps it, e.g. UNKNOWN_SERVICE / PROVIDER_GONE / UNAVAILABLE become CORBA::TRANSIENT). The
+// call's deadline is what remains of CallContext::deadline. Oneway operations are sent and not
+// waited for.
+
+#include <google/protobuf/descriptor.h>
+#include <google/protobuf/dynamic_message.h>
+
+#include <chrono>
+#include <string>
+
+#include "urs/agent/agent.hpp"
+#include "urs/planet/client.hpp"
+#include "urs/schema/schema.hpp"
+
+namespace urs::bridge {
+
+// Asks the CAMUS registry (camus.registry.Describe) for the interface of `service`, adds its
+// description to `pool` and returns the interface's descriptor, valid as long as `pool`.
+// On failure returns nullptr and sets `error` (the registry's status and message, or why the
+// description cannot be used). Blocking; not to be called from a Planet callback.
+const google::protobuf::ServiceDescriptor* describe_service(planet::Client& client, const std::string& service,
+                                                            schema::SchemaPool& pool, std::chrono::milliseconds timeout,
+                                                            std::string& error);
+
+class PlanetProxyAgent : public agent::ServiceAgent {
+ public:
+  // `client` and the pool holding `interface` must outlive the agent; `service` is the CAMUS
+  // service name calls are sent to.
+  PlanetProxyAgent(planet::Client& client, std::string service, const google::protobuf::ServiceDescriptor& interface);
+
+  const google::protobuf::ServiceDescriptor& interface() const override { return interface_; }
+  agent::Outcome invoke(const google::protobuf::MethodDescriptor& method, const google::protobuf::Message& request,
+                        google::protobuf::Message& reply, const agent::CallContext& ctx) override;
+
+  const std::string& service() const { return service_; }
+
+ private:
+  agent::Outcome raised(const google::protobuf::MethodDescriptor& method, const planet::CallResult& result);
+
+  planet::Client& client_;
+  const std::string service_;
+  const google::protobuf::ServiceDescriptor& interface_;
+  google::protobuf::DynamicMessageFactory factory_;  // the exceptions raised, when not compiled in
+};
+
+}  // namespace urs::bridge
