@@ -114,6 +114,13 @@ TEST_F(HostTest, ASlowCallDoesNotBlockAnother) {
   EXPECT_TRUE(slow.get().ok());
 }
 
+TEST_F(HostTest, ASleepLongerThanTheCallersDeadlineEndsAtTheDeadline) {
+  URS::Diagnostic_sleep_Request sleep;
+  sleep.set_ms(60000);  // far beyond call()'s own 5 s wait: only the deadline can end it in time
+  const auto result = call("diag", "sleep", sleep.SerializeAsString(), 100);
+  EXPECT_EQ(result.status, planet::DEADLINE_EXCEEDED) << result.message;
+}
+
 TEST_F(HostTest, AgentEventsGoToTheSink) {
   URS::Diagnostic_notify_Request request;
   request.set_topic("lab/door");

@@ -23,9 +23,16 @@ DiagnosticAgent::DiagnosticAgent()
         return Outcome::ok();
       });
   on<URS::Diagnostic_sleep_Request, URS::Diagnostic_sleep_Reply>(
-      "sleep", [](const auto& req, auto&, const CallContext&) {
+      "sleep", [](const auto& req, auto&, const CallContext& ctx) {
         if (auto refused = check_sleep(req.ms())) return Outcome::error(planet::BAD_ARGUMENTS, *refused);
-        std::this_thread::sleep_for(std::chrono::milliseconds(req.ms()));
+        const auto until = std::chrono::steady_clock::now() + std::chrono::milliseconds(req.ms());
+        // The caller stops waiting at its deadline; so does the agent, which frees its worker.
+        if (ctx.deadline < until) {
+          std::this_thread::sleep_until(ctx.deadline);
+          return Outcome::error(planet::DEADLINE_EXCEEDED,
+                                "sleep: the caller's deadline came before " + std::to_string(req.ms()) + " ms");
+        }
+        std::this_thread::sleep_until(until);
         return Outcome::ok();
       });
   on<URS::Diagnostic_blob_Request, URS::Diagnostic_blob_Reply>(
