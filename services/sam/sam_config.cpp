@@ -46,14 +46,8 @@ SamConfig load_sam_config(const std::string& path, const std::set<std::string>& 
     errors.push_back("agents: a non-empty list of agents is required");
   } else {
     std::set<std::string> names;
-    for (std::size_t i = 0; i < agents.size(); ++i) {
-      const std::string where = "agents[" + std::to_string(i) + "]";
-      const YAML::Node node = agents[i];
-      if (!node.IsMap()) {
-        errors.push_back(where + ": must be a map with name and type");
-        continue;
-      }
-      check_keys(node, where, {"name", "type", "deadline_ms", "properties", "params"}, errors);
+    util::for_each_map(agents, "agents", "name and type", {"name", "type", "deadline_ms", "properties", "params"},
+                       errors, [&](const YAML::Node& node, const std::string& where) {
       AgentConfig agent;
       if (!node["name"] || !read_scalar(node["name"], where + ".name", agent.name, errors) || agent.name.empty()) {
         if (!node["name"]) errors.push_back(where + ".name: missing");
@@ -84,9 +78,9 @@ SamConfig load_sam_config(const std::string& path, const std::set<std::string>& 
       }
       agent.params = node["params"] ? node["params"] : YAML::Node(YAML::NodeType::Map);
       config.agents.push_back(std::move(agent));
-    }
+    });
   }
-  util::throw_if_errors(errors, path, "--config");
+  util::throw_if_errors(errors, "--config '" + path + "'");
   return config;
 }
 

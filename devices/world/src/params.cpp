@@ -66,12 +66,6 @@ uint32_t DeviceParams::domain() {
   return static_cast<uint32_t>(id);
 }
 
-void DeviceParams::finish() const {
-  if (errors_.empty()) return;
-  std::ostringstream out;
-  out << "params of " << device_ << " has " << errors_.size() << " error(s):";
-  for (const auto& e : errors_) out << "\n  " << e;
-  throw util::ConfigError(out.str());
-}
+void DeviceParams::finish() const { util::throw_if_errors(errors_, "params of " + device_); }
 
 }  // namespace urs::world

@@ -89,14 +89,8 @@ ConnectorOptions connector_options_from_yaml(const YAML::Node& node, const std::
     if (!rules || !rules.IsSequence() || rules.size() == 0) {
       errors.push_back("rules: a non-empty list of {interface, consumers, providers} is required");
     } else {
-      for (std::size_t i = 0; i < rules.size(); ++i) {
-        const std::string where = "rules[" + std::to_string(i) + "]";
-        const YAML::Node r = rules[i];
-        if (!r.IsMap()) {
-          errors.push_back(where + ": must be a map with interface, consumers and providers");
-          continue;
-        }
-        util::check_keys(r, where, {"interface", "consumers", "providers"}, errors);
+      util::for_each_map(rules, "rules", "interface, consumers and providers", {"interface", "consumers", "providers"},
+                         errors, [&](const YAML::Node& r, const std::string& where) {
         ConnectorRule rule;
         if (!r["interface"]) {
           errors.push_back(where + ".interface: missing");
@@ -107,14 +101,10 @@ ConnectorOptions connector_options_from_yaml(const YAML::Node& node, const std::
         if (r["consumers"]) util::read_scalar(r["consumers"], where + ".consumers", rule.consumers, errors);
         if (r["providers"]) util::read_scalar(r["providers"], where + ".providers", rule.providers, errors);
         options.rules.push_back(std::move(rule));
-      }
+      });
     }
   }
-  if (!errors.empty()) {
-    std::string message = "connector configuration has " + std::to_string(errors.size()) + " error(s):";
-    for (const auto& e : errors) message += "\n  " + e;
-    throw util::ConfigError(message);
-  }
+  util::throw_if_errors(errors, "connector configuration");
   return options;
 }
 

@@ -173,14 +173,8 @@ ManagerConfig load_manager_config(const std::string& path) {
   if (!components || !components.IsSequence()) {
     errors.push_back("components: a list of components is required");
   } else {
-    for (std::size_t i = 0; i < components.size(); ++i) {
-      const std::string where = "components[" + std::to_string(i) + "]";
-      const YAML::Node node = components[i];
-      if (!node.IsMap()) {
-        errors.push_back(where + ": must be a map with at least a type");
-        continue;
-      }
-      util::check_keys(node, where, {"type", "instance", "rate", "activate", "config"}, errors);
+    util::for_each_map(components, "components", "at least a type", {"type", "instance", "rate", "activate", "config"},
+                       errors, [&](const YAML::Node& node, const std::string& where) {
       ComponentSpec spec;
       if (!node["type"]) {
         errors.push_back(where + ".type: missing");
@@ -192,9 +186,9 @@ ManagerConfig load_manager_config(const std::string& path) {
       if (node["activate"]) util::read_scalar(node["activate"], where + ".activate", spec.activate, errors);
       if (node["config"]) spec.config = node["config"];
       config.components.push_back(std::move(spec));
-    }
+    });
   }
-  util::throw_if_errors(errors, path, "--config");
+  util::throw_if_errors(errors, "--config '" + path + "'");
   return config;
 }
 

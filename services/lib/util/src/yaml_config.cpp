@@ -32,10 +32,25 @@ void check_keys(const YAML::Node& node, const std::string& where, const std::set
   }
 }
 
-void throw_if_errors(const std::vector<std::string>& errors, const std::string& path, const std::string& flag) {
+void for_each_map(const YAML::Node& list, const std::string& where, const std::string& entry_shape,
+                  const std::set<std::string>& allowed, std::vector<std::string>& errors,
+                  const std::function<void(const YAML::Node& entry, const std::string& where)>& visit) {
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    const std::string at = where + "[" + std::to_string(i) + "]";
+    const YAML::Node entry = list[i];
+    if (!entry.IsMap()) {
+      errors.push_back(at + ": must be a map with " + entry_shape);
+      continue;
+    }
+    check_keys(entry, at, allowed, errors);
+    visit(entry, at);
+  }
+}
+
+void throw_if_errors(const std::vector<std::string>& errors, const std::string& subject) {
   if (errors.empty()) return;
   std::ostringstream out;
-  out << flag << " '" << path << "' has " << errors.size() << " error(s):";
+  out << subject << " has " << errors.size() << " error(s):";
   for (const auto& e : errors) out << "\n  " << e;
   throw ConfigError(out.str());
 }

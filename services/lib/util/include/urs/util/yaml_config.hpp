@@ -5,6 +5,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <functional>
 #include <set>
 #include <string>
 #include <vector>
@@ -33,7 +34,15 @@ bool read_scalar(const YAML::Node& node, const std::string& where, T& out, std::
 void check_keys(const YAML::Node& node, const std::string& where, const std::set<std::string>& allowed,
                 std::vector<std::string>& errors);
 
-// ConfigError "<flag> '<path>' has N error(s):" with one error per line, if there are any.
-void throw_if_errors(const std::vector<std::string>& errors, const std::string& path, const std::string& flag);
+// Visits each element of the YAML list `list` (at key path `where`) as `visit(entry, "where[i]")`
+// after checking its keys against `allowed`; an element that is not a map is reported as
+// "where[i]: must be a map with <entry_shape>" and skipped.
+void for_each_map(const YAML::Node& list, const std::string& where, const std::string& entry_shape,
+                  const std::set<std::string>& allowed, std::vector<std::string>& errors,
+                  const std::function<void(const YAML::Node& entry, const std::string& where)>& visit);
+
+// ConfigError "<subject> has N error(s):" with one error per line, if there are any; `subject`
+// names what was read, e.g. "--config 'sam.yaml'".
+void throw_if_errors(const std::vector<std::string>& errors, const std::string& subject);
 
 }  // namespace urs::util
