@@ -41,22 +41,8 @@ void Manager::add_factory(const std::string& type, ComponentFactory factory) {
   factories_[type] = std::move(factory);
 }
 
-std::vector<std::string> Manager::types() const {
-  std::lock_guard lock(mutex_);
-  std::vector<std::string> out;
-  for (const auto& [type, factory] : factories_) out.push_back(type);
-  return out;
-}
-
 std::string Manager::naming_path(const Component& component) const {
   return component_path(options_.host, component.instance_name());
-}
-
-std::vector<Component*> Manager::components() {
-  std::lock_guard lock(mutex_);
-  std::vector<Component*> out;
-  for (auto& hosted : hosted_) out.push_back(hosted.component.get());
-  return out;
 }
 
 Component& Manager::create(const ComponentSpec& spec) {

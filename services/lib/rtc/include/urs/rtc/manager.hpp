@@ -59,7 +59,6 @@ class Manager {
   ~Manager();  // shutdown()
 
   void add_factory(const std::string& type, ComponentFactory factory);
-  std::vector<std::string> types() const;
 
   // Creates, initializes, binds, starts (and activates if asked) one component; returns it.
   // Throws urs::util::ConfigError (unknown type, bad config) or std::runtime_error (naming,
@@ -70,7 +69,6 @@ class Manager {
   void shutdown();
 
   std::string naming_path(const Component& component) const;
-  std::vector<Component*> components();
 
  private:
   struct Hosted {
