@@ -195,10 +195,13 @@ int main(int argc, char** argv) {
       camus::ListReply reply;
       int rc = builtin(client, "camus.registry", "List", request, timeout, reply, json_out);
       if (rc != kOk || json_out) return rc;
-      std::printf("%-32s %-28s %-24s %s\n", "SERVICE", "INTERFACE", "OWNER", "STATE");
+      // ORIGIN: "native" for a service agent of this space; what a bridge offers names where the
+      // service really is ("rtc:<naming path>:<port>").
+      std::printf("%-32s %-28s %-24s %-10s %s\n", "SERVICE", "INTERFACE", "OWNER", "STATE", "ORIGIN");
       for (const auto& s : reply.services()) {
-        std::printf("%-32s %-28s %-24s %s\n", s.name().c_str(), s.interface().c_str(), s.owner().c_str(),
-                    s.state().c_str());
+        const auto origin = s.properties().find("urslink.origin");
+        std::printf("%-32s %-28s %-24s %-10s %s\n", s.name().c_str(), s.interface().c_str(), s.owner().c_str(),
+                    s.state().c_str(), origin == s.properties().end() ? "native" : origin->second.c_str());
       }
       return kOk;
     }

@@ -75,7 +75,24 @@ void AgentHost::add(HostedService service) {
     throw std::invalid_argument("service name '" + service.name + "' is used twice on this host");
   }
   auto name = service.name;
+  auto agent = service.agent;
   services_.emplace(std::move(name), std::move(service));
+  if (started_) agent->start(events_);  // a service added to a running host starts at once
+}
+
+bool AgentHost::remove(const std::string& name) {
+  std::shared_ptr<ServiceAgent> agent;
+  bool started = false;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto it = services_.find(name);
+    if (it == services_.end()) return false;
+    agent = std::move(it->second.agent);
+    services_.erase(it);
+    started = started_;
+  }
+  if (started) agent->stop();
+  return true;
 }
 
 std::vector<HostedService> AgentHost::services() const {

@@ -43,6 +43,29 @@ RawOutPort::WriteResult RawOutPort::write(const google::protobuf::Message& value
   return push([&](cdrStream& stream) { codec_.write(stream, value); });
 }
 
+RawInPort::RawInPort(std::string name, const Descriptor& type, Handler handler, std::size_t buffer_length)
+    : InPortBase(std::move(name), repository_id_of(type), buffer_length),
+      type_(type),
+      codec_({&type}),
+      handler_(std::move(handler)) {
+  factory_.SetDelegateToGeneratedFactory(true);
+}
+
+RawInPort::~RawInPort() { detach(); }
+
+void RawInPort::store(cdrMemoryStream& stream) {
+  std::unique_ptr<google::protobuf::Message> value(factory_.GetPrototype(&type_)->New());
+  codec_.read(stream, *value);
+  expect_end(stream);
+  count_received(false);
+  if (!handler_) return;
+  try {
+    handler_(*value);
+  } catch (const std::exception& e) {
+    report_callback_error(e.what());
+  }
+}
+
 // Events on configured topics go out through their port; others are logged at debug level.
 class AgentComponent::Sink : public agent::EventSink {
  public:
@@ -107,7 +130,7 @@ RawOutPort* AgentComponent::out_port(const std::string& name) {
 }
 
 RTC::ReturnCode_t AgentComponent::handle_initialize() {
-  servant_ = std::make_unique<AgentServant>(orb().orb(), agent_, *sink_, AgentServantOptions{instance_name()});
+  servant_ = std::make_unique<AgentServant>(orb().orb(), agent_, *sink_, AgentServantOptions{instance_name(), config_.deadline});
   agent_->start(*sink_);  // before the port makes the servant reachable
   started_ = true;
   port_.provide(config_.interface_instance, servant_->interface_name(), *servant_);

@@ -3,6 +3,7 @@
 #include <spdlog/spdlog.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <memory>
 #include <set>
@@ -57,6 +58,10 @@ Component& Manager::create(const ComponentSpec& spec) {
     }
     factory = it->second;
   }
+  return create(spec, factory);
+}
+
+Component& Manager::create(const ComponentSpec& spec, const ComponentFactory& factory) {
   const double rate = spec.rate_hz > 0 ? spec.rate_hz : options_.default_rate_hz;
   const ComponentEnv env{orb_, naming_, options_};
 
@@ -76,12 +81,13 @@ Component& Manager::create(const ComponentSpec& spec) {
     }
 
     std::unique_ptr<Component> component = factory(spec.config, env);
-    component->setup(orb_, instance, rate,
-                     {{"naming.names", path},
-                      {"urslink.space", options_.space},
-                      {"urslink.host", options_.host},
-                      {"exec_cxt.periodic.rate", format_rate(rate)},
-                      {"pid", std::to_string(getpid())}});
+    std::vector<std::pair<std::string, std::string>> properties{{"naming.names", path},
+                                                                  {"urslink.space", options_.space},
+                                                                  {"urslink.host", options_.host},
+                                                                  {"exec_cxt.periodic.rate", format_rate(rate)},
+                                                                  {"pid", std::to_string(getpid())}};
+    properties.insert(properties.end(), spec.properties.begin(), spec.properties.end());
+    component->setup(orb_, instance, rate, properties);
     const RTC::ReturnCode_t init = component->initialize();
     if (init != RTC::RTC_OK) {
       component->exit();
@@ -129,6 +135,20 @@ Component& Manager::create(const ComponentSpec& spec) {
   }
   throw std::runtime_error("no free instance name for " + spec.type + " under " + options_.host +
                            ".host_cxt after " + std::to_string(kMaxInstances) + " tries");
+}
+
+bool Manager::destroy(Component& component) {
+  Hosted hosted;
+  {
+    std::lock_guard lock(mutex_);
+    auto it = std::find_if(hosted_.begin(), hosted_.end(),
+                           [&component](const Hosted& h) { return h.component.get() == &component; });
+    if (it == hosted_.end()) return false;
+    hosted = std::move(*it);
+    hosted_.erase(it);
+  }
+  if (!hosted.component->exited()) hosted.component->exit();  // removes the binding through on_exit
+  return true;
 }
 
 void Manager::shutdown() {

@@ -107,8 +107,12 @@ class AgentHost {
             google::protobuf::MessageFactory* factory = nullptr);
   ~AgentHost();  // stop()
 
-  // Control plane: throws std::invalid_argument naming the service on a duplicate name.
+  // Control plane: throws std::invalid_argument naming the service on a duplicate name. A service
+  // added after start() is started at once.
   void add(HostedService service);
+  // Takes a service off the host (calls already running finish; later ones get UNKNOWN_SERVICE)
+  // and stops its agent if the host was started. False if no service has that name.
+  bool remove(const std::string& name);
   std::vector<HostedService> services() const;
   const HostedService* find(const std::string& name) const;
 

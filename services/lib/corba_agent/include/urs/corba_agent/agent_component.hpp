@@ -7,6 +7,9 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <google/protobuf/dynamic_message.h>
+
+#include <chrono>
 #include <functional>
 #include <memory>
 #include <string>
@@ -36,6 +39,31 @@ class RawOutPort : public rtc::OutPortBase {
   CdrCodec codec_;
 };
 
+// A data InPort taking values as the CDR of an IDL struct, exception or union and handing each to
+// `handler` as a Planet message of `type` (dataport.data_type = the type's repository ID). The
+// handler runs in the ORB's thread for each value, after it is decoded; an exception it throws is
+// logged and the value still counts as received. A payload that is not one value is refused
+// (PORT_ERROR) and never reaches the handler.
+class RawInPort : public rtc::InPortBase {
+ public:
+  using Handler = std::function<void(const google::protobuf::Message& value)>;
+  // Throws std::invalid_argument if `type` has no repository ID.
+  RawInPort(std::string name, const google::protobuf::Descriptor& type, Handler handler,
+            std::size_t buffer_length = 64);
+  ~RawInPort() override;  // disconnects first, so no put() reaches a half-destroyed port
+
+  const google::protobuf::Descriptor& type() const { return type_; }
+
+ protected:
+  void store(cdrMemoryStream& stream) override;
+
+ private:
+  const google::protobuf::Descriptor& type_;
+  CdrCodec codec_;
+  google::protobuf::DynamicMessageFactory factory_;
+  Handler handler_;
+};
+
 struct EventStream {
   std::string topic;  // the agent's event topic
   std::string port;   // the OutPort's name
@@ -47,6 +75,7 @@ struct AgentComponentConfig {
   std::string port;                // the service port; empty: the interface name in lower case
   std::string interface_instance;  // empty: the same as the port
   std::vector<EventStream> streams;
+  std::chrono::milliseconds deadline{10000};  // CallContext::deadline of each call, from its arrival
 };
 
 class AgentComponent : public rtc::Component {

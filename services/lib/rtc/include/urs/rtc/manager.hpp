@@ -51,6 +51,8 @@ struct ComponentSpec {
   double rate_hz = 0;         // 0: the manager's default
   bool activate = false;      // activate in its own execution context once bound
   YAML::Node config;
+  // Extra properties of the component profile (after the manager's own).
+  std::vector<std::pair<std::string, std::string>> properties;
 };
 
 class Manager {
@@ -64,6 +66,12 @@ class Manager {
   // Throws urs::util::ConfigError (unknown type, bad config) or std::runtime_error (naming,
   // initialization failure) with the reason; nothing is left bound on failure.
   Component& create(const ComponentSpec& spec);
+  // The same with a factory of the caller's instead of the catalog's (spec.type names the type).
+  Component& create(const ComponentSpec& spec, const ComponentFactory& factory);
+
+  // Exits one component created here (its binding is removed if still its own) and destroys it.
+  // False if the manager does not hold it.
+  bool destroy(Component& component);
 
   // Exits every component and removes its binding. Idempotent.
   void shutdown();

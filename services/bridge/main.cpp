@@ -1,0 +1,97 @@
+// urs-bridge: the bridge between an RT-Middleware space and a CAMUS space (the papers' RSCM /
+// SAM-RTC). It is an RT-Component, bound at "<host>.host_cxt/<instance>.rtc", and a SAM of the
+// CAMUS server; see docs/bridge.md.
+//
+// Exit codes: 0 clean shutdown (SIGINT/SIGTERM); 2 bad arguments, configuration or IDL; 1 the
+// bridge RTC could not be created or bound (the reason on stderr).
+
+#include <spdlog/spdlog.h>
+
+#include <CLI/CLI.hpp>
+
+#include "urs/bridge/bridge.hpp"
+#include "urs/bridge/config.hpp"
+#include "urs/bridge/interfaces.hpp"
+#include "urs/rtc/manager.hpp"
+#include "urs/rtc/naming.hpp"
+#include "urs/rtc/orb.hpp"
+#include "urs/util/cli.hpp"
+
+int main(int argc, char** argv) {
+  CLI::App app{"urs-bridge: makes RT-Components and CAMUS services usable from each other"};
+  std::string space;
+  std::string server = "127.0.0.1:7600";
+  std::string naming = "127.0.0.1:2809";
+  std::string config_path;
+  std::string host;
+  std::string listen;
+  std::string token_file;
+  std::string ready_file;
+  int call_timeout_ms = 10000;
+  std::string log_level = "info";
+  app.add_option("--space", space, "Name of the space the bridge belongs to")->required();
+  app.add_option("--server", server, "CAMUS server HOST:PORT")->capture_default_str();
+  app.add_option("--naming", naming, "Naming service HOST:PORT (omniNames)")->capture_default_str();
+  app.add_option("--config", config_path, "YAML file saying what to bridge")->required();
+  app.add_option("--host", host, "Naming context <host>.host_cxt (default: this machine's host name)");
+  app.add_option("--listen", listen, "HOST:PORT for the bridge's object references (default: any, ephemeral)");
+  app.add_option("--token-file", token_file, "File holding the space's Planet token");
+  app.add_option("--call-timeout-ms", call_timeout_ms, "Bound on CORBA calls other than bridged ones")
+      ->capture_default_str();
+  app.add_option("--ready-file", ready_file, "Written with the bridge RTC's naming path once it is bound");
+  app.add_option("--log-level", log_level, urs::util::kLogLevels)->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+
+  urs::util::block_shutdown_signals();
+  urs::bridge::BridgeConfig config;
+  urs::planet::ClientOptions planet;
+  urs::rtc::OrbOptions orb_options;
+  std::unique_ptr<urs::bridge::InterfaceCatalog> catalog;
+  try {
+    urs::util::init_logging("urs-bridge", log_level);
+    const auto endpoint = urs::util::parse_endpoint(server, "--server");
+    planet.host = endpoint.host;
+    planet.port = endpoint.port;
+    planet.token = urs::util::read_token_file(token_file);
+    urs::util::parse_endpoint(naming, "--naming");
+    if (!listen.empty()) orb_options.endpoint = urs::rtc::endpoint_from_address(listen, "--listen");
+    if (call_timeout_ms < 0) throw urs::util::ConfigError("--call-timeout-ms: must be >= 0");
+    orb_options.call_timeout = std::chrono::milliseconds(call_timeout_ms);
+    config = urs::bridge::load_bridge_config(config_path, host.empty() ? urs::util::host_name() : host);
+    catalog = std::make_unique<urs::bridge::InterfaceCatalog>();
+    for (const auto& idl : config.idl) {
+      for (const auto& loaded : catalog->load_idl(idl, config.include_dirs)) {
+        spdlog::info("interface {} loaded from {}", loaded, idl);
+      }
+    }
+  } catch (const std::exception& e) {
+    fmt::print(stderr, "urs-bridge: {}\n", e.what());
+    return 2;
+  }
+
+  urs::rtc::Orb orb(orb_options);
+  urs::rtc::NamingClient naming_client(orb, naming);
+  urs::rtc::Manager manager(orb, naming_client, {space, host, 10.0});
+  std::unique_ptr<urs::bridge::Bridge> bridge;
+  try {
+    bridge = std::make_unique<urs::bridge::Bridge>(orb, naming_client, manager, *catalog, config, planet);
+  } catch (const urs::util::ConfigError& e) {
+    fmt::print(stderr, "urs-bridge: {}: {}\n", config_path, e.what());
+    return 2;
+  }
+  try {
+    auto& component = bridge->start();
+    if (!ready_file.empty()) urs::util::write_file_atomically(ready_file, manager.naming_path(component) + "\n");
+    spdlog::info("bridge {} bound at {} (space {}, CAMUS server {}, naming service {})", config.name,
+                 manager.naming_path(component), space, server, naming);
+  } catch (const std::exception& e) {
+    fmt::print(stderr, "urs-bridge: {}\n", e.what());
+    return 1;
+  }
+
+  const int signal_number = urs::util::wait_for_shutdown();
+  spdlog::info("signal {}: withdrawing everything bridged", signal_number);
+  bridge->shutdown();
+  manager.shutdown();
+  return 0;
+}

@@ -1,0 +1,100 @@
+#pragma once
+// The bridge (the papers' RSCM / SAM-RTC): one RT-Component and one Planet session that make the
+// services of each world usable from the other, generically, from interface descriptions alone.
+//
+//   RT provider -> CAMUS   every provider port connected to the bridge RTC's "providers" port
+//                          becomes a CAMUS service whose calls go to the provider by DII
+//                          (corba_agent::CorbaProxyAgent, hosted on the bridge's Planet session).
+//   CAMUS SA -> RT         every selected CAMUS service becomes an RT-Component in the naming
+//                          service with a provider port of its interface (AgentComponent hosting
+//                          a PlanetProxyAgent).
+//   data                   RT OutPorts feed CAMUS events (and context); CAMUS events feed RT InPorts.
+//
+// The bridge RTC's lifecycle drives it: activating it opens the Planet session, registers the
+// proxies and creates the wrapper RTCs; deactivating it withdraws them all. While active it polls
+// the naming service (connector role: providers matching the rules are connected to the bridge,
+// and their proxies withdrawn when they vanish or die) and the CAMUS registry.
+//
+// Loops are prevented by origin: what the bridge offers carries "urslink.origin" (a CAMUS property
+// "rtc:<path>:<port>", a component property "camus:<service>"), and nothing that carries one is
+// bridged again.
+
+#include <atomic>
+#include <condition_variable>
+#include <memory>
+#include <mutex>
+#include <set>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "urs/bridge/config.hpp"
+#include "urs/bridge/interfaces.hpp"
+#include "urs/planet/client.hpp"
+#include "urs/rtc/manager.hpp"
+#include "urs/rtc/naming.hpp"
+#include "urs/rtc/orb.hpp"
+
+namespace urs::bridge {
+
+struct BridgeStatus {
+  bool active = false;                // a session is open
+  std::vector<std::string> exported;  // CAMUS services standing for RT providers
+  std::vector<std::string> imported;  // naming paths of RTCs standing for CAMUS services
+};
+
+class Bridge {
+ public:
+  // `orb`, `naming`, `manager` and `catalog` outlive the bridge. `planet` is the session's client
+  // options (address, token); its peer name and role are set from the configuration.
+  Bridge(rtc::Orb& orb, rtc::NamingClient& naming, rtc::Manager& manager, const InterfaceCatalog& catalog,
+         BridgeConfig config, planet::ClientOptions planet);
+  ~Bridge();  // shutdown()
+  Bridge(const Bridge&) = delete;
+  Bridge& operator=(const Bridge&) = delete;
+
+  // Creates the bridge RTC through the manager (bound as <host>.host_cxt/<instance>.rtc) and starts
+  // the bridge's thread; activates the RTC if the configuration says so. Throws on failure.
+  rtc::Component& start();
+  // Closes the session (withdrawing everything) and stops the thread. Idempotent.
+  void shutdown();
+
+  BridgeStatus status() const;
+
+ private:
+  class Component;
+  class Session;
+  struct Known;  // a component found in the naming service
+
+  void request_active(bool active);  // from the RTC's lifecycle hooks
+  void run();
+  void open_session();
+  void close_session();
+  void poll_rt();
+  void poll_camus();
+  void reconcile_exports();
+  void on_data(std::size_t entry, const google::protobuf::Message& value);
+
+  rtc::Orb& orb_;
+  rtc::NamingClient& naming_;
+  rtc::Manager& manager_;
+  const InterfaceCatalog& catalog_;
+  const BridgeConfig config_;
+  planet::ClientOptions planet_;
+  std::string own_path_;
+
+  Component* component_ = nullptr;
+
+  mutable std::mutex mutex_;  // guards the fields below and session_ swaps
+  std::condition_variable wake_;
+  bool want_active_ = false;
+  bool stopping_ = false;
+  std::thread thread_;
+  std::shared_ptr<Session> session_;
+
+  // Used by the bridge's thread only.
+  std::map<std::string, std::shared_ptr<Known>> known_;  // by naming path
+  std::set<std::string> warned_;                         // problems logged once
+};
+
+}  // namespace urs::bridge

@@ -1,0 +1,94 @@
+#pragma once
+// urs-bridge configuration (YAML), validated once into an immutable struct; docs/bridge.md.
+//
+//   name: bridge-lab                # Planet peer name (default bridge@<host>)
+//   instance: Bridge0               # the bridge's RTC instance name (default Bridge<N>)
+//   activate: true                  # activate the bridge RTC at start (default true)
+//   workers: 16                     # threads running bridged calls towards RT providers
+//   idl: [path/Thermostat.idl]      # interfaces the bridge was not built with, loaded at start
+//   include_dirs: [path]            # where those files' #includes are found
+//   rt_to_camus:                    # RT provider ports offered as CAMUS services
+//     poll_ms: 200
+//     providers:
+//       - match: "*/Robot*.rtc"     # glob on naming paths ('*' crosses '/')
+//         interface: URC::Navigation  # glob on the provided interface's type_name (default "*")
+//         name: "{instance}.{port}" # the CAMUS service name; {instance} {port} {interface}
+//         deadline_ms: 10000        # bound on each call (advertised to CAMUS callers too)
+//   camus_to_rt:                    # CAMUS services offered as RT-Components
+//     poll_ms: 500
+//     services:
+//       - match: "tts*"             # glob on CAMUS service names
+//         instance: "{service}"     # RTC instance name; characters other than [A-Za-z0-9_-] become '_'
+//         deadline_ms: 10000
+//   data_to_camus:                  # RT OutPorts feeding CAMUS events (and context)
+//     - match: "*/Localizer*.rtc"
+//       port: pose                  # the OutPort's name
+//       type: URC.PoseWithCovariance  # the values' type (Protobuf full name of an IDL struct)
+//       topic: robot1/pose          # Planet topic of the events
+//       context: robot1.pose        # optional: context entry set to each value (as JSON)
+//   events_to_rt:                   # CAMUS events feeding RT InPorts
+//     - topic: "robot1.navigation/arrived"  # Planet subscription pattern
+//       type: URC.Pose2D            # the events' type; others on the topic are skipped
+//       match: "*/Sink*.rtc"
+//       port: arrived               # the InPort's name
+
+#include <chrono>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace urs::bridge {
+
+struct ProviderRule {
+  std::string match = "*";
+  std::string interface = "*";
+  std::string name = "{instance}.{port}";
+  uint32_t deadline_ms = 10000;
+};
+
+struct ServiceRule {
+  std::string match;
+  std::string instance = "{service}";
+  uint32_t deadline_ms = 10000;
+};
+
+struct DataToCamus {
+  std::string match;
+  std::string port;
+  std::string type;
+  std::string topic;
+  std::string context;  // "" = no context entry
+};
+
+struct EventsToRt {
+  std::string topic;
+  std::string type;
+  std::string match;
+  std::string port;
+};
+
+struct BridgeConfig {
+  std::string name;
+  std::string instance;
+  bool activate = true;
+  unsigned workers = 16;
+  std::vector<std::string> idl;
+  std::vector<std::string> include_dirs;
+  std::chrono::milliseconds rt_poll{200};
+  std::chrono::milliseconds camus_poll{500};
+  std::vector<ProviderRule> providers;
+  std::vector<ServiceRule> services;
+  std::vector<DataToCamus> data_to_camus;
+  std::vector<EventsToRt> events_to_rt;
+};
+
+// Parses and validates `path`; relative idl/include_dirs paths are taken from the file's folder.
+// Throws urs::util::ConfigError listing every problem with its key path.
+BridgeConfig load_bridge_config(const std::string& path, const std::string& host);
+
+// "{instance}.{port}" with {name} replaced by the value given for it; unknown names stay.
+std::string expand(const std::string& pattern, const std::vector<std::pair<std::string, std::string>>& values);
+// True if `text` matches the glob `pattern` ('*' and '?' also match '/').
+bool glob_match(const std::string& pattern, const std::string& text);
+
+}  // namespace urs::bridge

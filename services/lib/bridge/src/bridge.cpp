@@ -1,0 +1,725 @@
+#include "urs/bridge/bridge.hpp"
+
+#include <google/protobuf/dynamic_message.h>
+#include <google/protobuf/struct.pb.h>
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <cctype>
+
+#include "camus.pb.h"
+#include "urs/agent/agent.hpp"
+#include "urs/agent/client_sink.hpp"
+#include "urs/bridge/planet_proxy_agent.hpp"
+#include "urs/bridge/provider_port.hpp"
+#include "urs/corba_agent/agent_component.hpp"
+#include "urs/corba_agent/corba_proxy.hpp"
+#include "urs/rtc/component.hpp"
+#include "urs/rtc/data_port.hpp"
+#include "urs/rtc/tools.hpp"
+#include "urs/schema/json.hpp"
+#include "urs/rtc/execution_context.hpp"
+#include "urs/util/cli.hpp"
+#include "urs/util/yaml_config.hpp"
+
+namespace urs::bridge {
+
+namespace gp = google::protobuf;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+constexpr auto kCamusTimeout = std::chrono::milliseconds(2000);  // registry calls of one poll
+constexpr auto kProbeTimeout = std::chrono::milliseconds(500);   // liveness probe of a provider
+constexpr auto kRetryPeriod = std::chrono::milliseconds(2000);   // a component that did not answer
+constexpr const char* kOrigin = "urslink.origin";
+constexpr const char* kConnectorName = "urs-bridge";
+
+std::string sanitize(const std::string& text) {
+  std::string out = text;
+  for (char& c : out) {
+    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '_' && c != '-') c = '_';
+  }
+  return out;
+}
+
+std::string nv_text(const SDOPackage::NVList& list, const char* name) {
+  for (CORBA::ULong i = 0; i < list.length(); ++i) {
+    if (std::string(list[i].name.in()) != name) continue;
+    const char* value = nullptr;
+    if (list[i].value >>= value) return value;
+  }
+  return "";
+}
+
+SDOPackage::NVList properties(std::initializer_list<std::pair<const char*, std::string>> entries) {
+  SDOPackage::NVList list;
+  list.length(static_cast<CORBA::ULong>(entries.size()));
+  CORBA::ULong i = 0;
+  for (const auto& [name, value] : entries) {
+    list[i].name = name;
+    list[i].value <<= value.c_str();
+    ++i;
+  }
+  return list;
+}
+
+CORBA::Object_ptr with_timeout(CORBA::Object_ptr object, std::chrono::milliseconds timeout) {
+  CORBA::Object_ptr copy = CORBA::Object::_duplicate(object);
+  omniORB::setClientCallTimeout(copy, static_cast<CORBA::ULong>(timeout.count()));
+  return copy;
+}
+
+}  // namespace
+
+// ---- the RT-Component ----------------------------------------------------------------------
+
+class Bridge::Component : public rtc::Component {
+ public:
+  Component(Bridge& bridge)
+      : rtc::Component({"Bridge", "URSLink bridge between RT-Middleware and CAMUS", "1.0.0", "URSLink", "bridge"}),
+        bridge_(bridge),
+        providers_("providers") {
+    const auto& config = bridge.config_;
+    for (std::size_t i = 0; i < config.data_to_camus.size(); ++i) {
+      const gp::Descriptor* type = bridge.catalog_.find_message(config.data_to_camus[i].type);
+      in_ports_.push_back(std::make_unique<corba_agent::RawInPort>(
+          "in" + std::to_string(i), *type, [&bridge, i](const gp::Message& value) { bridge.on_data(i, value); }));
+    }
+    for (std::size_t i = 0; i < config.events_to_rt.size(); ++i) {
+      const gp::Descriptor* type = bridge.catalog_.find_message(config.events_to_rt[i].type);
+      out_ports_.push_back(std::make_unique<corba_agent::RawOutPort>("out" + std::to_string(i), *type));
+    }
+  }
+
+  ProviderPort& providers() { return providers_; }
+  corba_agent::RawInPort& in_port(std::size_t i) { return *in_ports_.at(i); }
+  corba_agent::RawOutPort& out_port(std::size_t i) { return *out_ports_.at(i); }
+
+ protected:
+  RTC::ReturnCode_t handle_initialize() override {
+    add_port(providers_);
+    for (auto& port : in_ports_) add_port(*port);
+    for (auto& port : out_ports_) add_port(*port);
+    declare_parameter("planet_peer", bridge_.config_.name);
+    return RTC::RTC_OK;
+  }
+  RTC::ReturnCode_t handle_activated(RTC::ExecutionContextHandle_t) override {
+    bridge_.request_active(true);
+    return RTC::RTC_OK;
+  }
+  RTC::ReturnCode_t handle_deactivated(RTC::ExecutionContextHandle_t) override {
+    bridge_.request_active(false);
+    return RTC::RTC_OK;
+  }
+  RTC::ReturnCode_t handle_finalize() override {
+    bridge_.request_active(false);
+    return RTC::RTC_OK;
+  }
+
+ private:
+  Bridge& bridge_;
+  ProviderPort providers_;
+  std::vector<std::unique_ptr<corba_agent::RawInPort>> in_ports_;
+  std::vector<std::unique_ptr<corba_agent::RawOutPort>> out_ports_;
+};
+
+// ---- one activation: the Planet session and what it carries ------------------------------------
+
+class Bridge::Session {
+ public:
+  Session(const BridgeConfig& config, const planet::ClientOptions& options)
+      : client(options), sink(client), host(config.workers, sink, &factory_with_delegation()) {}
+
+  planet::Client client;
+  agent::ClientEventSink sink;
+
+ private:
+  gp::DynamicMessageFactory factory_;
+  gp::DynamicMessageFactory& factory_with_delegation() {
+    factory_.SetDelegateToGeneratedFactory(true);
+    return factory_;
+  }
+
+ public:
+  agent::AgentHost host;      // the proxies of RT providers
+  schema::SchemaPool remote;  // interfaces of CAMUS services, from the registry
+
+  std::map<std::string, std::string> exports;  // export key ("<connector id>|<key>") -> CAMUS name
+  struct Import {
+    rtc::Component* component;
+    std::string path;
+  };
+  std::map<std::string, Import> imports;                    // by CAMUS service
+  std::map<std::string, Clock::time_point> import_retry;   // services whose import failed
+  std::vector<uint64_t> subscriptions;
+  std::atomic<uint64_t> data_dropped{0};
+};
+
+// ---- a component found in the naming service -------------------------------------------------
+
+struct Bridge::Known {
+  struct Port {
+    std::string name;  // short name
+    std::string kind;  // port.port_type
+    std::string data_type;
+    std::vector<std::pair<std::string, std::string>> provided;  // (type_name, instance_name)
+    RTC::PortService_var ref;
+  };
+  std::string ior;
+  std::string instance;
+  bool reachable = false;
+  bool bridged = false;  // carries an origin: something a bridge made
+  Clock::time_point retry_at;
+  CORBA::Object_var probe;
+  std::vector<Port> ports;
+  std::map<std::string, std::string> links;  // "<port>" or "<port>#<our port>" -> connector id we made
+};
+
+// ---- the bridge ------------------------------------------------------------------------------
+
+Bridge::Bridge(rtc::Orb& orb, rtc::NamingClient& naming, rtc::Manager& manager, const InterfaceCatalog& catalog,
+               BridgeConfig config, planet::ClientOptions planet)
+    : orb_(orb), naming_(naming), manager_(manager), catalog_(catalog), config_(std::move(config)),
+      planet_(std::move(planet)) {
+  planet_.peer_name = config_.name;
+  planet_.role = planet::SAM;
+  std::vector<std::string> errors;
+  auto check_type = [&](const std::string& type, const std::string& where) {
+    const gp::Descriptor* found = catalog_.find_message(type);
+    if (found == nullptr) {
+      errors.push_back(where + ".type: no message type " + type + " is known (add its IDL under idl:)");
+    } else if (schema::repository_id(*found).empty()) {
+      errors.push_back(where + ".type: " + type + " is not an IDL struct, exception or union");
+    }
+  };
+  for (std::size_t i = 0; i < config_.data_to_camus.size(); ++i) {
+    check_type(config_.data_to_camus[i].type, "data_to_camus[" + std::to_string(i) + "]");
+  }
+  for (std::size_t i = 0; i < config_.events_to_rt.size(); ++i) {
+    check_type(config_.events_to_rt[i].type, "events_to_rt[" + std::to_string(i) + "]");
+  }
+  util::throw_if_errors(errors, "bridge configuration");
+}
+
+Bridge::~Bridge() { shutdown(); }
+
+rtc::Component& Bridge::start() {
+  rtc::ComponentSpec spec;
+  spec.type = "Bridge";
+  spec.instance_name = config_.instance;
+  spec.properties = {{"urslink.bridge", config_.name}};
+  rtc::Component& created = manager_.create(spec, [this](const YAML::Node&, const rtc::ComponentEnv&) {
+    auto component = std::make_unique<Component>(*this);
+    component_ = component.get();
+    return component;
+  });
+  own_path_ = manager_.naming_path(created);
+  thread_ = std::thread([this] { run(); });
+  if (config_.activate) {
+    RTC::RTObject_var self = created.reference();
+    RTC::ExecutionContextService_var context = created.execution_context().reference();
+    const RTC::ReturnCode_t result = context->activate_component(self);
+    if (result != RTC::RTC_OK) {
+      throw std::runtime_error(own_path_ + ": activation returned " + rtc::return_code_name(result));
+    }
+  }
+  return created;
+}
+
+void Bridge::shutdown() {
+  {
+    std::lock_guard lock(mutex_);
+    if (stopping_ && !thread_.joinable()) return;
+    stopping_ = true;
+    want_active_ = false;
+  }
+  wake_.notify_all();
+  if (thread_.joinable()) thread_.join();
+}
+
+BridgeStatus Bridge::status() const {
+  std::lock_guard lock(mutex_);
+  BridgeStatus status;
+  status.active = session_ != nullptr;
+  if (session_) {
+    for (const auto& [key, name] : session_->exports) status.exported.push_back(name);
+    for (const auto& [service, import] : session_->imports) status.imported.push_back(import.path);
+  }
+  return status;
+}
+
+void Bridge::request_active(bool active) {
+  {
+    std::lock_guard lock(mutex_);
+    want_active_ = active;
+  }
+  wake_.notify_all();
+}
+
+void Bridge::run() {
+  auto next_rt = Clock::now();
+  auto next_camus = Clock::now();
+  while (true) {
+    bool want = false;
+    {
+      std::unique_lock lock(mutex_);
+      auto changed = [&] { return stopping_ || want_active_ != (session_ != nullptr); };
+      if (session_) {
+        const auto next = std::min(next_rt, next_camus);
+        wake_.wait_until(lock, next, [&] { return changed() || Clock::now() >= next; });
+      } else {
+        wake_.wait(lock, changed);
+      }
+      if (stopping_ && !session_) return;
+      want = want_active_ && !stopping_;
+    }
+    try {
+      if (want && !session_) {
+        open_session();
+        next_rt = next_camus = Clock::now();
+      } else if (!want && session_) {
+        close_session();
+        continue;
+      }
+      if (!session_) continue;
+      const auto now = Clock::now();
+      if (now >= next_rt) {
+        poll_rt();
+        next_rt = Clock::now() + config_.rt_poll;
+      }
+      if (now >= next_camus) {
+        poll_camus();
+        next_camus = Clock::now() + config_.camus_poll;
+      }
+    } catch (const std::exception& e) {
+      spdlog::error("bridge: {}", e.what());
+      next_rt = next_camus = Clock::now() + config_.rt_poll;
+    }
+  }
+}
+
+void Bridge::open_session() {
+  auto session = std::make_shared<Session>(config_, planet_);
+  session->client.set_request_handler([s = session.get()](const planet::Request& request, planet::Responder responder) {
+    s->host.dispatch(request, "", std::move(responder));
+  });
+  session->client.on_connected([this](const planet::Welcome& welcome) {
+    spdlog::info("bridge {}: connected to the CAMUS server of space {}", config_.name, welcome.space());
+  });
+  session->client.on_disconnected([this](const std::string& reason) {
+    spdlog::warn("bridge {}: lost the CAMUS server: {}; reconnecting", config_.name, reason);
+  });
+  for (std::size_t i = 0; i < config_.events_to_rt.size(); ++i) {
+    const EventsToRt& entry = config_.events_to_rt[i];
+    const gp::Descriptor* type = catalog_.find_message(entry.type);
+    auto* port = &component_->out_port(i);
+    auto factory = std::make_shared<gp::DynamicMessageFactory>();
+    factory->SetDelegateToGeneratedFactory(true);
+    session->subscriptions.push_back(session->client.subscribe(entry.topic, [this, type, port, factory, entry](
+                                                                              const planet::Event& event) {
+      if (event.content_type() != type->full_name()) {
+        spdlog::debug("bridge: event on {} is a {}, not {}; not sent to {}", event.topic(), event.content_type(),
+                      type->full_name(), port->name());
+        return;
+      }
+      std::unique_ptr<gp::Message> value(factory->GetPrototype(type)->New());
+      if (!value->ParseFromString(event.payload())) {
+        spdlog::warn("bridge: event {} on {} is not a valid {}; not sent to {}", event.seq(), event.topic(),
+                     type->full_name(), port->name());
+        return;
+      }
+      try {
+        port->write(*value);
+      } catch (const std::exception& e) {
+        spdlog::warn("bridge: event {} on {} cannot go out through {}: {}", event.seq(), event.topic(), port->name(),
+                     e.what());
+      }
+    }));
+  }
+  session->client.start();
+  session->host.start();
+  {
+    std::lock_guard lock(mutex_);
+    session_ = session;
+  }
+  spdlog::info("bridge {}: active (server {}:{})", config_.name, planet_.host, planet_.port);
+}
+
+void Bridge::close_session() {
+  std::shared_ptr<Session> session;
+  {
+    std::lock_guard lock(mutex_);
+    session.swap(session_);
+  }
+  for (auto& [service, import] : session->imports) {
+    spdlog::info("bridge: withdrawing {} (stood for CAMUS service {})", import.path, service);
+    manager_.destroy(*import.component);
+  }
+  for (const auto& [key, name] : session->exports) session->client.unregister_service(name);
+  for (uint64_t id : session->subscriptions) session->client.unsubscribe(id);
+  session->host.stop();
+  session->client.stop();
+  spdlog::info("bridge {}: inactive; {} export(s) and {} import(s) withdrawn", config_.name, session->exports.size(),
+               session->imports.size());
+}
+
+// ---- RT side ---------------------------------------------------------------------------------
+
+void Bridge::poll_rt() {
+  // 1. What the naming service holds now (only components some rule may concern).
+  auto concerned = [this](const std::string& path) {
+    if (path == own_path_) return false;
+    for (const auto& rule : config_.providers) {
+      if (glob_match(rule.match, path)) return true;
+    }
+    for (const auto& entry : config_.data_to_camus) {
+      if (glob_match(entry.match, path)) return true;
+    }
+    for (const auto& entry : config_.events_to_rt) {
+      if (glob_match(entry.match, path)) return true;
+    }
+    return false;
+  };
+  std::map<std::string, std::string> bound;  // path -> IOR
+  try {
+    for (const auto& entry : naming_.list_objects("")) {
+      if (entry.kind != "rtc" || !concerned(entry.path)) continue;
+      CORBA::Object_var object = naming_.try_resolve(entry.path);
+      if (!CORBA::is_nil(object)) bound[entry.path] = orb_.object_to_string(object);
+    }
+  } catch (const std::exception& e) {
+    if (warned_.insert("naming").second) spdlog::warn("bridge: naming service {}: {}", naming_.address(), e.what());
+    return;
+  }
+  warned_.erase("naming");
+
+  auto forget = [this](const std::string& path, const char* why) {
+    auto it = known_.find(path);
+    if (it == known_.end()) return;
+    for (const auto& [port, connector_id] : it->second->links) {
+      spdlog::info("bridge: {} {}: dropping connection {} of its port {}", path, why, connector_id, port);
+      component_->providers().drop_connection(connector_id);
+      for (std::size_t i = 0; i < config_.data_to_camus.size(); ++i) component_->in_port(i).drop_connection(connector_id);
+      for (std::size_t i = 0; i < config_.events_to_rt.size(); ++i) component_->out_port(i).drop_connection(connector_id);
+    }
+    known_.erase(it);
+  };
+
+  // 2. Components gone or replaced.
+  for (auto it = known_.begin(); it != known_.end();) {
+    const auto now_bound = bound.find(it->first);
+    const bool gone = now_bound == bound.end() || now_bound->second != it->second->ior;
+    const std::string path = (it++)->first;
+    if (gone) forget(path, now_bound == bound.end() ? "unbound" : "rebound to another object");
+  }
+
+  // 3. New components: read their ports.
+  const auto now = Clock::now();
+  for (const auto& [path, ior] : bound) {
+    auto& known = known_[path];
+    if (known && (known->reachable || now < known->retry_at)) continue;
+    known = std::make_shared<Known>();
+    known->ior = ior;
+    try {
+      CORBA::Object_var object = orb_.string_to_object(ior);
+      known->probe = with_timeout(object, kProbeTimeout);
+      CORBA::Object_var bounded = with_timeout(object, std::chrono::milliseconds(2000));
+      RTC::RTObject_var rtc = RTC::RTObject::_narrow(bounded);
+      RTC::ComponentProfile_var profile = rtc->get_component_profile();
+      known->instance = profile->instance_name.in();
+      known->bridged = !nv_text(profile->properties, kOrigin).empty() || !nv_text(profile->properties, "urslink.bridge").empty();
+      for (CORBA::ULong i = 0; i < profile->port_profiles.length(); ++i) {
+        const RTC::PortProfile& port = profile->port_profiles[i];
+        Known::Port entry;
+        const std::string full = port.name.in();
+        const auto dot = full.find('.');
+        entry.name = dot == std::string::npos ? full : full.substr(dot + 1);
+        entry.kind = nv_text(port.properties, "port.port_type");
+        entry.data_type = nv_text(port.properties, "dataport.data_type");
+        for (CORBA::ULong j = 0; j < port.interfaces.length(); ++j) {
+          if (port.interfaces[j].polarity == RTC::PROVIDED) {
+            entry.provided.emplace_back(port.interfaces[j].type_name.in(), port.interfaces[j].instance_name.in());
+          }
+        }
+        entry.ref = RTC::PortService::_duplicate(port.port_ref);
+        known->ports.push_back(std::move(entry));
+      }
+      known->reachable = true;
+    } catch (const CORBA::Exception& e) {
+      known->retry_at = now + kRetryPeriod;
+      spdlog::debug("bridge: {} does not answer ({}); trying again in {} ms", path, rtc::describe(e), kRetryPeriod.count());
+    } catch (const std::exception& e) {
+      known->retry_at = now + kRetryPeriod;
+      spdlog::debug("bridge: {}: {}", path, e.what());
+    }
+  }
+
+  // 4. Providers that died without unbinding.
+  for (auto it = known_.begin(); it != known_.end();) {
+    const std::string path = it->first;
+    const auto& known = *(it++)->second;
+    if (!known.reachable || known.links.empty()) continue;
+    bool dead = false;
+    try {
+      dead = known.probe->_non_existent();
+    } catch (const CORBA::Exception&) {
+      dead = true;
+    }
+    if (dead) {
+      forget(path, "stopped answering");
+      auto& again = known_[path];  // keep it out of the choice until the binding changes or a retry
+      again = std::make_shared<Known>();
+      again->ior = bound.count(path) ? bound[path] : "";
+      again->retry_at = Clock::now() + kRetryPeriod;
+    }
+  }
+
+  // 5. Connect what the rules ask for and is not connected yet.
+  RTC::PortService_var providers = component_->providers().reference();
+  for (auto& [path, known_ptr] : known_) {
+    Known& known = *known_ptr;
+    if (!known.reachable || known.bridged) continue;
+    for (const auto& port : known.ports) {
+      auto connect = [&](const std::string& link, std::vector<RTC::PortService_ptr> ports,
+                         const SDOPackage::NVList& extra) {
+        if (known.links.count(link)) return;
+        try {
+          const rtc::Connection made = rtc::connect_ports(ports, std::string(kConnectorName) + "." + config_.name, extra);
+          if (made.code != RTC::RTC_OK) {
+            if (warned_.insert(path + "|" + link).second) {
+              spdlog::warn("bridge: connecting {} port {} failed: {}", path, port.name, rtc::return_code_name(made.code));
+            }
+            return;
+          }
+          known.links[link] = made.profile.connector_id.in();
+          warned_.erase(path + "|" + link);
+          spdlog::info("bridge: connected {} port {} ({})", path, port.name, made.profile.connector_id.in());
+        } catch (const CORBA::Exception& e) {
+          if (warned_.insert(path + "|" + link).second) {
+            spdlog::warn("bridge: connecting {} port {}: {}", path, port.name, rtc::describe(e));
+          }
+        }
+      };
+      if (port.kind == "CorbaPort" && !port.provided.empty()) {
+        bool wanted = false;
+        for (const auto& [type, instance] : port.provided) {
+          for (const auto& rule : config_.providers) {
+            if (glob_match(rule.match, path) && glob_match(rule.interface, type)) wanted = true;
+          }
+        }
+        if (wanted) connect(port.name, {providers.in(), port.ref.in()}, properties({{"urslink.connector", config_.name}}));
+      }
+      // A data port of the component that one of the bridge's own data ports is configured for.
+      auto connect_data = [&](const char* kind, const std::string& match, const std::string& name,
+                              rtc::DataPort& ours, const std::string& what, bool ours_first,
+                              const SDOPackage::NVList& extra) {
+        if (port.kind != kind || port.name != name || !glob_match(match, path)) return;
+        if (!rtc::data_type_matches(ours.data_type(), port.data_type)) {
+          if (warned_.insert(path + "|type|" + port.name).second) {
+            spdlog::error("bridge: {} port {} is of {}, but {} is of {}", path, port.name, port.data_type, what,
+                          ours.data_type());
+          }
+          return;
+        }
+        RTC::PortService_var ours_ref = ours.reference();
+        connect(port.name + "#" + ours.short_name(),
+                ours_first ? std::vector<RTC::PortService_ptr>{ours_ref.in(), port.ref.in()}
+                           : std::vector<RTC::PortService_ptr>{port.ref.in(), ours_ref.in()},
+                extra);
+      };
+      for (std::size_t i = 0; i < config_.data_to_camus.size(); ++i) {
+        const auto& entry = config_.data_to_camus[i];
+        connect_data("DataOutPort", entry.match, entry.port, component_->in_port(i),
+                     "data_to_camus[" + std::to_string(i) + "]", false, properties({}));
+      }
+      for (std::size_t i = 0; i < config_.events_to_rt.size(); ++i) {
+        const auto& entry = config_.events_to_rt[i];
+        connect_data("DataInPort", entry.match, entry.port, component_->out_port(i),
+                     "events_to_rt[" + std::to_string(i) + "]", true,
+                     properties({{"dataport.subscription_type", "new"}}));
+      }
+    }
+  }
+
+  reconcile_exports();
+}
+
+void Bridge::reconcile_exports() {
+  auto session = session_;
+  std::map<std::string, std::string> paths;  // connector id -> provider path, for connections we made
+  std::map<std::string, std::string> by_instance;
+  for (const auto& [path, known] : known_) {
+    for (const auto& [link, id] : known->links) paths[id] = path;
+    if (!known->instance.empty()) by_instance[known->instance] = path;
+  }
+  std::set<std::string> current;
+  for (const auto& [connector_id, interfaces] : component_->providers().connections()) {
+    for (const auto& provided : interfaces) {
+      const std::string key = connector_id + "|" + provided.key;
+      current.insert(key);
+      if (session->exports.count(key)) continue;
+      std::string path = paths.count(connector_id) ? paths[connector_id]
+                         : by_instance.count(provided.component) ? by_instance[provided.component]
+                                                                  : provided.component + ".rtc";
+      const gp::ServiceDescriptor* interface = catalog_.find_interface(ior_type_id(provided.ior), provided.type_name);
+      if (interface == nullptr) {
+        if (warned_.insert("iface|" + key).second) {
+          spdlog::error("bridge: {} port {} provides {}, whose IDL the bridge does not know (add it under idl:); "
+                        "not offered to CAMUS", path, provided.port, provided.type_name);
+        }
+        continue;
+      }
+      ProviderRule rule;
+      for (const auto& candidate : config_.providers) {
+        if (glob_match(candidate.match, path) && glob_match(candidate.interface, provided.type_name)) {
+          rule = candidate;
+          break;
+        }
+      }
+      const std::string name = expand(rule.name, {{"instance", provided.component},
+                                                   {"port", provided.port},
+                                                   {"interface", interface->name()}});
+      try {
+        CORBA::Object_var target = orb_.string_to_object(provided.ior);
+        auto proxy = std::make_shared<corba_agent::CorbaProxyAgent>(
+            orb_.orb(), target, *interface, corba_agent::CorbaProxyOptions{std::chrono::milliseconds(rule.deadline_ms)});
+        agent::HostedService hosted{name, proxy,
+                                    {{kOrigin, "rtc:" + path + ":" + provided.port},
+                                     {"urslink.bridge", config_.name},
+                                     {"rtc.type_name", provided.type_name}},
+                                    rule.deadline_ms};
+        session->host.add(hosted);
+        session->client.register_service(session->host.registration(hosted), [name, path](planet::CallResult result) {
+          if (result.ok()) {
+            spdlog::info("bridge: {} offered to CAMUS as {}", path, name);
+          } else {
+            spdlog::error("bridge: offering {} as {} failed: {}: {}", path, name, planet::status_name(result.status),
+                          result.message);
+          }
+        });
+        std::lock_guard lock(mutex_);
+        session->exports[key] = name;
+      } catch (const std::exception& e) {
+        if (warned_.insert("export|" + key).second) spdlog::error("bridge: cannot offer {} as {}: {}", path, name, e.what());
+      }
+    }
+  }
+  for (auto it = session->exports.begin(); it != session->exports.end();) {
+    if (current.count(it->first)) {
+      ++it;
+      continue;
+    }
+    spdlog::info("bridge: withdrawing {} from CAMUS (its provider is disconnected)", it->second);
+    session->client.unregister_service(it->second);
+    session->host.remove(it->second);
+    std::lock_guard lock(mutex_);
+    it = session->exports.erase(it);
+  }
+}
+
+void Bridge::on_data(std::size_t entry, const gp::Message& value) {
+  std::shared_ptr<Session> session;
+  {
+    std::lock_guard lock(mutex_);
+    session = session_;
+  }
+  const DataToCamus& config = config_.data_to_camus[entry];
+  if (!session) {
+    spdlog::debug("bridge: inactive; a value for {} is not forwarded", config.topic);
+    return;
+  }
+  const auto published = session->client.publish(config.topic, value.SerializeAsString(), value.GetTypeName());
+  if (!published.ok()) {
+    spdlog::warn("bridge: value for {} not published: {}", config.topic, published.message);
+  }
+  if (config.context.empty()) return;
+  std::string json;
+  camus::ContextSetRequest request;
+  request.set_key(config.context);
+  request.set_source(config_.name);
+  std::string error = schema::message_to_json(value, json);
+  if (error.empty()) error = schema::json_to_message(json, *request.mutable_value());
+  if (!error.empty()) {
+    spdlog::warn("bridge: value for context {} cannot be converted: {}", config.context, error);
+    return;
+  }
+  session->client.call_async("camus.context", "Set", request.SerializeAsString(), kCamusTimeout,
+                             [key = config.context](planet::CallResult result) {
+                               if (!result.ok()) spdlog::warn("bridge: context {} not set: {}", key, result.message);
+                             });
+}
+
+// ---- CAMUS side ------------------------------------------------------------------------------
+
+void Bridge::poll_camus() {
+  if (config_.services.empty()) return;
+  auto session = session_;
+  camus::ListRequest request;
+  const auto result = session->client.call("camus.registry", "List", request.SerializeAsString(), kCamusTimeout);
+  camus::ListReply reply;
+  if (!result.ok() || !reply.ParseFromString(result.payload)) {
+    if (warned_.insert("registry").second) {
+      spdlog::warn("bridge: cannot list the CAMUS registry: {} {}", planet::status_name(result.status), result.message);
+    }
+    return;
+  }
+  warned_.erase("registry");
+  std::map<std::string, const ServiceRule*> wanted;
+  for (const auto& info : reply.services()) {
+    if (info.state() != "available" || info.owner() == config_.name) continue;
+    if (info.properties().count(kOrigin)) continue;  // a bridged service: never bridged again
+    for (const auto& rule : config_.services) {
+      if (glob_match(rule.match, info.name())) {
+        wanted[info.name()] = &rule;
+        break;
+      }
+    }
+  }
+  for (auto it = session->imports.begin(); it != session->imports.end();) {
+    if (wanted.count(it->first)) {
+      ++it;
+      continue;
+    }
+    spdlog::info("bridge: CAMUS service {} is gone; withdrawing {}", it->first, it->second.path);
+    manager_.destroy(*it->second.component);
+    std::lock_guard lock(mutex_);
+    it = session->imports.erase(it);
+  }
+  const auto now = Clock::now();
+  for (const auto& [service, rule] : wanted) {
+    if (session->imports.count(service)) continue;
+    auto retry = session->import_retry.find(service);
+    if (retry != session->import_retry.end() && now < retry->second) continue;
+    std::string error;
+    const gp::ServiceDescriptor* interface = describe_service(session->client, service, session->remote, kCamusTimeout, error);
+    const std::string instance = sanitize(expand(rule->instance, {{"service", service}}));
+    try {
+      if (interface == nullptr) throw std::runtime_error(error);
+      rtc::ComponentSpec spec;
+      spec.type = "CamusService";
+      spec.instance_name = instance;
+      spec.properties = {{kOrigin, "camus:" + service}, {"urslink.bridge", config_.name}};
+      Session* s = session.get();
+      const uint32_t deadline_ms = rule->deadline_ms;
+      rtc::Component& created = manager_.create(spec, [s, service, interface, deadline_ms](const YAML::Node&,
+                                                                                          const rtc::ComponentEnv&) {
+        corba_agent::AgentComponentConfig settings;
+        settings.type_name = "CamusService";
+        settings.deadline = std::chrono::milliseconds(deadline_ms);
+        return std::make_unique<corba_agent::AgentComponent>(
+            settings, std::make_shared<PlanetProxyAgent>(s->client, service, *interface));
+      });
+      std::lock_guard lock(mutex_);
+      session->imports[service] = {&created, manager_.naming_path(created)};
+      session->import_retry.erase(service);
+      spdlog::info("bridge: CAMUS service {} offered to RT consumers as {}", service, manager_.naming_path(created));
+    } catch (const std::exception& e) {
+      session->import_retry[service] = now + std::chrono::seconds(10);
+      spdlog::error("bridge: cannot offer CAMUS service {} as RTC {}: {} (trying again in 10 s)", service, instance,
+                    e.what());
+    }
+  }
+}
+
+}  // namespace urs::bridge

@@ -1,0 +1,180 @@
+#include "urs/bridge/config.hpp"
+
+#include <fnmatch.h>
+
+#include <filesystem>
+
+#include "urs/util/cli.hpp"
+#include "urs/util/yaml_config.hpp"
+
+namespace urs::bridge {
+
+namespace {
+
+// Reads a required or optional string key of `node` into `out`.
+void read_string(const YAML::Node& node, const std::string& key, const std::string& where, bool required,
+                 std::string& out, std::vector<std::string>& errors) {
+  if (!node[key]) {
+    if (required) errors.push_back(where + "." + key + ": missing");
+    return;
+  }
+  if (util::read_scalar(node[key], where + "." + key, out, errors) && out.empty()) {
+    errors.push_back(where + "." + key + ": must not be empty");
+  }
+}
+
+void read_poll(const YAML::Node& node, const std::string& where, std::chrono::milliseconds& out,
+               std::vector<std::string>& errors) {
+  if (!node["poll_ms"]) return;
+  int ms = 0;
+  if (!util::read_scalar(node["poll_ms"], where + ".poll_ms", ms, errors)) return;
+  if (ms < 10 || ms > 60000) {
+    errors.push_back(where + ".poll_ms: " + std::to_string(ms) + " is outside 10..60000");
+    return;
+  }
+  out = std::chrono::milliseconds(ms);
+}
+
+void read_deadline(const YAML::Node& node, const std::string& where, uint32_t& out, std::vector<std::string>& errors) {
+  if (!node["deadline_ms"]) return;
+  if (util::read_scalar(node["deadline_ms"], where + ".deadline_ms", out, errors) && out == 0) {
+    errors.push_back(where + ".deadline_ms: must be > 0");
+  }
+}
+
+std::vector<std::string> read_paths(const YAML::Node& node, const std::string& where, const std::string& base,
+                                    std::vector<std::string>& errors) {
+  std::vector<std::string> paths;
+  if (!node) return paths;
+  if (!node.IsSequence()) {
+    errors.push_back(where + ": a list of paths is expected");
+    return paths;
+  }
+  for (std::size_t i = 0; i < node.size(); ++i) {
+    std::string path;
+    if (!util::read_scalar(node[i], where + "[" + std::to_string(i) + "]", path, errors)) continue;
+    std::filesystem::path p(path);
+    if (p.is_relative()) p = std::filesystem::path(base) / p;
+    if (!std::filesystem::exists(p)) {
+      errors.push_back(where + "[" + std::to_string(i) + "]: " + p.string() + " does not exist");
+      continue;
+    }
+    paths.push_back(p.lexically_normal().string());
+  }
+  return paths;
+}
+
+// The list under `key` of `section`, or an undefined node if absent; reports a non-list.
+YAML::Node list_of(const YAML::Node& section, const std::string& key, const std::string& where,
+                   std::vector<std::string>& errors) {
+  const YAML::Node list = section[key];
+  if (list && !list.IsSequence()) {
+    errors.push_back((where.empty() ? key : where + "." + key) + ": a list is expected");
+    return YAML::Node(YAML::NodeType::Undefined);
+  }
+  return list;
+}
+
+}  // namespace
+
+std::string expand(const std::string& pattern, const std::vector<std::pair<std::string, std::string>>& values) {
+  std::string out = pattern;
+  for (const auto& [name, value] : values) {
+    const std::string token = "{" + name + "}";
+    for (std::size_t at = out.find(token); at != std::string::npos; at = out.find(token, at + value.size())) {
+      out.replace(at, token.size(), value);
+    }
+  }
+  return out;
+}
+
+bool glob_match(const std::string& pattern, const std::string& text) {
+  return fnmatch(pattern.c_str(), text.c_str(), 0) == 0;
+}
+
+BridgeConfig load_bridge_config(const std::string& path, const std::string& host) {
+  const YAML::Node root = util::load_yaml_file(path, "--config");
+  if (!root.IsMap()) throw util::ConfigError("--config: '" + path + "' must be a YAML map");
+  const std::string base = std::filesystem::absolute(path).parent_path().string();
+  std::vector<std::string> errors;
+  BridgeConfig config;
+  config.name = "bridge@" + host;
+  util::check_keys(root, "", {"name", "instance", "activate", "workers", "idl", "include_dirs", "rt_to_camus",
+                              "camus_to_rt", "data_to_camus", "events_to_rt"},
+                   errors);
+  read_string(root, "name", "", false, config.name, errors);
+  read_string(root, "instance", "", false, config.instance, errors);
+  if (root["activate"]) util::read_scalar(root["activate"], "activate", config.activate, errors);
+  if (root["workers"] && util::read_scalar(root["workers"], "workers", config.workers, errors) &&
+      (config.workers == 0 || config.workers > 256)) {
+    errors.push_back("workers: " + std::to_string(config.workers) + " is outside 1..256");
+  }
+  config.idl = read_paths(root["idl"], "idl", base, errors);
+  config.include_dirs = read_paths(root["include_dirs"], "include_dirs", base, errors);
+
+  if (const YAML::Node rt = root["rt_to_camus"]) {
+    if (!rt.IsMap()) {
+      errors.push_back("rt_to_camus: a map with 'providers' is expected");
+    } else {
+      util::check_keys(rt, "rt_to_camus", {"poll_ms", "providers"}, errors);
+      read_poll(rt, "rt_to_camus", config.rt_poll, errors);
+      if (const YAML::Node list = list_of(rt, "providers", "rt_to_camus", errors)) {
+        util::for_each_map(list, "rt_to_camus.providers", "a match", {"match", "interface", "name", "deadline_ms"},
+                           errors, [&](const YAML::Node& node, const std::string& where) {
+          ProviderRule rule;
+          read_string(node, "match", where, true, rule.match, errors);
+          read_string(node, "interface", where, false, rule.interface, errors);
+          read_string(node, "name", where, false, rule.name, errors);
+          read_deadline(node, where, rule.deadline_ms, errors);
+          config.providers.push_back(std::move(rule));
+        });
+      }
+    }
+  }
+  if (const YAML::Node camus = root["camus_to_rt"]) {
+    if (!camus.IsMap()) {
+      errors.push_back("camus_to_rt: a map with 'services' is expected");
+    } else {
+      util::check_keys(camus, "camus_to_rt", {"poll_ms", "services"}, errors);
+      read_poll(camus, "camus_to_rt", config.camus_poll, errors);
+      if (const YAML::Node list = list_of(camus, "services", "camus_to_rt", errors)) {
+        util::for_each_map(list, "camus_to_rt.services", "a match", {"match", "instance", "deadline_ms"}, errors,
+                           [&](const YAML::Node& node, const std::string& where) {
+          ServiceRule rule;
+          read_string(node, "match", where, true, rule.match, errors);
+          read_string(node, "instance", where, false, rule.instance, errors);
+          read_deadline(node, where, rule.deadline_ms, errors);
+          config.services.push_back(std::move(rule));
+        });
+      }
+    }
+  }
+  if (const YAML::Node list = list_of(root, "data_to_camus", "", errors)) {
+    util::for_each_map(list, "data_to_camus", "match, port, type and topic",
+                       {"match", "port", "type", "topic", "context"}, errors,
+                       [&](const YAML::Node& node, const std::string& where) {
+      DataToCamus entry;
+      read_string(node, "match", where, true, entry.match, errors);
+      read_string(node, "port", where, true, entry.port, errors);
+      read_string(node, "type", where, true, entry.type, errors);
+      read_string(node, "topic", where, true, entry.topic, errors);
+      read_string(node, "context", where, false, entry.context, errors);
+      config.data_to_camus.push_back(std::move(entry));
+    });
+  }
+  if (const YAML::Node list = list_of(root, "events_to_rt", "", errors)) {
+    util::for_each_map(list, "events_to_rt", "topic, type, match and port", {"topic", "type", "match", "port"},
+                       errors, [&](const YAML::Node& node, const std::string& where) {
+      EventsToRt entry;
+      read_string(node, "topic", where, true, entry.topic, errors);
+      read_string(node, "type", where, true, entry.type, errors);
+      read_string(node, "match", where, true, entry.match, errors);
+      read_string(node, "port", where, true, entry.port, errors);
+      config.events_to_rt.push_back(std::move(entry));
+    });
+  }
+  util::throw_if_errors(errors, "--config '" + path + "'");
+  return config;
+}
+
+}  // namespace urs::bridge

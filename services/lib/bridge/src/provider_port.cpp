@@ -1,0 +1,70 @@
+#include "urs/bridge/provider_port.hpp"
+
+#include <set>
+
+namespace urs::bridge {
+
+std::vector<ProvidedInterface> provided_interfaces(const SDOPackage::NVList& properties) {
+  std::vector<ProvidedInterface> found;
+  std::vector<ProvidedInterface> old_style;
+  for (CORBA::ULong i = 0; i < properties.length(); ++i) {
+    const std::string key = properties[i].name.in();
+    const char* value = nullptr;
+    if (!(properties[i].value >>= value) || value == nullptr) continue;
+    const std::string ior = value;
+    if (ior.compare(0, 4, "IOR:") != 0) continue;
+    ProvidedInterface entry;
+    entry.key = key;
+    entry.ior = ior;
+    const auto port_at = key.find(".port.");
+    const auto provided_at = key.find(".provided.");
+    if (port_at != std::string::npos && provided_at != std::string::npos && port_at < provided_at) {
+      entry.component = key.substr(0, port_at);
+      entry.port = key.substr(port_at + 6, provided_at - port_at - 6);
+      const std::string rest = key.substr(provided_at + 10);  // "<type>.<name>"
+      const auto dot = rest.rfind('.');
+      if (dot == std::string::npos) continue;
+      entry.type_name = rest.substr(0, dot);
+      entry.instance_name = rest.substr(dot + 1);
+      found.push_back(std::move(entry));
+    } else if (key.compare(0, 5, "port.") == 0) {
+      const std::string rest = key.substr(5);
+      const auto dot = rest.rfind('.');
+      if (dot == std::string::npos) continue;
+      entry.type_name = rest.substr(0, dot);
+      entry.instance_name = rest.substr(dot + 1);
+      old_style.push_back(std::move(entry));
+    }
+  }
+  std::set<std::string> seen;
+  for (const auto& entry : found) seen.insert(entry.ior);
+  for (auto& entry : old_style) {
+    if (seen.insert(entry.ior).second) found.push_back(std::move(entry));
+  }
+  return found;
+}
+
+ProviderPort::ProviderPort(std::string name) : PortBase(std::move(name), "CorbaPort") {}
+
+ProviderPort::~ProviderPort() = default;
+
+std::map<std::string, std::vector<ProvidedInterface>> ProviderPort::connections() const {
+  std::lock_guard lock(mutex_);
+  return connections_;
+}
+
+RTC::ReturnCode_t ProviderPort::publish_interfaces(RTC::ConnectorProfile&) { return RTC::RTC_OK; }
+
+RTC::ReturnCode_t ProviderPort::subscribe_interfaces(const RTC::ConnectorProfile& profile) {
+  auto interfaces = provided_interfaces(profile.properties);
+  std::lock_guard lock(mutex_);
+  connections_[profile.connector_id.in()] = std::move(interfaces);
+  return RTC::RTC_OK;
+}
+
+void ProviderPort::unsubscribe_interfaces(const RTC::ConnectorProfile& profile) {
+  std::lock_guard lock(mutex_);
+  connections_.erase(profile.connector_id.in());
+}
+
+}  // namespace urs::bridge
