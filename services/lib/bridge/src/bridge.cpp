@@ -583,7 +583,8 @@ void Bridge::reconcile_exports() {
       try {
         CORBA::Object_var target = orb_.string_to_object(provided.ior);
         auto proxy = std::make_shared<corba_agent::CorbaProxyAgent>(
-            orb_.orb(), target, *interface, corba_agent::CorbaProxyOptions{std::chrono::milliseconds(rule.deadline_ms)});
+            orb_.orb(), target, *interface, corba_agent::CorbaProxyOptions{std::chrono::milliseconds(rule.deadline_ms),
+                                                                  std::chrono::milliseconds(rule.deadline_ms)});
         agent::HostedService hosted{name, proxy,
                                     {{kOrigin, "rtc:" + path + ":" + provided.port},
                                      {"urslink.bridge", config_.name},
@@ -668,6 +669,7 @@ void Bridge::poll_camus() {
   std::map<std::string, const ServiceRule*> wanted;
   for (const auto& info : reply.services()) {
     if (info.state() != "available" || info.owner() == config_.name) continue;
+    if (info.name().compare(0, 6, "camus.") == 0) continue;  // the server's own built-in services
     if (info.properties().count(kOrigin)) continue;  // a bridged service: never bridged again
     for (const auto& rule : config_.services) {
       if (glob_match(rule.match, info.name())) {

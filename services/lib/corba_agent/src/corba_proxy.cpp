@@ -180,9 +180,10 @@ agent::Outcome CorbaProxyAgent::invoke(const gp::MethodDescriptor& method, const
   const Call& call = *found->second;
 
   const auto now = std::chrono::steady_clock::now();
-  const auto timeout = ctx.deadline == std::chrono::steady_clock::time_point::max()
-                           ? options_.default_deadline
-                           : std::chrono::ceil<std::chrono::milliseconds>(ctx.deadline - now);
+  auto timeout = ctx.deadline == std::chrono::steady_clock::time_point::max()
+                     ? options_.default_deadline
+                     : std::chrono::ceil<std::chrono::milliseconds>(ctx.deadline - now);
+  if (options_.max_deadline.count() > 0) timeout = std::min(timeout, options_.max_deadline);
   if (timeout.count() <= 0) {
     return agent::Outcome::error(planet::DEADLINE_EXCEEDED, "deadline passed before " + call.operation + " was sent");
   }

@@ -26,6 +26,9 @@ namespace urs::corba_agent {
 struct CorbaProxyOptions {
   // Bound on a call whose caller set no deadline (CallContext::deadline is the maximum).
   std::chrono::milliseconds default_deadline{10000};
+  // When > 0, no call waits on the target longer than this, whatever the caller's deadline (a
+  // per-service bound from configuration); past it the caller gets DEADLINE_EXCEEDED.
+  std::chrono::milliseconds max_deadline{0};
 };
 
 class CorbaProxyAgent : public agent::ServiceAgent {
