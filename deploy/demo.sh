@@ -4,7 +4,9 @@
 #   CLI: list, call, an exception, a deadline, an event, context, a task, and a server crash with
 #   the SAM re-registering by itself;
 # - an RT space (omniNames + urs-rtc-manager) driven with `urs rtc`: the connector wiring a
-#   service port by itself, lifecycle, a data port in big-endian CDR.
+#   service port by itself, lifecycle, a data port in big-endian CDR;
+# - urs-bridge linking the two: the Diagnostic RTC called from CAMUS, the SAM's agent as an RTC, a
+#   data port feeding CAMUS context, and deactivation withdrawing it all.
 # Everything runs on 127.0.0.1; logs go to $URS_DEMO_DIR.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
@@ -94,4 +96,27 @@ rtc act "$h/Sink0.rtc" "$h/Counter0.rtc"
 sleep 0.5
 rtc deact "$h/Counter0.rtc" "$h/Sink0.rtc"
 grep -oE 'Sink0: received [0-9]+ counts' "$work/rtc-manager.log"
+
+step "the bridge links both worlds: urs-bridge (services/bridge/example.yaml)"
+"$bin/bridge/urs-bridge" --space demo --server "127.0.0.1:$(cat "$work/port")" --token-file "$work/token" \
+  --naming "127.0.0.1:$naming_port" --host demo-host --config "$root/services/bridge/example.yaml" \
+  --ready-file "$work/bridge.ready" >>"$work/bridge.log" 2>&1 &
+pids+=("$!")
+for _ in $(seq 200); do urs --timeout-ms 500 ls rt.Diagnostic0 2>/dev/null | grep -q '^rt\.Diagnostic0 ' && break; sleep 0.05; done
+urs ls
+step "a CAMUS client calls the Diagnostic RTC through the bridge, exception included"
+urs call rt.Diagnostic0 echo '{"text":"hello RT, from CAMUS"}'
+urs call rt.Diagnostic0 fail '{"reason":"wheel stuck","code":3}' || true
+step "the SAM's diag is an RTC for RT consumers; a Counter's data port feeds CAMUS context"
+for _ in $(seq 100); do rtc ls | grep -q camus_diag && break; sleep 0.05; done
+rtc ls -l "$h/camus_diag.rtc"
+rtc act "$h/Counter0.rtc"
+sleep 0.3
+urs context get counter.count
+rtc deact "$h/Counter0.rtc"
+step "deactivating the bridge RTC withdraws both directions"
+rtc deact "$h/Bridge0.rtc"
+for _ in $(seq 100); do urs --timeout-ms 500 ls rt.Diagnostic0 2>/dev/null | grep -q '^rt\.Diagnostic0 ' || break; sleep 0.05; done
+urs ls 'rt.*'
+rtc ls | grep -c camus_diag || true
 step "done; logs in $work"
