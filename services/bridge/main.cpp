@@ -20,8 +20,8 @@
 int main(int argc, char** argv) {
   CLI::App app{"urs-bridge: makes RT-Components and CAMUS services usable from each other"};
   std::string space;
-  std::string server = "127.0.0.1:7600";
-  std::string naming = "127.0.0.1:2809";
+  std::string server;
+  std::string naming;
   std::string config_path;
   std::string host;
   std::string listen;
@@ -30,8 +30,8 @@ int main(int argc, char** argv) {
   int call_timeout_ms = 10000;
   std::string log_level = "info";
   app.add_option("--space", space, "Name of the space the bridge belongs to")->required();
-  app.add_option("--server", server, "CAMUS server HOST:PORT")->capture_default_str();
-  app.add_option("--naming", naming, "Naming service HOST:PORT (omniNames)")->capture_default_str();
+  app.add_option("--server", server, "CAMUS server HOST:PORT (none: a space without CAMUS)");
+  app.add_option("--naming", naming, "Naming service HOST:PORT, omniNames (none: a space without RT side)");
   app.add_option("--config", config_path, "YAML file saying what to bridge")->required();
   app.add_option("--host", host, "Naming context <host>.host_cxt (default: this machine's host name)");
   app.add_option("--listen", listen, "HOST:PORT for the bridge's object references (default: any, ephemeral)");
@@ -44,16 +44,20 @@ int main(int argc, char** argv) {
 
   urs::util::block_shutdown_signals();
   urs::bridge::BridgeConfig config;
-  urs::planet::ClientOptions planet;
+  std::optional<urs::planet::ClientOptions> planet;
   urs::rtc::OrbOptions orb_options;
   std::unique_ptr<urs::bridge::InterfaceCatalog> catalog;
   try {
     urs::util::init_logging("urs-bridge", log_level);
-    const auto endpoint = urs::util::parse_endpoint(server, "--server");
-    planet.host = endpoint.host;
-    planet.port = endpoint.port;
-    planet.token = urs::util::read_token_file(token_file);
-    urs::util::parse_endpoint(naming, "--naming");
+    if (server.empty() && naming.empty()) throw urs::util::ConfigError("give --server, --naming or both");
+    if (!server.empty()) {
+      const auto endpoint = urs::util::parse_endpoint(server, "--server");
+      planet.emplace();
+      planet->host = endpoint.host;
+      planet->port = endpoint.port;
+      planet->token = urs::util::read_token_file(token_file);
+    }
+    if (!naming.empty()) urs::util::parse_endpoint(naming, "--naming");
     if (!listen.empty()) orb_options.endpoint = urs::rtc::endpoint_from_address(listen, "--listen");
     if (call_timeout_ms < 0) throw urs::util::ConfigError("--call-timeout-ms: must be >= 0");
     orb_options.call_timeout = std::chrono::milliseconds(call_timeout_ms);
@@ -70,20 +74,25 @@ int main(int argc, char** argv) {
   }
 
   urs::rtc::Orb orb(orb_options);
-  urs::rtc::NamingClient naming_client(orb, naming);
-  urs::rtc::Manager manager(orb, naming_client, {space, host, 10.0});
+  std::unique_ptr<urs::rtc::NamingClient> naming_client;
+  std::unique_ptr<urs::rtc::Manager> manager;
+  if (!naming.empty()) {
+    naming_client = std::make_unique<urs::rtc::NamingClient>(orb, naming);
+    manager = std::make_unique<urs::rtc::Manager>(orb, *naming_client, urs::rtc::ManagerOptions{space, host, 10.0});
+  }
   std::unique_ptr<urs::bridge::Bridge> bridge;
   try {
-    bridge = std::make_unique<urs::bridge::Bridge>(orb, naming_client, manager, *catalog, config, planet);
+    bridge = std::make_unique<urs::bridge::Bridge>(orb, naming_client.get(), manager.get(), *catalog, config, planet);
   } catch (const urs::util::ConfigError& e) {
     fmt::print(stderr, "urs-bridge: {}: {}\n", config_path, e.what());
     return 2;
   }
   try {
-    auto& component = bridge->start();
-    if (!ready_file.empty()) urs::util::write_file_atomically(ready_file, manager.naming_path(component) + "\n");
-    spdlog::info("bridge {} bound at {} (space {}, CAMUS server {}, naming service {})", config.name,
-                 manager.naming_path(component), space, server, naming);
+    auto* component = bridge->start();
+    const std::string where = component ? manager->naming_path(*component) : "(no naming service)";
+    if (!ready_file.empty()) urs::util::write_file_atomically(ready_file, where + "\n");
+    spdlog::info("bridge {} at {} (space {}, CAMUS server {}, naming service {})", config.name, where, space,
+                 server.empty() ? "none" : server, naming.empty() ? "none" : naming);
   } catch (const std::exception& e) {
     fmt::print(stderr, "urs-bridge: {}\n", e.what());
     return 1;
@@ -92,6 +101,6 @@ int main(int argc, char** argv) {
   const int signal_number = urs::util::wait_for_shutdown();
   spdlog::info("signal {}: withdrawing everything bridged", signal_number);
   bridge->shutdown();
-  manager.shutdown();
+  if (manager) manager->shutdown();
   return 0;
 }

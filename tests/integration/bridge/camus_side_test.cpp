@@ -282,15 +282,19 @@ TEST_F(BridgeCamusSide, AnRtOutPortFeedsEventsAndContext) {
                "    type: RTC.TimedLong\n"
                "    topic: counter/count\n"
                "    context: counter.count\n");
-  std::mutex mutex;
-  std::vector<planet::Event> events;
-  planet_->subscribe("counter/#", [&](const planet::Event& event) {
-    std::lock_guard lock(mutex);
-    events.push_back(event);
+  // Shared with the handler, which runs on the client's thread until the client is stopped.
+  struct Received {
+    std::mutex mutex;
+    std::vector<planet::Event> events;
+  };
+  auto received = std::make_shared<Received>();
+  planet_->subscribe("counter/#", [received](const planet::Event& event) {
+    std::lock_guard lock(received->mutex);
+    received->events.push_back(event);
   });
   ASSERT_TRUE(wait_until([&] {
-    std::lock_guard lock(mutex);
-    return events.size() >= 20;
+    std::lock_guard lock(received->mutex);
+    return received->events.size() >= 20;
   }, 15s)) << bridge_->log();
   // Values arrive in order, each a TimedLong as the Counter wrote it (data +1 per execution).
   const schema::IdlLoad types = schema::load_idl(std::string(URS_RTC_IDL_DIR) + "/BasicDataType.idl");
@@ -299,7 +303,11 @@ TEST_F(BridgeCamusSide, AnRtOutPortFeedsEventsAndContext) {
   ASSERT_EQ(pool.add_descriptor_set(types.descriptor_set), "");
   const gp::Descriptor* timed_long = pool.find_message("RTC.TimedLong");
   ASSERT_NE(timed_long, nullptr);
-  std::lock_guard lock(mutex);
+  std::vector<planet::Event> events;
+  {
+    std::lock_guard lock(received->mutex);
+    events = received->events;
+  }
   int64_t previous = -1;
   for (const auto& event : events) {
     EXPECT_EQ(event.content_type(), "RTC.TimedLong");

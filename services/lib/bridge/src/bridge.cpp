@@ -126,13 +126,25 @@ class Bridge::Component : public rtc::Component {
 
 // ---- one activation: the Planet session and what it carries ------------------------------------
 
+// Where proxies' events go when the bridge has no CAMUS server.
+class NoEvents : public agent::EventSink {
+ public:
+  planet::CallResult publish(const std::string& topic, const gp::Message&) override {
+    return planet::CallResult::error(planet::UNAVAILABLE, "no CAMUS server: event on " + topic + " not published");
+  }
+};
+
 class Bridge::Session {
  public:
-  Session(const BridgeConfig& config, const planet::ClientOptions& options)
-      : client(options), sink(client), host(config.workers, sink, &factory_with_delegation()) {}
+  // Without Planet options (a space with no CAMUS server) the session has no client.
+  Session(const BridgeConfig& config, const std::optional<planet::ClientOptions>& options)
+      : client(options ? std::make_unique<planet::Client>(*options) : nullptr),
+        sink(client ? std::unique_ptr<agent::EventSink>(std::make_unique<agent::ClientEventSink>(*client))
+                    : std::make_unique<NoEvents>()),
+        host(config.workers, *sink, &factory_with_delegation()) {}
 
-  planet::Client client;
-  agent::ClientEventSink sink;
+  std::unique_ptr<planet::Client> client;
+  std::unique_ptr<agent::EventSink> sink;
 
  private:
   gp::DynamicMessageFactory factory_;
@@ -153,6 +165,9 @@ class Bridge::Session {
   std::map<std::string, Import> imports;                    // by CAMUS service
   std::map<std::string, Clock::time_point> import_retry;   // services whose import failed
   std::vector<uint64_t> subscriptions;
+  // Writes events to RT InPorts one at a time, in order, off the Planet client's thread, so a
+  // slow InPort (flush: each write waits for the peer) never holds up the session.
+  agent::WorkerPool event_writer{1};
   std::atomic<uint64_t> data_dropped{0};
 };
 
@@ -178,13 +193,20 @@ struct Bridge::Known {
 
 // ---- the bridge ------------------------------------------------------------------------------
 
-Bridge::Bridge(rtc::Orb& orb, rtc::NamingClient& naming, rtc::Manager& manager, const InterfaceCatalog& catalog,
-               BridgeConfig config, planet::ClientOptions planet)
+Bridge::Bridge(rtc::Orb& orb, rtc::NamingClient* naming, rtc::Manager* manager, const InterfaceCatalog& catalog,
+               BridgeConfig config, std::optional<planet::ClientOptions> planet)
     : orb_(orb), naming_(naming), manager_(manager), catalog_(catalog), config_(std::move(config)),
       planet_(std::move(planet)) {
-  planet_.peer_name = config_.name;
-  planet_.role = planet::SAM;
+  if ((naming_ == nullptr) != (manager_ == nullptr)) throw std::logic_error("bridge: naming client without manager");
+  if (planet_) {
+    planet_->peer_name = config_.name;
+    planet_->role = planet::SAM;
+  }
   std::vector<std::string> errors;
+  if (!manager_ && !config_.data_to_camus.empty()) errors.push_back("data_to_camus: needs a naming service (--naming)");
+  if (!manager_ && !config_.events_to_rt.empty()) errors.push_back("events_to_rt: needs a naming service (--naming)");
+  if (!planet_ && !config_.events_to_rt.empty()) errors.push_back("events_to_rt: needs a CAMUS server (--server)");
+  if (!planet_ && !config_.data_to_camus.empty()) errors.push_back("data_to_camus: needs a CAMUS server (--server)");
   auto check_type = [&](const std::string& type, const std::string& where) {
     const gp::Descriptor* found = catalog_.find_message(type);
     if (found == nullptr) {
@@ -204,17 +226,22 @@ Bridge::Bridge(rtc::Orb& orb, rtc::NamingClient& naming, rtc::Manager& manager, 
 
 Bridge::~Bridge() { shutdown(); }
 
-rtc::Component& Bridge::start() {
+rtc::Component* Bridge::start() {
+  if (!manager_) {  // no RT side: no RTC, so no lifecycle to follow; active from the start
+    thread_ = std::thread([this] { run(); });
+    request_active(true);
+    return nullptr;
+  }
   rtc::ComponentSpec spec;
   spec.type = "Bridge";
   spec.instance_name = config_.instance;
   spec.properties = {{"urslink.bridge", config_.name}};
-  rtc::Component& created = manager_.create(spec, [this](const YAML::Node&, const rtc::ComponentEnv&) {
+  rtc::Component& created = manager_->create(spec, [this](const YAML::Node&, const rtc::ComponentEnv&) {
     auto component = std::make_unique<Component>(*this);
     component_ = component.get();
     return component;
   });
-  own_path_ = manager_.naming_path(created);
+  own_path_ = manager_->naming_path(created);
   thread_ = std::thread([this] { run(); });
   if (config_.activate) {
     RTC::RTObject_var self = created.reference();
@@ -224,7 +251,7 @@ rtc::Component& Bridge::start() {
       throw std::runtime_error(own_path_ + ": activation returned " + rtc::return_code_name(result));
     }
   }
-  return created;
+  return &created;
 }
 
 void Bridge::shutdown() {
@@ -301,13 +328,28 @@ void Bridge::run() {
 
 void Bridge::open_session() {
   auto session = std::make_shared<Session>(config_, planet_);
-  session->client.set_request_handler([s = session.get()](const planet::Request& request, planet::Responder responder) {
-    s->host.dispatch(request, "", std::move(responder));
+  if (session->client) open_planet(*session);
+  session->host.start();
+  {
+    std::lock_guard lock(mutex_);
+    session_ = session;
+  }
+  if (planet_) {
+    spdlog::info("bridge {}: active (CAMUS server {}:{})", config_.name, planet_->host, planet_->port);
+  } else {
+    spdlog::info("bridge {}: active (no CAMUS server)", config_.name);
+  }
+}
+
+void Bridge::open_planet(Session& s) {
+  Session* session = &s;
+  session->client->set_request_handler([session](const planet::Request& request, planet::Responder responder) {
+    session->host.dispatch(request, "", std::move(responder));
   });
-  session->client.on_connected([this](const planet::Welcome& welcome) {
+  session->client->on_connected([this](const planet::Welcome& welcome) {
     spdlog::info("bridge {}: connected to the CAMUS server of space {}", config_.name, welcome.space());
   });
-  session->client.on_disconnected([this](const std::string& reason) {
+  session->client->on_disconnected([this](const std::string& reason) {
     spdlog::warn("bridge {}: lost the CAMUS server: {}; reconnecting", config_.name, reason);
   });
   for (std::size_t i = 0; i < config_.events_to_rt.size(); ++i) {
@@ -316,34 +358,37 @@ void Bridge::open_session() {
     auto* port = &component_->out_port(i);
     auto factory = std::make_shared<gp::DynamicMessageFactory>();
     factory->SetDelegateToGeneratedFactory(true);
-    session->subscriptions.push_back(session->client.subscribe(entry.topic, [this, type, port, factory, entry](
+    session->subscriptions.push_back(session->client->subscribe(entry.topic, [session, type, port, factory](
                                                                               const planet::Event& event) {
       if (event.content_type() != type->full_name()) {
         spdlog::debug("bridge: event on {} is a {}, not {}; not sent to {}", event.topic(), event.content_type(),
                       type->full_name(), port->name());
         return;
       }
-      std::unique_ptr<gp::Message> value(factory->GetPrototype(type)->New());
+      std::shared_ptr<gp::Message> value(factory->GetPrototype(type)->New());
       if (!value->ParseFromString(event.payload())) {
         spdlog::warn("bridge: event {} on {} is not a valid {}; not sent to {}", event.seq(), event.topic(),
                      type->full_name(), port->name());
         return;
       }
-      try {
-        port->write(*value);
-      } catch (const std::exception& e) {
-        spdlog::warn("bridge: event {} on {} cannot go out through {}: {}", event.seq(), event.topic(), port->name(),
-                     e.what());
-      }
+      session->event_writer.post([port, value, seq = event.seq(), topic = event.topic()](bool cancelled) {
+        if (cancelled) {
+          spdlog::warn("bridge: deactivated before event {} on {} went out through {}", seq, topic, port->name());
+          return;
+        }
+        try {
+          const auto result = port->write(*value);
+          if (result.refused > 0) {
+            spdlog::warn("bridge: event {} on {}: {} InPort(s) of {} refused it", seq, topic, result.refused,
+                         port->name());
+          }
+        } catch (const std::exception& e) {
+          spdlog::warn("bridge: event {} on {} cannot go out through {}: {}", seq, topic, port->name(), e.what());
+        }
+      });
     }));
   }
-  session->client.start();
-  session->host.start();
-  {
-    std::lock_guard lock(mutex_);
-    session_ = session;
-  }
-  spdlog::info("bridge {}: active (server {}:{})", config_.name, planet_.host, planet_.port);
+  session->client->start();
 }
 
 void Bridge::close_session() {
@@ -354,12 +399,15 @@ void Bridge::close_session() {
   }
   for (auto& [service, import] : session->imports) {
     spdlog::info("bridge: withdrawing {} (stood for CAMUS service {})", import.path, service);
-    manager_.destroy(*import.component);
+    manager_->destroy(*import.component);
   }
-  for (const auto& [key, name] : session->exports) session->client.unregister_service(name);
-  for (uint64_t id : session->subscriptions) session->client.unsubscribe(id);
+  if (session->client) {
+    for (const auto& [key, name] : session->exports) session->client->unregister_service(name);
+    for (uint64_t id : session->subscriptions) session->client->unsubscribe(id);
+  }
   session->host.stop();
-  session->client.stop();
+  if (session->client) session->client->stop();
+  session->event_writer.stop();
   spdlog::info("bridge {}: inactive; {} export(s) and {} import(s) withdrawn", config_.name, session->exports.size(),
                session->imports.size());
 }
@@ -367,6 +415,7 @@ void Bridge::close_session() {
 // ---- RT side ---------------------------------------------------------------------------------
 
 void Bridge::poll_rt() {
+  if (!manager_) return;
   // 1. What the naming service holds now (only components some rule may concern).
   auto concerned = [this](const std::string& path) {
     if (path == own_path_) return false;
@@ -383,13 +432,13 @@ void Bridge::poll_rt() {
   };
   std::map<std::string, std::string> bound;  // path -> IOR
   try {
-    for (const auto& entry : naming_.list_objects("")) {
+    for (const auto& entry : naming_->list_objects("")) {
       if (entry.kind != "rtc" || !concerned(entry.path)) continue;
-      CORBA::Object_var object = naming_.try_resolve(entry.path);
+      CORBA::Object_var object = naming_->try_resolve(entry.path);
       if (!CORBA::is_nil(object)) bound[entry.path] = orb_.object_to_string(object);
     }
   } catch (const std::exception& e) {
-    if (warned_.insert("naming").second) spdlog::warn("bridge: naming service {}: {}", naming_.address(), e.what());
+    if (warned_.insert("naming").second) spdlog::warn("bridge: naming service {}: {}", naming_->address(), e.what());
     return;
   }
   warned_.erase("naming");
@@ -537,7 +586,7 @@ void Bridge::poll_rt() {
         const auto& entry = config_.events_to_rt[i];
         connect_data("DataInPort", entry.match, entry.port, component_->out_port(i),
                      "events_to_rt[" + std::to_string(i) + "]", true,
-                     properties({{"dataport.subscription_type", "new"}}));
+                     properties({}));
       }
     }
   }
@@ -591,7 +640,7 @@ void Bridge::reconcile_exports() {
                                      {"rtc.type_name", provided.type_name}},
                                     rule.deadline_ms};
         session->host.add(hosted);
-        session->client.register_service(session->host.registration(hosted), [name, path](planet::CallResult result) {
+        if (session->client) session->client->register_service(session->host.registration(hosted), [name, path](planet::CallResult result) {
           if (result.ok()) {
             spdlog::info("bridge: {} offered to CAMUS as {}", path, name);
           } else {
@@ -612,7 +661,7 @@ void Bridge::reconcile_exports() {
       continue;
     }
     spdlog::info("bridge: withdrawing {} from CAMUS (its provider is disconnected)", it->second);
-    session->client.unregister_service(it->second);
+    if (session->client) session->client->unregister_service(it->second);
     session->host.remove(it->second);
     std::lock_guard lock(mutex_);
     it = session->exports.erase(it);
@@ -626,11 +675,11 @@ void Bridge::on_data(std::size_t entry, const gp::Message& value) {
     session = session_;
   }
   const DataToCamus& config = config_.data_to_camus[entry];
-  if (!session) {
+  if (!session || !session->client) {
     spdlog::debug("bridge: inactive; a value for {} is not forwarded", config.topic);
     return;
   }
-  const auto published = session->client.publish(config.topic, value.SerializeAsString(), value.GetTypeName());
+  const auto published = session->client->publish(config.topic, value.SerializeAsString(), value.GetTypeName());
   if (!published.ok()) {
     spdlog::warn("bridge: value for {} not published: {}", config.topic, published.message);
   }
@@ -645,7 +694,7 @@ void Bridge::on_data(std::size_t entry, const gp::Message& value) {
     spdlog::warn("bridge: value for context {} cannot be converted: {}", config.context, error);
     return;
   }
-  session->client.call_async("camus.context", "Set", request.SerializeAsString(), kCamusTimeout,
+  session->client->call_async("camus.context", "Set", request.SerializeAsString(), kCamusTimeout,
                              [key = config.context](planet::CallResult result) {
                                if (!result.ok()) spdlog::warn("bridge: context {} not set: {}", key, result.message);
                              });
@@ -654,10 +703,10 @@ void Bridge::on_data(std::size_t entry, const gp::Message& value) {
 // ---- CAMUS side ------------------------------------------------------------------------------
 
 void Bridge::poll_camus() {
-  if (config_.services.empty()) return;
   auto session = session_;
+  if (config_.services.empty() || !session->client || !manager_) return;
   camus::ListRequest request;
-  const auto result = session->client.call("camus.registry", "List", request.SerializeAsString(), kCamusTimeout);
+  const auto result = session->client->call("camus.registry", "List", request.SerializeAsString(), kCamusTimeout);
   camus::ListReply reply;
   if (!result.ok() || !reply.ParseFromString(result.payload)) {
     if (warned_.insert("registry").second) {
@@ -684,7 +733,7 @@ void Bridge::poll_camus() {
       continue;
     }
     spdlog::info("bridge: CAMUS service {} is gone; withdrawing {}", it->first, it->second.path);
-    manager_.destroy(*it->second.component);
+    manager_->destroy(*it->second.component);
     std::lock_guard lock(mutex_);
     it = session->imports.erase(it);
   }
@@ -694,7 +743,7 @@ void Bridge::poll_camus() {
     auto retry = session->import_retry.find(service);
     if (retry != session->import_retry.end() && now < retry->second) continue;
     std::string error;
-    const gp::ServiceDescriptor* interface = describe_service(session->client, service, session->remote, kCamusTimeout, error);
+    const gp::ServiceDescriptor* interface = describe_service(*session->client, service, session->remote, kCamusTimeout, error);
     const std::string instance = sanitize(expand(rule->instance, {{"service", service}}));
     try {
       if (interface == nullptr) throw std::runtime_error(error);
@@ -704,18 +753,18 @@ void Bridge::poll_camus() {
       spec.properties = {{kOrigin, "camus:" + service}, {"urslink.bridge", config_.name}};
       Session* s = session.get();
       const uint32_t deadline_ms = rule->deadline_ms;
-      rtc::Component& created = manager_.create(spec, [s, service, interface, deadline_ms](const YAML::Node&,
+      rtc::Component& created = manager_->create(spec, [s, service, interface, deadline_ms](const YAML::Node&,
                                                                                           const rtc::ComponentEnv&) {
         corba_agent::AgentComponentConfig settings;
         settings.type_name = "CamusService";
         settings.deadline = std::chrono::milliseconds(deadline_ms);
         return std::make_unique<corba_agent::AgentComponent>(
-            settings, std::make_shared<PlanetProxyAgent>(s->client, service, *interface));
+            settings, std::make_shared<PlanetProxyAgent>(*s->client, service, *interface));
       });
       std::lock_guard lock(mutex_);
-      session->imports[service] = {&created, manager_.naming_path(created)};
+      session->imports[service] = {&created, manager_->naming_path(created)};
       session->import_retry.erase(service);
-      spdlog::info("bridge: CAMUS service {} offered to RT consumers as {}", service, manager_.naming_path(created));
+      spdlog::info("bridge: CAMUS service {} offered to RT consumers as {}", service, manager_->naming_path(created));
     } catch (const std::exception& e) {
       session->import_retry[service] = now + std::chrono::seconds(10);
       spdlog::error("bridge: cannot offer CAMUS service {} as RTC {}: {} (trying again in 10 s)", service, instance,

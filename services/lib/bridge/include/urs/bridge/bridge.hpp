@@ -23,6 +23,7 @@
 #include <condition_variable>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <set>
 #include <string>
 #include <thread>
@@ -46,16 +47,20 @@ struct BridgeStatus {
 class Bridge {
  public:
   // `orb`, `naming`, `manager` and `catalog` outlive the bridge. `planet` is the session's client
-  // options (address, token); its peer name and role are set from the configuration.
-  Bridge(rtc::Orb& orb, rtc::NamingClient& naming, rtc::Manager& manager, const InterfaceCatalog& catalog,
-         BridgeConfig config, planet::ClientOptions planet);
+  // options (address, token); its peer name and role are set from the configuration. A space
+  // without a naming service passes null `naming` and `manager` (no RT side, no bridge RTC: the
+  // bridge is active from start()); one without a CAMUS server passes no `planet`. Throws
+  // urs::util::ConfigError for configuration the sides given cannot serve.
+  Bridge(rtc::Orb& orb, rtc::NamingClient* naming, rtc::Manager* manager, const InterfaceCatalog& catalog,
+         BridgeConfig config, std::optional<planet::ClientOptions> planet);
   ~Bridge();  // shutdown()
   Bridge(const Bridge&) = delete;
   Bridge& operator=(const Bridge&) = delete;
 
   // Creates the bridge RTC through the manager (bound as <host>.host_cxt/<instance>.rtc) and starts
   // the bridge's thread; activates the RTC if the configuration says so. Throws on failure.
-  rtc::Component& start();
+  // Returns the RTC (nullptr without an RT side).
+  rtc::Component* start();
   // Closes the session (withdrawing everything) and stops the thread. Idempotent.
   void shutdown();
 
@@ -69,6 +74,7 @@ class Bridge {
   void request_active(bool active);  // from the RTC's lifecycle hooks
   void run();
   void open_session();
+  void open_planet(Session& session);
   void close_session();
   void poll_rt();
   void poll_camus();
@@ -76,11 +82,11 @@ class Bridge {
   void on_data(std::size_t entry, const google::protobuf::Message& value);
 
   rtc::Orb& orb_;
-  rtc::NamingClient& naming_;
-  rtc::Manager& manager_;
+  rtc::NamingClient* naming_;
+  rtc::Manager* manager_;
   const InterfaceCatalog& catalog_;
   const BridgeConfig config_;
-  planet::ClientOptions planet_;
+  std::optional<planet::ClientOptions> planet_;
   std::string own_path_;
 
   Component* component_ = nullptr;
