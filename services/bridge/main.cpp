@@ -62,6 +62,7 @@ int main(int argc, char** argv) {
     if (call_timeout_ms < 0) throw urs::util::ConfigError("--call-timeout-ms: must be >= 0");
     orb_options.call_timeout = std::chrono::milliseconds(call_timeout_ms);
     config = urs::bridge::load_bridge_config(config_path, host.empty() ? urs::util::host_name() : host);
+    config.space = space;
     catalog = std::make_unique<urs::bridge::InterfaceCatalog>();
     for (const auto& idl : config.idl) {
       for (const auto& loaded : catalog->load_idl(idl, config.include_dirs)) {

@@ -15,8 +15,8 @@ std::string service_name_problem(const std::string& name) {
   if (name.size() > 200) return "it is longer than 200 characters";
   for (char c : name) {
     bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '.' ||
-              c == '_' || c == '-' || c == '@' || c == ':';
-    if (!ok) return std::string("character '") + c + "' is not allowed (use letters, digits and . _ - @ :)";
+              c == '_' || c == '-' || c == '@' || c == ':' || c == '/';
+    if (!ok) return std::string("character '") + c + "' is not allowed (use letters, digits and . _ - @ : /)";
   }
   return {};
 }

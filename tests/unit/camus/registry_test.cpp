@@ -110,7 +110,7 @@ TEST_F(RegistryTest, OnlySamSessionsRegister) {
 TEST_F(RegistryTest, BadRegistrationsAreRefusedPrecisely) {
   auto bad_name = navigation_registration("robot 1");
   EXPECT_EQ(registry.register_service(sam1, bad_name).message(),
-            "service name 'robot 1' is not valid: character ' ' is not allowed (use letters, digits and . _ - @ :)");
+            "service name 'robot 1' is not valid: character ' ' is not allowed (use letters, digits and . _ - @ : /)");
   EXPECT_EQ(registry.register_service(sam1, navigation_registration("camus.mine")).message(),
             "service name 'camus.mine' is not valid: names starting with 'camus.' are reserved for the server");
   auto garbage = navigation_registration("robot1.nav");

@@ -11,6 +11,7 @@
 #include "urs/agent/agent.hpp"
 #include "urs/agent/client_sink.hpp"
 #include "urs/bridge/planet_proxy_agent.hpp"
+#include "urs/bridge/dds_link.hpp"
 #include "urs/bridge/provider_port.hpp"
 #include "urs/corba_agent/agent_component.hpp"
 #include "urs/corba_agent/corba_proxy.hpp"
@@ -168,7 +169,25 @@ class Bridge::Session {
   // Writes events to RT InPorts one at a time, in order, off the Planet client's thread, so a
   // slow InPort (flush: each write waits for the peer) never holds up the session.
   agent::WorkerPool event_writer{1};
-  std::atomic<uint64_t> data_dropped{0};
+
+  // ---- between spaces (DDS) ----
+  std::map<std::string, camus::ServiceInfo> camus_native;  // this space's own CAMUS services, last listed
+  std::map<std::string, std::string> described;           // CAMUS service -> its descriptor set
+  std::map<std::string, ServiceEntry> announced;            // what this space offers the others
+  Clock::time_point announced_at;
+  std::mutex served_mutex;                                  // read by DDS threads
+  std::map<std::string, bool> served;                       // exported name -> proxied on `host` (else CAMUS)
+  struct Remote {
+    std::string interface_name;
+    std::string descriptor_set;
+    std::string camus_name;                // "" if not offered on CAMUS
+    rtc::Component* component = nullptr;  // nullptr if not in the naming service
+    std::string path;
+  };
+  std::map<std::string, Remote> remotes;  // by "<space>/<service>"
+  std::map<std::string, std::unique_ptr<schema::SchemaPool>> space_pools;
+  std::vector<std::unique_ptr<schema::SchemaPool>> extra_pools;  // descriptions that clash within a space
+  std::unique_ptr<DdsLink> dds;  // last: destroyed first, so no DDS thread outlives what it uses
 };
 
 // ---- a component found in the naming service -------------------------------------------------
@@ -272,6 +291,7 @@ BridgeStatus Bridge::status() const {
   if (session_) {
     for (const auto& [key, name] : session_->exports) status.exported.push_back(name);
     for (const auto& [service, import] : session_->imports) status.imported.push_back(import.path);
+    for (const auto& [key, remote] : session_->remotes) status.remote.push_back(key);
   }
   return status;
 }
@@ -294,7 +314,7 @@ void Bridge::run() {
       auto changed = [&] { return stopping_ || want_active_ != (session_ != nullptr); };
       if (session_) {
         const auto next = std::min(next_rt, next_camus);
-        wake_.wait_until(lock, next, [&] { return changed() || Clock::now() >= next; });
+        wake_.wait_until(lock, next, [&] { return changed() || remote_pending_.load() || Clock::now() >= next; });
       } else {
         wake_.wait(lock, changed);
       }
@@ -319,6 +339,7 @@ void Bridge::run() {
         poll_camus();
         next_camus = Clock::now() + config_.camus_poll;
       }
+      poll_dds();
     } catch (const std::exception& e) {
       spdlog::error("bridge: {}", e.what());
       next_rt = next_camus = Clock::now() + config_.rt_poll;
@@ -330,6 +351,36 @@ void Bridge::open_session() {
   auto session = std::make_shared<Session>(config_, planet_);
   if (session->client) open_planet(*session);
   session->host.start();
+  if (config_.dds.enabled) {
+    DdsOptions options;
+    options.domain = config_.dds.domain;
+    options.space = config_.space;
+    options.bridge = config_.name;
+    options.lease = config_.dds.lease;
+    options.udp_only = config_.dds.udp_only;
+    options.socket_buffer_bytes = config_.dds.socket_buffer_bytes;
+    options.initial_peers = config_.dds.initial_peers;
+    Session* s = session.get();
+    try {
+      session->dds = std::make_unique<DdsLink>(
+          options,
+          [this](const ServiceEntry& entry, bool alive) {
+            {
+              std::lock_guard lock(remote_mutex_);
+              remote_changes_.emplace_back(entry, alive);
+            }
+            remote_pending_ = true;
+            wake_.notify_all();
+          },
+          [this, s](IncomingCall call, std::function<void(planet::CallResult)> reply) {
+            serve_remote(*s, std::move(call), std::move(reply));
+          });
+      spdlog::info("bridge {}: space {} joined DDS domain {}{}", config_.name, config_.space, config_.dds.domain,
+                   config_.dds.udp_only ? " (UDP only)" : "");
+    } catch (const std::exception& e) {
+      spdlog::error("bridge {}: no link to other spaces: {}", config_.name, e.what());
+    }
+  }
   {
     std::lock_guard lock(mutex_);
     session_ = session;
@@ -396,6 +447,10 @@ void Bridge::close_session() {
   {
     std::lock_guard lock(mutex_);
     session.swap(session_);
+  }
+  session->dds.reset();  // the others drop this space's services; no more calls arrive
+  for (auto& [key, remote] : session->remotes) {
+    if (remote.component) manager_->destroy(*remote.component);
   }
   for (auto& [service, import] : session->imports) {
     spdlog::info("bridge: withdrawing {} (stood for CAMUS service {})", import.path, service);
@@ -592,6 +647,7 @@ void Bridge::poll_rt() {
   }
 
   reconcile_exports();
+  sync_dds_exports(*session_);
 }
 
 void Bridge::reconcile_exports() {
@@ -660,7 +716,7 @@ void Bridge::reconcile_exports() {
       ++it;
       continue;
     }
-    spdlog::info("bridge: withdrawing {} from CAMUS (its provider is disconnected)", it->second);
+    spdlog::info("bridge: withdrawing {} (its provider is disconnected)", it->second);
     if (session->client) session->client->unregister_service(it->second);
     session->host.remove(it->second);
     std::lock_guard lock(mutex_);
@@ -704,7 +760,7 @@ void Bridge::on_data(std::size_t entry, const gp::Message& value) {
 
 void Bridge::poll_camus() {
   auto session = session_;
-  if (config_.services.empty() || !session->client || !manager_) return;
+  if (!session->client || ((config_.services.empty() || !manager_) && !session->dds)) return;
   camus::ListRequest request;
   const auto result = session->client->call("camus.registry", "List", request.SerializeAsString(), kCamusTimeout);
   camus::ListReply reply;
@@ -716,10 +772,13 @@ void Bridge::poll_camus() {
   }
   warned_.erase("registry");
   std::map<std::string, const ServiceRule*> wanted;
+  session->camus_native.clear();
   for (const auto& info : reply.services()) {
     if (info.state() != "available" || info.owner() == config_.name) continue;
     if (info.name().compare(0, 6, "camus.") == 0) continue;  // the server's own built-in services
     if (info.properties().count(kOrigin)) continue;  // a bridged service: never bridged again
+    session->camus_native[info.name()] = info;
+    if (!manager_) continue;
     for (const auto& rule : config_.services) {
       if (glob_match(rule.match, info.name())) {
         wanted[info.name()] = &rule;
@@ -771,6 +830,228 @@ void Bridge::poll_camus() {
                     e.what());
     }
   }
+}
+
+// ---- between spaces (DDS) ------------------------------------------------------------------
+
+void Bridge::sync_dds_exports(Session& session) {
+  if (!session.dds) return;
+  const auto& dds = config_.dds;
+  std::map<std::string, ServiceEntry> desired;
+  std::map<std::string, bool> served;
+  for (const auto& [key, name] : session.exports) {  // RT providers
+    if (!allowed(name, dds.export_allow, dds.export_deny)) continue;
+    const agent::HostedService* hosted = session.host.find(name);
+    if (hosted == nullptr) continue;
+    ServiceEntry entry;
+    entry.name = name;
+    entry.origin = hosted->properties.count(kOrigin) ? hosted->properties.at(kOrigin) : "rtc";
+    entry.deadline_ms = hosted->deadline_ms;
+    const auto known = session.announced.find(name);
+    if (known == session.announced.end() || known->second.origin != entry.origin) {
+      const gp::ServiceDescriptor& interface = hosted->agent->interface();
+      entry.interface_name = interface.full_name();
+      entry.repository_id = schema::repository_id(interface);
+      entry.descriptor_set = schema::descriptor_set_for(*interface.file());
+    } else {
+      entry = known->second;
+    }
+    desired[name] = entry;
+    served[name] = true;
+  }
+  for (const auto& [name, info] : session.camus_native) {  // this space's own service agents
+    if (!allowed(name, dds.export_allow, dds.export_deny) || served.count(name)) continue;
+    auto described = session.described.find(name);
+    if (described == session.described.end()) {
+      camus::DescribeRequest request;
+      request.set_service(name);
+      const auto result = session.client->call("camus.registry", "Describe", request.SerializeAsString(), kCamusTimeout);
+      camus::DescribeReply reply;
+      if (!result.ok() || !reply.ParseFromString(result.payload)) continue;  // tried again next poll
+      described = session.described.emplace(name, reply.descriptor_set()).first;
+    }
+    ServiceEntry entry;
+    entry.name = name;
+    entry.interface_name = info.interface();
+    entry.origin = "camus";
+    entry.deadline_ms = info.deadline_ms();
+    entry.descriptor_set = described->second;
+    desired[name] = entry;
+    served[name] = false;
+  }
+  {
+    std::lock_guard lock(session.served_mutex);
+    session.served = served;
+  }
+  const bool refresh = Clock::now() - session.announced_at > config_.dds.lease;  // after a cut, the others relearn
+  for (const auto& [name, entry] : desired) {
+    const auto known = session.announced.find(name);
+    const bool same = known != session.announced.end() && known->second.interface_name == entry.interface_name &&
+                      known->second.origin == entry.origin && known->second.deadline_ms == entry.deadline_ms;
+    if (same && !refresh) continue;
+    if (!same) spdlog::info("bridge: offering {} to the other spaces", name);
+    session.dds->announce(entry);
+    session.announced[name] = entry;
+  }
+  if (refresh) session.announced_at = Clock::now();
+  for (auto it = session.announced.begin(); it != session.announced.end();) {
+    if (desired.count(it->first)) {
+      ++it;
+      continue;
+    }
+    spdlog::info("bridge: {} is no longer offered to the other spaces", it->first);
+    session.dds->withdraw(it->first);
+    it = session.announced.erase(it);
+  }
+}
+
+void Bridge::serve_remote(Session& session, IncomingCall call, std::function<void(planet::CallResult)> reply) {
+  auto answer = [&reply](planet::CallResult result) {
+    if (reply) reply(std::move(result));
+  };
+  bool on_host = false;
+  {
+    std::lock_guard lock(session.served_mutex);
+    const auto it = session.served.find(call.service);
+    if (it == session.served.end()) {
+      answer(planet::CallResult::error(planet::UNKNOWN_SERVICE, "space " + config_.space + " offers no service '" +
+                                                                    call.service + "'"));
+      return;
+    }
+    on_host = it->second;
+  }
+  if (on_host) {
+    planet::Request request;
+    request.set_service(call.service);
+    request.set_operation(call.operation);
+    request.set_payload(std::move(call.payload));
+    request.set_deadline_ms(call.deadline_ms);
+    request.set_oneway(call.oneway);
+    session.host.dispatch(request, "dds:" + call.caller_space,
+                          planet::Responder::from_callback([reply](planet::CallResult result) {
+                            if (reply) reply(std::move(result));
+                          }));
+  } else if (!session.client) {
+    answer(planet::CallResult::error(planet::UNAVAILABLE, "space " + config_.space + " has no CAMUS server"));
+  } else if (call.oneway) {
+    session.client->oneway(call.service, call.operation, std::move(call.payload));
+  } else {
+    session.client->call_async(call.service, call.operation, std::move(call.payload),
+                               std::chrono::milliseconds(call.deadline_ms), std::move(reply));
+  }
+}
+
+void Bridge::poll_dds() {
+  auto session = session_;
+  if (!session || !session->dds) return;
+  std::vector<std::pair<ServiceEntry, bool>> changes;
+  {
+    std::lock_guard lock(remote_mutex_);
+    changes.swap(remote_changes_);
+    remote_pending_ = false;
+  }
+  const auto& dds = config_.dds;
+  for (const auto& [entry, alive] : changes) {
+    const std::string key = entry.space + "/" + entry.name;
+    auto existing = session->remotes.find(key);
+    if (existing != session->remotes.end() &&
+        (!alive || existing->second.descriptor_set != entry.descriptor_set ||
+         existing->second.interface_name != entry.interface_name)) {
+      withdraw_remote(*session, key);
+      existing = session->remotes.end();
+    }
+    if (!alive || existing != session->remotes.end()) continue;
+    if (!allowed(key, dds.import_allow, dds.import_deny)) continue;
+    import_remote(*session, entry);
+  }
+  sync_dds_exports(*session);
+}
+
+void Bridge::import_remote(Session& session, const ServiceEntry& entry) {
+  const std::string key = entry.space + "/" + entry.name;
+  auto& pool = session.space_pools[entry.space];
+  if (!pool) pool = std::make_unique<schema::SchemaPool>();
+  schema::SchemaPool* in = pool.get();
+  if (!in->add_descriptor_set(entry.descriptor_set).empty()) {  // clashes with another of that space
+    session.extra_pools.push_back(std::make_unique<schema::SchemaPool>());
+    in = session.extra_pools.back().get();
+    const std::string error = in->add_descriptor_set(entry.descriptor_set);
+    if (!error.empty()) {
+      spdlog::error("bridge: {} cannot be imported: {}", key, error);
+      return;
+    }
+  }
+  const gp::ServiceDescriptor* interface = in->find_service(entry.interface_name);
+  if (interface == nullptr) {
+    spdlog::error("bridge: {} cannot be imported: its description lacks {}", key, entry.interface_name);
+    return;
+  }
+  DdsLink* link = session.dds.get();
+  PlanetProxyAgent::Route route{
+      [link, space = entry.space, name = entry.name](const std::string& operation, std::string payload,
+                                                       std::chrono::milliseconds deadline) {
+        return link->call(space, name, operation, std::move(payload), deadline);
+      },
+      [link, space = entry.space, name = entry.name](const std::string& operation, std::string payload) {
+        return link->oneway(space, name, operation, std::move(payload));
+      },
+      "space " + entry.space};
+  auto proxy = std::make_shared<PlanetProxyAgent>(route, entry.name, *interface);
+  Session::Remote remote;
+  remote.interface_name = entry.interface_name;
+  remote.descriptor_set = entry.descriptor_set;
+  const std::vector<std::pair<std::string, std::string>> names{{"space", entry.space}, {"service", entry.name}};
+  const std::map<std::string, std::string> properties{{kOrigin, "dds:" + key},
+                                                      {"urslink.bridge", config_.name},
+                                                      {"urslink.space", entry.space}};
+  if (session.client && !config_.dds.as_camus.empty()) {
+    agent::HostedService hosted{expand(config_.dds.as_camus, names), proxy, properties, config_.dds.deadline_ms};
+    try {
+      session.host.add(hosted);
+      remote.camus_name = hosted.name;
+      session.client->register_service(session.host.registration(hosted), [name = hosted.name](planet::CallResult r) {
+        if (!r.ok()) spdlog::error("bridge: registering {} failed: {}: {}", name, planet::status_name(r.status), r.message);
+      });
+      spdlog::info("bridge: {} of space {} offered to CAMUS as {}", entry.name, entry.space, hosted.name);
+    } catch (const std::exception& e) {
+      spdlog::error("bridge: {} cannot be offered to CAMUS: {}", key, e.what());
+    }
+  }
+  if (manager_ && !config_.dds.as_rtc.empty()) {
+    rtc::ComponentSpec spec;
+    spec.type = "RemoteService";
+    spec.instance_name = sanitize(expand(config_.dds.as_rtc, names));
+    spec.properties.assign(properties.begin(), properties.end());
+    const auto deadline = std::chrono::milliseconds(config_.dds.deadline_ms);
+    try {
+      rtc::Component& created = manager_->create(spec, [proxy, deadline](const YAML::Node&, const rtc::ComponentEnv&) {
+        corba_agent::AgentComponentConfig settings;
+        settings.type_name = "RemoteService";
+        settings.deadline = deadline;
+        return std::make_unique<corba_agent::AgentComponent>(settings, proxy);
+      });
+      remote.component = &created;
+      remote.path = manager_->naming_path(created);
+      spdlog::info("bridge: {} of space {} offered to RT consumers as {}", entry.name, entry.space, remote.path);
+    } catch (const std::exception& e) {
+      spdlog::error("bridge: {} cannot be offered as RTC {}: {}", key, spec.instance_name, e.what());
+    }
+  }
+  std::lock_guard lock(mutex_);
+  session.remotes[key] = std::move(remote);
+}
+
+void Bridge::withdraw_remote(Session& session, const std::string& key) {
+  auto it = session.remotes.find(key);
+  if (it == session.remotes.end()) return;
+  spdlog::info("bridge: {} is gone from the other spaces; withdrawing it", key);
+  if (!it->second.camus_name.empty()) {
+    session.client->unregister_service(it->second.camus_name);
+    session.host.remove(it->second.camus_name);
+  }
+  if (it->second.component) manager_->destroy(*it->second.component);
+  std::lock_guard lock(mutex_);
+  session.remotes.erase(it);
 }
 
 }  // namespace urs::bridge

@@ -92,6 +92,79 @@ bool glob_match(const std::string& pattern, const std::string& text) {
   return fnmatch(pattern.c_str(), text.c_str(), 0) == 0;
 }
 
+bool allowed(const std::string& name, const std::vector<std::string>& allow, const std::vector<std::string>& deny) {
+  auto any = [&name](const std::vector<std::string>& patterns) {
+    for (const auto& pattern : patterns) {
+      if (glob_match(pattern, name)) return true;
+    }
+    return false;
+  };
+  return any(allow) && !any(deny);
+}
+
+namespace {
+
+std::vector<std::string> read_strings(const YAML::Node& node, const std::string& where, std::vector<std::string>& errors) {
+  std::vector<std::string> out;
+  if (!node.IsSequence()) {
+    errors.push_back(where + ": a list is expected");
+    return out;
+  }
+  for (std::size_t i = 0; i < node.size(); ++i) {
+    std::string item;
+    if (util::read_scalar(node[i], where + "[" + std::to_string(i) + "]", item, errors)) out.push_back(item);
+  }
+  return out;
+}
+
+void read_filter(const YAML::Node& node, const std::string& where, std::vector<std::string>& allow,
+                 std::vector<std::string>& deny, std::vector<std::string>& errors) {
+  if (node["allow"]) allow = read_strings(node["allow"], where + ".allow", errors);
+  if (node["deny"]) deny = read_strings(node["deny"], where + ".deny", errors);
+}
+
+void read_dds(const YAML::Node& node, DdsConfig& dds, std::vector<std::string>& errors) {
+  dds.enabled = true;
+  if (!node.IsMap()) {
+    errors.push_back("dds: a map is expected");
+    return;
+  }
+  util::check_keys(node, "dds", {"domain", "lease_ms", "udp_only", "socket_buffer_bytes", "initial_peers", "export",
+                                 "import"},
+                   errors);
+  if (node["domain"] && util::read_scalar(node["domain"], "dds.domain", dds.domain, errors) && dds.domain > 232) {
+    errors.push_back("dds.domain: " + std::to_string(dds.domain) + " is outside 0..232");
+  }
+  if (node["lease_ms"]) {
+    int ms = 0;
+    if (util::read_scalar(node["lease_ms"], "dds.lease_ms", ms, errors)) {
+      if (ms < 100 || ms > 600000) errors.push_back("dds.lease_ms: " + std::to_string(ms) + " is outside 100..600000");
+      dds.lease = std::chrono::milliseconds(ms);
+    }
+  }
+  if (node["udp_only"]) util::read_scalar(node["udp_only"], "dds.udp_only", dds.udp_only, errors);
+  if (node["socket_buffer_bytes"]) {
+    util::read_scalar(node["socket_buffer_bytes"], "dds.socket_buffer_bytes", dds.socket_buffer_bytes, errors);
+  }
+  if (node["initial_peers"]) dds.initial_peers = read_strings(node["initial_peers"], "dds.initial_peers", errors);
+  if (const YAML::Node out = node["export"]) {
+    util::check_keys(out, "dds.export", {"allow", "deny"}, errors);
+    read_filter(out, "dds.export", dds.export_allow, dds.export_deny, errors);
+  }
+  if (const YAML::Node in = node["import"]) {
+    util::check_keys(in, "dds.import", {"allow", "deny", "as_camus", "as_rtc", "deadline_ms"}, errors);
+    read_filter(in, "dds.import", dds.import_allow, dds.import_deny, errors);
+    if (in["as_camus"]) util::read_scalar(in["as_camus"], "dds.import.as_camus", dds.as_camus, errors);
+    if (in["as_rtc"]) util::read_scalar(in["as_rtc"], "dds.import.as_rtc", dds.as_rtc, errors);
+    if (in["deadline_ms"] && util::read_scalar(in["deadline_ms"], "dds.import.deadline_ms", dds.deadline_ms, errors) &&
+        dds.deadline_ms == 0) {
+      errors.push_back("dds.import.deadline_ms: must be > 0");
+    }
+  }
+}
+
+}  // namespace
+
 BridgeConfig load_bridge_config(const std::string& path, const std::string& host) {
   const YAML::Node root = util::load_yaml_file(path, "--config");
   if (!root.IsMap()) throw util::ConfigError("--config: '" + path + "' must be a YAML map");
@@ -100,7 +173,7 @@ BridgeConfig load_bridge_config(const std::string& path, const std::string& host
   BridgeConfig config;
   config.name = "bridge@" + host;
   util::check_keys(root, "", {"name", "instance", "activate", "workers", "idl", "include_dirs", "rt_to_camus",
-                              "camus_to_rt", "data_to_camus", "events_to_rt"},
+                              "camus_to_rt", "data_to_camus", "events_to_rt", "dds"},
                    errors);
   read_string(root, "name", "", false, config.name, errors);
   read_string(root, "instance", "", false, config.instance, errors);
@@ -173,6 +246,7 @@ BridgeConfig load_bridge_config(const std::string& path, const std::string& host
       config.events_to_rt.push_back(std::move(entry));
     });
   }
+  if (root["dds"]) read_dds(root["dds"], config.dds, errors);
   util::throw_if_errors(errors, "--config '" + path + "'");
   return config;
 }

@@ -37,7 +37,18 @@ const gp::ServiceDescriptor* describe_service(planet::Client& client, const std:
 }
 
 PlanetProxyAgent::PlanetProxyAgent(planet::Client& client, std::string service, const gp::ServiceDescriptor& interface)
-    : client_(client), service_(std::move(service)), interface_(interface) {
+    : PlanetProxyAgent(
+          Route{[&client, service](const std::string& operation, std::string payload, std::chrono::milliseconds deadline) {
+                  return client.call(service, operation, std::move(payload), deadline);
+                },
+                [&client, service](const std::string& operation, std::string payload) {
+                  return client.oneway(service, operation, std::move(payload));
+                },
+                "the CAMUS server"},
+          service, interface) {}
+
+PlanetProxyAgent::PlanetProxyAgent(Route route, std::string service, const gp::ServiceDescriptor& interface)
+    : route_(std::move(route)), service_(std::move(service)), interface_(interface) {
   // Exceptions of an interface compiled into the program are made as their generated classes,
   // like the requests and replies its hosts make.
   factory_.SetDelegateToGeneratedFactory(true);
@@ -50,8 +61,8 @@ Outcome PlanetProxyAgent::invoke(const gp::MethodDescriptor& method, const gp::M
     return Outcome::error(planet::BAD_ARGUMENTS, "request of " + method.full_name() + " cannot be serialized");
   }
   if (schema::is_oneway(method)) {
-    if (!client_.oneway(service_, method.name(), std::move(payload))) {
-      return Outcome::error(planet::UNAVAILABLE, "outgoing queue to the CAMUS server is full");
+    if (!route_.oneway(method.name(), std::move(payload))) {
+      return Outcome::error(planet::UNAVAILABLE, service_ + "." + method.name() + " could not be sent to " + route_.to);
     }
     return Outcome::ok();
   }
@@ -60,7 +71,7 @@ Outcome PlanetProxyAgent::invoke(const gp::MethodDescriptor& method, const gp::M
     return Outcome::error(planet::DEADLINE_EXCEEDED, "the caller's deadline passed before " + service_ + "." +
                                                          method.name() + " was sent");
   }
-  const auto result = client_.call(service_, method.name(), std::move(payload), remaining);
+  const auto result = route_.call(method.name(), std::move(payload), remaining);
   switch (result.status) {
     case planet::OK:
       if (!reply.ParseFromString(result.payload)) {

@@ -22,6 +22,8 @@
 #include <atomic>
 #include <condition_variable>
 #include <memory>
+#include <functional>
+#include <map>
 #include <mutex>
 #include <optional>
 #include <set>
@@ -30,6 +32,7 @@
 #include <vector>
 
 #include "urs/bridge/config.hpp"
+#include "urs/bridge/dds_link.hpp"
 #include "urs/bridge/interfaces.hpp"
 #include "urs/planet/client.hpp"
 #include "urs/rtc/manager.hpp"
@@ -42,6 +45,7 @@ struct BridgeStatus {
   bool active = false;                // a session is open
   std::vector<std::string> exported;  // CAMUS services standing for RT providers
   std::vector<std::string> imported;  // naming paths of RTCs standing for CAMUS services
+  std::vector<std::string> remote;    // "<space>/<service>" of other spaces' services offered here
 };
 
 class Bridge {
@@ -80,6 +84,11 @@ class Bridge {
   void poll_camus();
   void reconcile_exports();
   void on_data(std::size_t entry, const google::protobuf::Message& value);
+  void poll_dds();
+  void sync_dds_exports(Session& session);
+  void serve_remote(Session& session, IncomingCall call, std::function<void(planet::CallResult)> reply);
+  void import_remote(Session& session, const ServiceEntry& entry);
+  void withdraw_remote(Session& session, const std::string& key);
 
   rtc::Orb& orb_;
   rtc::NamingClient* naming_;
@@ -97,6 +106,11 @@ class Bridge {
   bool stopping_ = false;
   std::thread thread_;
   std::shared_ptr<Session> session_;
+
+  // Catalog changes from DDS threads, applied by the bridge's thread.
+  std::mutex remote_mutex_;
+  std::vector<std::pair<ServiceEntry, bool>> remote_changes_;
+  std::atomic<bool> remote_pending_{false};
 
   // Used by the bridge's thread only.
   std::map<std::string, std::shared_ptr<Known>> known_;  // by naming path

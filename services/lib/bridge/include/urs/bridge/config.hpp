@@ -26,6 +26,17 @@
 //       type: URC.PoseWithCovariance  # the values' type (Protobuf full name of an IDL struct)
 //       topic: robot1/pose          # Planet topic of the events
 //       context: robot1.pose        # optional: context entry set to each value (as JSON)
+//   dds:                            # link to other spaces over DDS (docs/federation.md)
+//     domain: 0
+//     lease_ms: 3000                # a silent bridge's services leave the others after this
+//     udp_only: false               # true between containers (no shared memory)
+//     socket_buffer_bytes: 4194304
+//     initial_peers: [bridge-kr]    # HOST or HOST:PORT, for networks without multicast
+//     export: {allow: ["*"], deny: []}             # globs on this space's service names
+//     import: {allow: ["*"], deny: [],             # globs on "<space>/<service>"
+//              as_camus: "{space}/{service}",      # CAMUS name ("" = not on CAMUS)
+//              as_rtc: "{space}_{service}",        # RTC instance ("" = not in naming)
+//              deadline_ms: 10000}
 //   events_to_rt:                   # CAMUS events feeding RT InPorts
 //     - topic: "robot1.navigation/arrived"  # Planet subscription pattern
 //       type: URC.Pose2D            # the events' type; others on the topic are skipped
@@ -67,7 +78,24 @@ struct EventsToRt {
   std::string port;
 };
 
+struct DdsConfig {
+  bool enabled = false;
+  uint32_t domain = 0;
+  std::chrono::milliseconds lease{3000};
+  bool udp_only = false;
+  uint32_t socket_buffer_bytes = 4u << 20;
+  std::vector<std::string> initial_peers;
+  std::vector<std::string> export_allow{"*"};
+  std::vector<std::string> export_deny;
+  std::vector<std::string> import_allow{"*"};
+  std::vector<std::string> import_deny;
+  std::string as_camus = "{space}/{service}";
+  std::string as_rtc = "{space}_{service}";
+  uint32_t deadline_ms = 10000;
+};
+
 struct BridgeConfig {
+  std::string space;  // the space the bridge belongs to (set from --space)
   std::string name;
   std::string instance;
   bool activate = true;
@@ -80,7 +108,11 @@ struct BridgeConfig {
   std::vector<ServiceRule> services;
   std::vector<DataToCamus> data_to_camus;
   std::vector<EventsToRt> events_to_rt;
+  DdsConfig dds;
 };
+
+// True if `name` matches one of `allow` and none of `deny`.
+bool allowed(const std::string& name, const std::vector<std::string>& allow, const std::vector<std::string>& deny);
 
 // Parses and validates `path`; relative idl/include_dirs paths are taken from the file's folder.
 // Throws urs::util::ConfigError listing every problem with its key path.

@@ -16,6 +16,7 @@
 #include <google/protobuf/dynamic_message.h>
 
 #include <chrono>
+#include <functional>
 #include <string>
 
 #include "urs/agent/agent.hpp"
@@ -34,9 +35,20 @@ const google::protobuf::ServiceDescriptor* describe_service(planet::Client& clie
 
 class PlanetProxyAgent : public agent::ServiceAgent {
  public:
+  // How calls reach the service as Planet requests: a Planet client, or another space over DDS
+  // (DdsLink carries the same requests, statuses and exceptions).
+  struct Route {
+    std::function<planet::CallResult(const std::string& operation, std::string payload,
+                                     std::chrono::milliseconds deadline)>
+        call;
+    std::function<bool(const std::string& operation, std::string payload)> oneway;  // false: not sent
+    std::string to;  // for messages, e.g. "the CAMUS server", "space jp"
+  };
+
   // `client` and the pool holding `interface` must outlive the agent; `service` is the CAMUS
   // service name calls are sent to.
   PlanetProxyAgent(planet::Client& client, std::string service, const google::protobuf::ServiceDescriptor& interface);
+  PlanetProxyAgent(Route route, std::string service, const google::protobuf::ServiceDescriptor& interface);
 
   const google::protobuf::ServiceDescriptor& interface() const override { return interface_; }
   agent::Outcome invoke(const google::protobuf::MethodDescriptor& method, const google::protobuf::Message& request,
@@ -47,7 +59,7 @@ class PlanetProxyAgent : public agent::ServiceAgent {
  private:
   agent::Outcome raised(const google::protobuf::MethodDescriptor& method, const planet::CallResult& result);
 
-  planet::Client& client_;
+  const Route route_;
   const std::string service_;
   const google::protobuf::ServiceDescriptor& interface_;
   google::protobuf::DynamicMessageFactory factory_;  // the exceptions raised, when not compiled in

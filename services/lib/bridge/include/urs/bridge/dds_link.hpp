@@ -1,0 +1,92 @@
+#pragma once
+// DdsLink: what one space's bridge shares with the other spaces over DDS (Fast DDS), per
+// idl/dds/Federation.idl: it announces the services its space offers on the catalog topic, learns
+// the other spaces' entries (and loses them when their bridge stops asserting its liveliness),
+// serves calls to its space's services and makes calls to the others' (DDS-RPC: a request topic
+// per space, a reply topic per calling space, replies correlated by request id).
+//
+// Threads: handlers run on Fast DDS's listener threads and must not block; call() blocks the
+// caller until the reply, the deadline, or the target space's bridge leaves.
+
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "urs/planet/status.hpp"
+
+namespace urs::bridge {
+
+struct DdsOptions {
+  uint32_t domain = 0;
+  std::string space;   // this space
+  std::string bridge;  // this bridge's name
+  // How long a silent bridge (dead, cut off) keeps its entries in the others' catalogs.
+  std::chrono::milliseconds lease{3000};
+  bool udp_only = false;                    // no shared memory (required between containers)
+  uint32_t socket_buffer_bytes = 4u << 20;  // UDP send/receive buffers, for large samples
+  uint32_t shm_segment_bytes = 8u << 20;    // shared-memory segment, when used
+  // Unicast addresses of other bridges' hosts ("HOST" or "HOST:PORT"), for networks without
+  // multicast; without a port, the default ports of the first participants of the domain.
+  std::vector<std::string> initial_peers;
+};
+
+struct ServiceEntry {
+  std::string space;
+  std::string name;
+  std::string interface_name;
+  std::string repository_id;
+  std::string origin;
+  std::string bridge;
+  uint32_t deadline_ms = 0;
+  std::string descriptor_set;
+};
+
+struct IncomingCall {
+  std::string request_id;
+  std::string caller_space;
+  std::string service;
+  std::string operation;
+  uint32_t deadline_ms = 0;
+  bool oneway = false;
+  std::string payload;
+};
+
+class DdsLink {
+ public:
+  // Another space's entry appeared or changed (alive) or went away (!alive: only space and name
+  // are set).
+  using CatalogHandler = std::function<void(const ServiceEntry& entry, bool alive)>;
+  // A call to this space's services. `reply` may be called once, from any thread (not for a
+  // oneway call).
+  using CallHandler = std::function<void(IncomingCall call, std::function<void(planet::CallResult)> reply)>;
+
+  // Joins the domain; throws std::runtime_error if DDS refuses (bad domain, bad peer address).
+  DdsLink(DdsOptions options, CatalogHandler on_catalog, CallHandler on_call);
+  ~DdsLink();  // leaves the domain: the others drop this space's entries at once
+  DdsLink(const DdsLink&) = delete;
+  DdsLink& operator=(const DdsLink&) = delete;
+
+  const DdsOptions& options() const { return options_; }
+
+  // This space's catalog: announce (or update) and withdraw one service.
+  void announce(const ServiceEntry& entry);
+  void withdraw(const std::string& name);
+
+  // Calls a service of another space. UNAVAILABLE at once if no bridge of that space is matched
+  // (unknown, dead or unreachable space); PROVIDER_GONE if it leaves during the call;
+  // DEADLINE_EXCEEDED when the deadline passes; otherwise the remote outcome.
+  planet::CallResult call(const std::string& space, const std::string& service, const std::string& operation,
+                          std::string payload, std::chrono::milliseconds deadline);
+  bool oneway(const std::string& space, const std::string& service, const std::string& operation,
+              std::string payload);
+
+ private:
+  struct Impl;
+  const DdsOptions options_;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace urs::bridge

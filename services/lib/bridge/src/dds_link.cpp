@@ -1,0 +1,528 @@
+#include "urs/bridge/dds_link.hpp"
+
+#include <netdb.h>
+#include <spdlog/spdlog.h>
+
+#include <atomic>
+#include <condition_variable>
+#include <fastdds/dds/domain/DomainParticipant.hpp>
+#include <fastdds/dds/domain/DomainParticipantFactory.hpp>
+#include <fastdds/dds/publisher/DataWriter.hpp>
+#include <fastdds/dds/publisher/DataWriterListener.hpp>
+#include <fastdds/dds/publisher/Publisher.hpp>
+#include <fastdds/dds/subscriber/DataReader.hpp>
+#include <fastdds/dds/subscriber/DataReaderListener.hpp>
+#include <fastdds/dds/subscriber/SampleInfo.hpp>
+#include <fastdds/dds/subscriber/Subscriber.hpp>
+#include <fastdds/dds/topic/Topic.hpp>
+#include <fastdds/dds/topic/TypeSupport.hpp>
+#include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
+#include <fastdds/rtps/transport/shared_mem/SharedMemTransportDescriptor.h>
+#include <fastrtps/utils/IPLocator.h>
+#include <future>
+#include <map>
+#include <mutex>
+#include <set>
+#include <stdexcept>
+
+#include "Federation.h"
+#include "FederationPubSubTypes.h"
+
+namespace urs::bridge {
+
+namespace fdds = eprosima::fastdds::dds;
+namespace rtps = eprosima::fastrtps::rtps;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+constexpr const char* kCatalogTopic = "urs/catalog";
+
+std::string request_topic(const std::string& space) { return "urs/rpc/" + space + "/request"; }
+std::string reply_topic(const std::string& space) { return "urs/rpc/" + space + "/reply"; }
+
+eprosima::fastrtps::Duration_t duration(std::chrono::milliseconds ms) {
+  return eprosima::fastrtps::Duration_t(static_cast<double>(ms.count()) / 1000.0);
+}
+
+std::vector<uint8_t> bytes_of(const std::string& text) { return {text.begin(), text.end()}; }
+std::string text_of(const std::vector<uint8_t>& bytes) { return {bytes.begin(), bytes.end()}; }
+
+// "HOST" or "HOST:PORT" -> the IPv4 address and port(s) of an initial peer.
+std::vector<rtps::Locator_t> peer_locators(const std::string& peer, uint32_t domain) {
+  std::string host = peer;
+  std::vector<uint16_t> ports;
+  const auto colon = peer.rfind(':');
+  if (colon != std::string::npos) {
+    host = peer.substr(0, colon);
+    ports.push_back(static_cast<uint16_t>(std::stoi(peer.substr(colon + 1))));
+  } else {
+    // The metatraffic unicast ports of participants 0..4 of the domain (RTPS port mapping).
+    for (uint32_t id = 0; id < 5; ++id) ports.push_back(static_cast<uint16_t>(7400 + 250 * domain + 10 + 2 * id));
+  }
+  addrinfo hints{};
+  hints.ai_family = AF_INET;
+  addrinfo* found = nullptr;
+  if (getaddrinfo(host.c_str(), nullptr, &hints, &found) != 0 || found == nullptr) {
+    throw std::runtime_error("DDS initial peer '" + peer + "': cannot resolve " + host);
+  }
+  char address[64] = {};
+  getnameinfo(found->ai_addr, found->ai_addrlen, address, sizeof address, nullptr, 0, NI_NUMERICHOST);
+  freeaddrinfo(found);
+  std::vector<rtps::Locator_t> locators;
+  for (uint16_t port : ports) {
+    rtps::Locator_t locator;
+    rtps::IPLocator::setIPv4(locator, address);
+    locator.port = port;
+    locators.push_back(locator);
+  }
+  return locators;
+}
+
+}  // namespace
+
+struct DdsLink::Impl : public fdds::DataReaderListener {
+  // A call waiting for its reply.
+  struct Pending {
+    std::string space;
+    std::promise<planet::CallResult> promise;
+  };
+  // Notices a request writer losing its last reader: the target space's bridge left.
+  class RequestWriterListener : public fdds::DataWriterListener {
+   public:
+    RequestWriterListener(Impl& impl, std::string space) : impl_(impl), space_(std::move(space)) {}
+    void on_publication_matched(fdds::DataWriter*, const fdds::PublicationMatchedStatus& status) override {
+      if (status.current_count == 0 && status.current_count_change < 0) impl_.fail_pending(space_);
+    }
+
+   private:
+    Impl& impl_;
+    std::string space_;
+  };
+
+  Impl(const DdsOptions& options, CatalogHandler on_catalog, CallHandler on_call)
+      : options(options), on_catalog(std::move(on_catalog)), on_call(std::move(on_call)) {}
+
+  const DdsOptions& options;
+  CatalogHandler on_catalog;
+  CallHandler on_call;
+
+  fdds::DomainParticipant* participant = nullptr;
+  fdds::Publisher* publisher = nullptr;
+  fdds::Subscriber* subscriber = nullptr;
+  fdds::TypeSupport entry_type{new dds::ServiceEntryPubSubType()};
+  fdds::TypeSupport request_type{new dds::CallRequestPubSubType()};
+  fdds::TypeSupport reply_type{new dds::CallReplyPubSubType()};
+  fdds::Topic* catalog_topic = nullptr;
+  fdds::DataWriter* catalog_writer = nullptr;
+  fdds::DataReader* catalog_reader = nullptr;
+  fdds::DataReader* request_reader = nullptr;
+  fdds::DataReader* reply_reader = nullptr;
+
+  std::mutex mutex;  // guards the maps below and entity creation
+  std::map<std::string, fdds::Topic*> topics;
+  std::map<std::string, fdds::DataWriter*> request_writers;  // by target space
+  std::map<std::string, fdds::DataWriter*> reply_writers;    // by caller space
+  std::vector<std::unique_ptr<RequestWriterListener>> writer_listeners;
+  std::map<std::string, std::shared_ptr<Pending>> pending;  // by request id
+  std::atomic<uint64_t> next_id{1};
+
+  std::mutex catalog_mutex;  // what the catalog reader knows of the others
+  struct Known {
+    std::string space;
+    std::string name;
+    fdds::InstanceHandle_t writer;
+  };
+  std::map<fdds::InstanceHandle_t, Known> instances;
+
+  // ---- entities ----
+
+  fdds::Topic* topic(const std::string& name, fdds::TypeSupport& type) {
+    auto it = topics.find(name);
+    if (it != topics.end()) return it->second;
+    fdds::Topic* made = participant->create_topic(name, type.get_type_name(), fdds::TOPIC_QOS_DEFAULT);
+    if (made == nullptr) throw std::runtime_error("DDS: cannot create topic " + name);
+    topics[name] = made;
+    return made;
+  }
+
+  fdds::DataWriterQos rpc_writer_qos() const {
+    fdds::DataWriterQos qos = fdds::DATAWRITER_QOS_DEFAULT;
+    qos.reliability().kind = fdds::RELIABLE_RELIABILITY_QOS;
+    qos.durability().kind = fdds::VOLATILE_DURABILITY_QOS;
+    qos.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
+    qos.history().depth = 256;
+    qos.publish_mode().kind = fdds::ASYNCHRONOUS_PUBLISH_MODE;  // large payloads are fragmented
+    return qos;
+  }
+  fdds::DataReaderQos rpc_reader_qos() const {
+    fdds::DataReaderQos qos = fdds::DATAREADER_QOS_DEFAULT;
+    qos.reliability().kind = fdds::RELIABLE_RELIABILITY_QOS;
+    qos.durability().kind = fdds::VOLATILE_DURABILITY_QOS;
+    qos.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
+    qos.history().depth = 256;
+    return qos;
+  }
+
+  // Caller holds `mutex`.
+  fdds::DataWriter* request_writer(const std::string& space) {
+    auto it = request_writers.find(space);
+    if (it != request_writers.end()) return it->second;
+    writer_listeners.push_back(std::make_unique<RequestWriterListener>(*this, space));
+    fdds::DataWriter* writer = publisher->create_datawriter(topic(request_topic(space), request_type), rpc_writer_qos(),
+                                                            writer_listeners.back().get());
+    if (writer == nullptr) throw std::runtime_error("DDS: cannot write requests to space " + space);
+    request_writers[space] = writer;
+    return writer;
+  }
+  fdds::DataWriter* reply_writer(const std::string& space) {
+    auto it = reply_writers.find(space);
+    if (it != reply_writers.end()) return it->second;
+    fdds::DataWriter* writer = publisher->create_datawriter(topic(reply_topic(space), reply_type), rpc_writer_qos());
+    if (writer == nullptr) throw std::runtime_error("DDS: cannot write replies to space " + space);
+    reply_writers[space] = writer;
+    return writer;
+  }
+
+  // Waits until `writer` has a matched reader, or `until`.
+  static bool wait_matched(fdds::DataWriter* writer, Clock::time_point until) {
+    while (true) {
+      fdds::PublicationMatchedStatus status;
+      writer->get_publication_matched_status(status);
+      if (status.current_count > 0) return true;
+      if (Clock::now() >= until) return false;
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+  }
+
+  void fail_pending(const std::string& space) {
+    std::vector<std::shared_ptr<Pending>> failed;
+    {
+      std::lock_guard lock(mutex);
+      for (auto it = pending.begin(); it != pending.end();) {
+        if (it->second->space == space) {
+          failed.push_back(it->second);
+          it = pending.erase(it);
+        } else {
+          ++it;
+        }
+      }
+    }
+    for (auto& call : failed) {
+      call->promise.set_value(planet::CallResult::error(
+          planet::PROVIDER_GONE, "the bridge of space " + space + " left during the call"));
+    }
+  }
+
+  // ---- reading ----
+
+  void on_data_available(fdds::DataReader* reader) override {
+    if (reader == catalog_reader) {
+      read_catalog(reader);
+    } else if (reader == request_reader) {
+      read_requests(reader);
+    } else if (reader == reply_reader) {
+      read_replies(reader);
+    }
+  }
+
+  void read_catalog(fdds::DataReader* reader) {
+    dds::ServiceEntry sample;
+    fdds::SampleInfo info;
+    while (reader->take_next_sample(&sample, &info) == ReturnCode_t::RETCODE_OK) {
+      if (info.valid_data) {
+        if (sample.space() == options.space) continue;  // our own entries
+        {
+          std::lock_guard lock(catalog_mutex);
+          instances[info.instance_handle] = {sample.space(), sample.name(), info.publication_handle};
+        }
+        ServiceEntry entry{sample.space(), sample.name(), sample.interface_name(), sample.repository_id(),
+                           sample.origin(), sample.bridge(), sample.deadline_ms(), text_of(sample.descriptor_set())};
+        on_catalog(entry, true);
+      } else if (info.instance_state != fdds::ALIVE_INSTANCE_STATE) {
+        gone([&](const Known&, const fdds::InstanceHandle_t& handle) { return handle == info.instance_handle; });
+      }
+    }
+  }
+
+  // Reports and forgets the instances `which` selects.
+  template <typename Which>
+  void gone(Which which) {
+    std::vector<Known> lost;
+    {
+      std::lock_guard lock(catalog_mutex);
+      for (auto it = instances.begin(); it != instances.end();) {
+        if (which(it->second, it->first)) {
+          lost.push_back(it->second);
+          it = instances.erase(it);
+        } else {
+          ++it;
+        }
+      }
+    }
+    for (const auto& known : lost) {
+      ServiceEntry entry;
+      entry.space = known.space;
+      entry.name = known.name;
+      on_catalog(entry, false);
+    }
+  }
+
+  void writer_lost(const fdds::InstanceHandle_t& writer) {
+    gone([&](const Known& known, const fdds::InstanceHandle_t&) { return known.writer == writer; });
+  }
+
+  void on_subscription_matched(fdds::DataReader* reader, const fdds::SubscriptionMatchedStatus& status) override {
+    if (reader == catalog_reader && status.current_count_change < 0) writer_lost(status.last_publication_handle);
+  }
+  void on_liveliness_changed(fdds::DataReader* reader, const fdds::LivelinessChangedStatus& status) override {
+    if (reader == catalog_reader && status.not_alive_count_change > 0) writer_lost(status.last_publication_handle);
+  }
+
+  void read_requests(fdds::DataReader* reader) {
+    dds::CallRequest sample;
+    fdds::SampleInfo info;
+    while (reader->take_next_sample(&sample, &info) == ReturnCode_t::RETCODE_OK) {
+      if (!info.valid_data) continue;
+      IncomingCall call{sample.request_id(), sample.caller_space(), sample.service(), sample.operation(),
+                        sample.deadline_ms(), sample.no_reply(), text_of(sample.payload())};
+      const auto until = Clock::now() + std::chrono::milliseconds(call.deadline_ms == 0 ? 10000 : call.deadline_ms);
+      std::function<void(planet::CallResult)> reply;
+      if (!call.oneway) {
+        reply = [this, id = call.request_id, space = call.caller_space, until](planet::CallResult result) {
+          send_reply(space, id, result, until);
+        };
+      }
+      on_call(std::move(call), std::move(reply));
+    }
+  }
+
+  void send_reply(const std::string& space, const std::string& id, const planet::CallResult& result,
+                  Clock::time_point until) {
+    fdds::DataWriter* writer = nullptr;
+    try {
+      std::lock_guard lock(mutex);
+      writer = reply_writer(space);
+    } catch (const std::exception& e) {
+      spdlog::error("dds: reply to {} for {}: {}", space, id, e.what());
+      return;
+    }
+    // A writer just made has no reader yet; the caller waits no longer than its deadline.
+    if (!wait_matched(writer, std::max(until, Clock::now() + std::chrono::milliseconds(100)))) {
+      spdlog::warn("dds: no reader of replies in space {}; the reply to {} is lost", space, id);
+      return;
+    }
+    dds::CallReply reply;
+    reply.request_id(id);
+    reply.status(static_cast<int32_t>(result.status));
+    reply.message(result.message);
+    reply.exception_type(result.exception_type);
+    reply.payload(bytes_of(result.payload));
+    if (!writer->write(&reply)) spdlog::warn("dds: the reply to {} could not be written", id);
+  }
+
+  void read_replies(fdds::DataReader* reader) {
+    dds::CallReply sample;
+    fdds::SampleInfo info;
+    while (reader->take_next_sample(&sample, &info) == ReturnCode_t::RETCODE_OK) {
+      if (!info.valid_data) continue;
+      std::shared_ptr<Pending> call;
+      {
+        std::lock_guard lock(mutex);
+        auto it = pending.find(sample.request_id());
+        if (it == pending.end()) continue;  // its caller gave up
+        call = it->second;
+        pending.erase(it);
+      }
+      planet::CallResult result;
+      result.status = static_cast<planet::Status>(sample.status());
+      result.message = sample.message();
+      result.exception_type = sample.exception_type();
+      result.payload = text_of(sample.payload());
+      call->promise.set_value(std::move(result));
+    }
+  }
+};
+
+DdsLink::DdsLink(DdsOptions options, CatalogHandler on_catalog, CallHandler on_call)
+    : options_(std::move(options)), impl_(std::make_unique<Impl>(options_, std::move(on_catalog), std::move(on_call))) {
+  fdds::DomainParticipantQos qos = fdds::PARTICIPANT_QOS_DEFAULT;
+  qos.name("urs-bridge/" + options_.space + "/" + options_.bridge);
+  // A participant that stops announcing itself (dead process, cut network) is dropped after the
+  // lease, which ends its writers' matches and so this space's entries at the others.
+  qos.wire_protocol().builtin.discovery_config.leaseDuration = duration(options_.lease);
+  qos.wire_protocol().builtin.discovery_config.leaseDuration_announcementperiod = duration(options_.lease / 4);
+  qos.transport().use_builtin_transports = false;
+  auto udp = std::make_shared<eprosima::fastdds::rtps::UDPv4TransportDescriptor>();
+  udp->sendBufferSize = options_.socket_buffer_bytes;
+  udp->receiveBufferSize = options_.socket_buffer_bytes;
+  qos.transport().user_transports.push_back(udp);
+  if (!options_.udp_only) {
+    auto shm = std::make_shared<eprosima::fastdds::rtps::SharedMemTransportDescriptor>();
+    shm->segment_size(options_.shm_segment_bytes);
+    qos.transport().user_transports.push_back(shm);
+  }
+  qos.transport().send_socket_buffer_size = options_.socket_buffer_bytes;
+  qos.transport().listen_socket_buffer_size = options_.socket_buffer_bytes;
+  for (const auto& peer : options_.initial_peers) {
+    for (const auto& locator : peer_locators(peer, options_.domain)) {
+      qos.wire_protocol().builtin.initialPeersList.push_back(locator);
+    }
+  }
+  auto* factory = fdds::DomainParticipantFactory::get_instance();
+  Impl& d = *impl_;
+  d.participant = factory->create_participant(options_.domain, qos);
+  if (d.participant == nullptr) {
+    throw std::runtime_error("DDS: cannot join domain " + std::to_string(options_.domain));
+  }
+  try {
+    d.publisher = d.participant->create_publisher(fdds::PUBLISHER_QOS_DEFAULT);
+    d.subscriber = d.participant->create_subscriber(fdds::SUBSCRIBER_QOS_DEFAULT);
+    if (d.publisher == nullptr || d.subscriber == nullptr) throw std::runtime_error("DDS: cannot create a publisher");
+    for (auto* type : {&d.entry_type, &d.request_type, &d.reply_type}) {
+      if (type->register_type(d.participant) != ReturnCode_t::RETCODE_OK) {
+        throw std::runtime_error("DDS: cannot register type " + type->get_type_name());
+      }
+    }
+    d.catalog_topic = d.topic(kCatalogTopic, d.entry_type);
+
+    fdds::DataWriterQos catalog_writer = fdds::DATAWRITER_QOS_DEFAULT;
+    catalog_writer.reliability().kind = fdds::RELIABLE_RELIABILITY_QOS;
+    catalog_writer.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
+    catalog_writer.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
+    catalog_writer.history().depth = 1;
+    catalog_writer.liveliness().kind = fdds::AUTOMATIC_LIVELINESS_QOS;
+    catalog_writer.liveliness().lease_duration = duration(options_.lease);
+    catalog_writer.liveliness().announcement_period = duration(options_.lease / 4);
+    catalog_writer.publish_mode().kind = fdds::ASYNCHRONOUS_PUBLISH_MODE;  // descriptor sets exceed one datagram
+    d.catalog_writer = d.publisher->create_datawriter(d.catalog_topic, catalog_writer);
+
+    fdds::DataReaderQos catalog_reader = fdds::DATAREADER_QOS_DEFAULT;
+    catalog_reader.reliability().kind = fdds::RELIABLE_RELIABILITY_QOS;
+    catalog_reader.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
+    catalog_reader.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
+    catalog_reader.history().depth = 1;
+    catalog_reader.liveliness().kind = fdds::AUTOMATIC_LIVELINESS_QOS;
+    catalog_reader.liveliness().lease_duration = duration(options_.lease);
+    d.catalog_reader = d.subscriber->create_datareader(d.catalog_topic, catalog_reader, &d);
+
+    d.request_reader = d.subscriber->create_datareader(d.topic(request_topic(options_.space), d.request_type),
+                                                       d.rpc_reader_qos(), &d);
+    d.reply_reader = d.subscriber->create_datareader(d.topic(reply_topic(options_.space), d.reply_type),
+                                                     d.rpc_reader_qos(), &d);
+    if (!d.catalog_writer || !d.catalog_reader || !d.request_reader || !d.reply_reader) {
+      throw std::runtime_error("DDS: cannot create the catalog and call endpoints");
+    }
+  } catch (...) {
+    d.participant->delete_contained_entities();
+    factory->delete_participant(d.participant);
+    throw;
+  }
+}
+
+DdsLink::~DdsLink() {
+  Impl& d = *impl_;
+  d.participant->set_listener(nullptr);
+  d.participant->delete_contained_entities();
+  fdds::DomainParticipantFactory::get_instance()->delete_participant(d.participant);
+  std::vector<std::shared_ptr<Impl::Pending>> left;
+  {
+    std::lock_guard lock(d.mutex);
+    for (auto& [id, call] : d.pending) left.push_back(call);
+    d.pending.clear();
+  }
+  for (auto& call : left) call->promise.set_value(planet::CallResult::error(planet::UNAVAILABLE, "bridge stopping"));
+}
+
+void DdsLink::announce(const ServiceEntry& entry) {
+  dds::ServiceEntry sample;
+  sample.space(options_.space);
+  sample.name(entry.name);
+  sample.interface_name(entry.interface_name);
+  sample.repository_id(entry.repository_id);
+  sample.origin(entry.origin);
+  sample.bridge(options_.bridge);
+  sample.deadline_ms(entry.deadline_ms);
+  sample.descriptor_set(bytes_of(entry.descriptor_set));
+  if (!impl_->catalog_writer->write(&sample)) spdlog::warn("dds: announcing {} failed", entry.name);
+}
+
+void DdsLink::withdraw(const std::string& name) {
+  dds::ServiceEntry sample;
+  sample.space(options_.space);
+  sample.name(name);
+  const auto handle = impl_->catalog_writer->lookup_instance(&sample);
+  if (handle == fdds::HANDLE_NIL) return;
+  impl_->catalog_writer->dispose(&sample, handle);
+  impl_->catalog_writer->unregister_instance(&sample, handle);
+}
+
+planet::CallResult DdsLink::call(const std::string& space, const std::string& service, const std::string& operation,
+                                 std::string payload, std::chrono::milliseconds deadline) {
+  Impl& d = *impl_;
+  const auto until = Clock::now() + deadline;
+  const std::string id = options_.space + "/" + options_.bridge + "/" + std::to_string(d.next_id++);
+  auto pending = std::make_shared<Impl::Pending>();
+  pending->space = space;
+  auto answer = pending->promise.get_future();
+  fdds::DataWriter* writer = nullptr;
+  try {
+    std::lock_guard lock(d.mutex);
+    writer = d.request_writer(space);
+    d.pending[id] = pending;
+  } catch (const std::exception& e) {
+    return planet::CallResult::error(planet::UNAVAILABLE, e.what());
+  }
+  auto forget = [&] {
+    std::lock_guard lock(d.mutex);
+    d.pending.erase(id);
+  };
+  // A writer made for this call waits for discovery; a known space's is matched already.
+  if (!Impl::wait_matched(writer, std::min(until, Clock::now() + std::chrono::milliseconds(2000)))) {
+    forget();
+    return planet::CallResult::error(planet::UNAVAILABLE, "space " + space + " is not reachable over DDS (no bridge of it matched)");
+  }
+  dds::CallRequest request;
+  request.request_id(id);
+  request.caller_space(options_.space);
+  request.service(service);
+  request.operation(operation);
+  request.deadline_ms(static_cast<uint32_t>(
+      std::max<int64_t>(1, std::chrono::duration_cast<std::chrono::milliseconds>(until - Clock::now()).count())));
+  request.no_reply(false);
+  request.payload(bytes_of(payload));
+  if (!writer->write(&request)) {
+    forget();
+    return planet::CallResult::error(planet::UNAVAILABLE, "the request to space " + space + " could not be written");
+  }
+  if (answer.wait_until(until) != std::future_status::ready) {
+    forget();
+    return planet::CallResult::error(planet::DEADLINE_EXCEEDED, "no reply from space " + space + " for " + service +
+                                                                    "." + operation + " within " +
+                                                                    std::to_string(deadline.count()) + " ms");
+  }
+  return answer.get();
+}
+
+bool DdsLink::oneway(const std::string& space, const std::string& service, const std::string& operation,
+                     std::string payload) {
+  Impl& d = *impl_;
+  fdds::DataWriter* writer = nullptr;
+  try {
+    std::lock_guard lock(d.mutex);
+    writer = d.request_writer(space);
+  } catch (const std::exception&) {
+    return false;
+  }
+  if (!Impl::wait_matched(writer, Clock::now() + std::chrono::milliseconds(2000))) return false;
+  dds::CallRequest request;
+  request.request_id(options_.space + "/" + options_.bridge + "/" + std::to_string(d.next_id++));
+  request.caller_space(options_.space);
+  request.service(service);
+  request.operation(operation);
+  request.no_reply(true);
+  request.payload(bytes_of(payload));
+  return writer->write(&request);
+}
+
+}  // namespace urs::bridge
