@@ -17,13 +17,21 @@
 
 namespace urs::test {
 
+// What a Planet client sees of one call.
+struct Observed {
+  planet::Status status = planet::INTERNAL;
+  std::string payload;
+  std::string exception_type;
+  std::string message;
+};
+
 class BridgeSpaceTest : public RtSpaceTest {
  protected:
   void SetUp() override {
     RtSpaceTest::SetUp();
     std::ofstream(dir_ + "/sam.yaml") << "agents:\n  - name: diag\n    type: diagnostic\n    deadline_ms: 5000\n";
     server_ = std::make_unique<Process>(
-        std::vector<std::string>{URS_SERVER_BIN, "--space", "lab", "--listen", "127.0.0.1:0", "--data-dir",
+        std::vector<std::string>{URS_SERVER_BIN, "--space", space_, "--listen", "127.0.0.1:0", "--data-dir",
                                  dir_ + "/data", "--port-file", dir_ + "/port", "--heartbeat-ms", "200",
                                  "--heartbeat-timeout-ms", "1000", "--log-level", "debug"},
         dir_ + "/server.log");
@@ -33,7 +41,7 @@ class BridgeSpaceTest : public RtSpaceTest {
     while (!server_address_.empty() && std::isspace(static_cast<unsigned char>(server_address_.back()))) {
       server_address_.pop_back();
     }
-    sam_ = std::make_unique<Process>(std::vector<std::string>{URS_SAM_BIN, "--space", "lab", "--server",
+    sam_ = std::make_unique<Process>(std::vector<std::string>{URS_SAM_BIN, "--space", space_, "--server",
                                                               server_address_, "--config", dir_ + "/sam.yaml",
                                                               "--log-level", "debug"},
                                      dir_ + "/sam.log");
@@ -59,19 +67,29 @@ class BridgeSpaceTest : public RtSpaceTest {
     RtSpaceTest::TearDown();
   }
 
-  // Starts urs-bridge with `config_yaml` on naming context "bridgehost"; fails the test if it does
-  // not bind its RTC.
+  // Starts urs-bridge with `config_yaml` on naming context "bridgehost", linked to this space's
+  // CAMUS server and naming service; fails the test if it does not come up.
   void start_bridge(const std::string& config_yaml) {
-    std::ofstream(dir_ + "/bridge.yaml") << config_yaml;
-    std::filesystem::remove(dir_ + "/bridge.ready");
-    bridge_ = std::make_unique<Process>(
-        std::vector<std::string>{URS_BRIDGE_BIN, "--space", "lab", "--server", server_address_, "--naming",
-                                 naming_->address(), "--host", "bridgehost", "--config", dir_ + "/bridge.yaml",
-                                 "--ready-file", dir_ + "/bridge.ready", "--log-level", "debug"},
-        dir_ + "/bridge.log");
-    ASSERT_TRUE(wait_until([&] { return std::filesystem::exists(dir_ + "/bridge.ready") || !bridge_->running(); },
-                           std::chrono::seconds(20)));
-    ASSERT_TRUE(std::filesystem::exists(dir_ + "/bridge.ready")) << bridge_->log();
+    bridge_ = launch_bridge("bridge", config_yaml,
+                            {"--server", server_address_, "--naming", naming_->address(), "--host", "bridgehost"});
+  }
+
+  // Starts a urs-bridge named `name` (files <dir>/<name>.*) with `sides` (its --server and/or
+  // --naming arguments) and waits for its ready file.
+  std::unique_ptr<Process> launch_bridge(const std::string& name, const std::string& config_yaml,
+                                         const std::vector<std::string>& sides, const std::string& space = "") {
+    const std::string config = dir_ + "/" + name + ".yaml";
+    const std::string ready = dir_ + "/" + name + ".ready";
+    std::ofstream(config) << config_yaml;
+    std::filesystem::remove(ready);
+    std::vector<std::string> argv{URS_BRIDGE_BIN, "--space", space.empty() ? space_ : space, "--config", config, "--ready-file", ready,
+                                  "--log-level", "debug"};
+    argv.insert(argv.end(), sides.begin(), sides.end());
+    auto process = std::make_unique<Process>(argv, dir_ + "/" + name + ".log");
+    const bool up = wait_until([&] { return std::filesystem::exists(ready) || !process->running(); },
+                               std::chrono::seconds(20));
+    EXPECT_TRUE(up && std::filesystem::exists(ready)) << name << " did not come up:\n" << process->log();
+    return process;
   }
 
   CommandResult urs(std::vector<std::string> args, std::chrono::milliseconds timeout = std::chrono::seconds(20)) {
@@ -100,6 +118,7 @@ class BridgeSpaceTest : public RtSpaceTest {
     return !CORBA::is_nil(object);
   }
 
+  std::string space_ = "lab";  // the CAMUS space's name; set before SetUp() to change it
   std::string server_address_;
   std::unique_ptr<Process> server_;
   std::unique_ptr<Process> sam_;

@@ -34,13 +34,6 @@ constexpr const char* kDiagnosticRules =
     "      name: \"rt.{instance}\"\n"
     "      deadline_ms: 1500\n";
 
-struct Observed {
-  planet::Status status = planet::INTERNAL;
-  std::string payload;
-  std::string exception_type;
-  std::string message;
-};
-
 class BridgeCamusSide : public BridgeSpaceTest {
  protected:
   Observed call(const std::string& service, const std::string& operation, const std::string& payload,
