@@ -5,10 +5,15 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "urs/agent/agent.hpp"
+#include "urs/bridge/interfaces.hpp"
+#include "urs/bridge/provider_port.hpp"
+#include "urs/corba_agent/corba_proxy.hpp"
 #include "urs/rtc/naming.hpp"
 #include "urs/rtc/nvlist.hpp"
 #include "urs/rtc/orb.hpp"
 #include "urs/rtc/tools.hpp"
+#include "urs/schema/json.hpp"
 #include "urs/util/cli.hpp"
 
 namespace urs::cli {
@@ -112,6 +117,7 @@ class Session {
       : orb_(options(call_timeout)), naming_(orb_, naming) {}
 
   rtc::NamingClient& naming() { return naming_; }
+  rtc::Orb& orb() { return orb_; }
 
   CORBA::Object_ptr resolve(const std::string& path) {
     try {
@@ -454,6 +460,100 @@ int disconnect(Session& session, const std::string& first, const std::string& se
   return kOk;
 }
 
+// ---- call: an RT consumer of any provider port, from the interface's description -------------
+
+struct CallRequest {
+  std::string target;     // PATH:PORT
+  std::string operation;
+  std::string arguments;  // JSON; empty = {}
+  std::string interface;  // the provided type_name to use; empty = the port's only one
+  std::vector<std::string> idl_files;
+  std::chrono::milliseconds deadline;
+};
+
+int call(Session& session, const CallRequest& call) {
+  const PortAddress address = parse_port_address(call.target);
+  RTC::PortService_var port = session.port(address);
+  RTC::PortProfile_var port_profile = calling(call.target, [&] { return port->get_port_profile(); });
+  bool provides = false;
+  for (CORBA::ULong i = 0; i < port_profile->interfaces.length(); ++i) {
+    provides = provides || port_profile->interfaces[i].polarity == RTC::PROVIDED;
+  }
+  if (!provides) {
+    throw Failure(kFailed, call.target + ": provides no interface (a " + port_type(port_profile.in()) + " port)");
+  }
+  // The provider's object, as a foreign consumer gets it: a connection holding only this port
+  // publishes its interfaces; it is removed again at once.
+  RTC::ConnectorProfile profile;
+  profile.name = CORBA::string_dup("urs-rtc-call");
+  profile.connector_id = CORBA::string_dup("");
+  profile.ports.length(1);
+  profile.ports[0] = RTC::PortService::_duplicate(port);
+  const RTC::ReturnCode_t code = calling(call.target, [&] { return port->connect(profile); });
+  if (code != RTC::RTC_OK) throw Failure(kFailed, call.target + ": connect returned " + rtc::return_code_name(code));
+  calling(call.target, [&] { return port->disconnect(profile.connector_id.in()); });
+  std::vector<bridge::ProvidedInterface> offered;
+  for (auto& provided : bridge::provided_interfaces(profile.properties)) {
+    if (call.interface.empty() || provided.type_name == call.interface) offered.push_back(std::move(provided));
+  }
+  if (offered.size() != 1) {
+    throw Failure(kFailed, call.target + (offered.empty() ? ": provides no interface" : ": provides several interfaces") +
+                               (call.interface.empty() ? "" : " of type " + call.interface) +
+                               (offered.size() > 1 ? " (choose one with --interface)" : ""));
+  }
+  bridge::InterfaceCatalog catalog;
+  for (const auto& file : call.idl_files) {
+    try {
+      catalog.load_idl(file, {});
+    } catch (const std::exception& e) {
+      throw Failure(kUsage, file + ": " + e.what());
+    }
+  }
+  const auto* interface = catalog.find_interface(bridge::ior_type_id(offered.front().ior), offered.front().type_name);
+  if (interface == nullptr) {
+    throw Failure(kFailed, call.target + " provides " + offered.front().type_name +
+                               ", whose IDL is not known here (give it with --idl FILE)");
+  }
+  const auto* method = interface->FindMethodByName(call.operation);
+  if (method == nullptr) {
+    std::string names;
+    for (int i = 0; i < interface->method_count(); ++i) names += (i ? ", " : "") + interface->method(i)->name();
+    throw Failure(kUsage, offered.front().type_name + " has no operation '" + call.operation + "' (" + names + ")");
+  }
+  google::protobuf::DynamicMessageFactory factory;
+  std::unique_ptr<google::protobuf::Message> request(factory.GetPrototype(method->input_type())->New());
+  std::unique_ptr<google::protobuf::Message> reply(factory.GetPrototype(method->output_type())->New());
+  const std::string error = schema::json_to_message(call.arguments.empty() ? "{}" : call.arguments, *request);
+  if (!error.empty()) throw Failure(kUsage, call.operation + ": " + error);
+
+  CORBA::Object_var target = session.orb().string_to_object(offered.front().ior);
+  corba_agent::CorbaProxyAgent consumer(session.orb().orb(), target, *interface,
+                                        corba_agent::CorbaProxyOptions{call.deadline, call.deadline});
+  class NoEvents : public agent::EventSink {
+   public:
+    planet::CallResult publish(const std::string&, const google::protobuf::Message&) override { return {}; }
+  } events;
+  agent::CallContext context;
+  context.service = call.target;
+  context.deadline = std::chrono::steady_clock::now() + call.deadline;
+  context.events = &events;
+  const agent::Outcome outcome = consumer.invoke(*method, *request, *reply, context);
+  std::string json;
+  if (outcome.status == planet::OK) {
+    schema::message_to_json(*reply, json);
+    std::cout << json << "\n";
+    return kOk;
+  }
+  std::cerr << "urs: rtc call: " << call.target << "." << call.operation << ": " << planet::status_name(outcome.status);
+  if (outcome.exception) {
+    schema::message_to_json(*outcome.exception, json);
+    std::cerr << " " << outcome.exception->GetTypeName() << " " << json;
+  }
+  if (!outcome.message.empty()) std::cerr << ": " << outcome.message;
+  std::cerr << "\n";
+  return outcome.status == planet::BAD_ARGUMENTS ? kUsage : outcome.status == planet::UNAVAILABLE ? kUnreachable : kFailed;
+}
+
 }  // namespace
 
 RtcCommands::RtcCommands(CLI::App& app) {
@@ -494,6 +594,14 @@ RtcCommands::RtcCommands(CLI::App& app) {
   dis_->add_option("port", first_port_, "PATH:PORT")->required();
   dis_->add_option("peer", second_port_, "PATH:PORT");
   dis_->add_flag("--all", all_, "Remove every connection of PORT");
+
+  call_ = rtc_->add_subcommand("call", "Call OPERATION on the provider port PATH:PORT (arguments as JSON)");
+  call_->add_option("port", first_port_, "PATH:PORT of a provider port")->required();
+  call_->add_option("operation", operation_, "Operation (or _get_<attribute>)")->required();
+  call_->add_option("arguments", arguments_, "JSON object of the in/inout arguments (default {})");
+  call_->add_option("--interface", interface_, "The provided interface's type_name, if the port has several");
+  call_->add_option("--idl", idl_files_, "IDL file of an interface not built in (repeatable)");
+  call_->add_option("--deadline-ms", deadline_ms_, "Bound on the call")->check(CLI::Range(1, 3600000))->capture_default_str();
 }
 
 bool RtcCommands::selected() const { return rtc_->parsed(); }
@@ -515,6 +623,10 @@ int RtcCommands::run(const std::string& log_level) {
     if (chosen == act_ || chosen == deact_ || chosen == reset_) return change_state(session, command, paths_);
     if (chosen == con_) return connect(session, first_port_, second_port_, properties_, connector_name_, connector_id_);
     if (chosen == dis_) return disconnect(session, first_port_, second_port_, all_);
+    if (chosen == call_) {
+      return call(session, {first_port_, operation_, arguments_, interface_, idl_files_,
+                            std::chrono::milliseconds(deadline_ms_)});
+    }
   } catch (const Failure& failure) {
     std::cerr << "urs: rtc " << command << ": " << failure.what() << "\n";
     return failure.code();

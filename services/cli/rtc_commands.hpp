@@ -32,6 +32,7 @@ class RtcCommands {
   CLI::App* reset_ = nullptr;
   CLI::App* con_ = nullptr;
   CLI::App* dis_ = nullptr;
+  CLI::App* call_ = nullptr;
 
   std::string naming_;
   int call_timeout_ms_ = 2000;
@@ -44,6 +45,11 @@ class RtcCommands {
   std::string connector_name_;
   std::string connector_id_;
   bool all_ = false;
+  std::string operation_;
+  std::string arguments_;
+  std::string interface_;
+  std::vector<std::string> idl_files_;
+  int deadline_ms_ = 10000;
 };
 
 }  // namespace urs::cli

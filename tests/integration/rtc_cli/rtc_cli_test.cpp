@@ -204,6 +204,32 @@ TEST_F(RtcCliTest, ConShowsTheConnectionOnBothPortsAndDisRemovesIt) {
   EXPECT_THAT(r.err, HasSubstr("BAD_PARAMETER"));
 }
 
+TEST_F(RtcCliTest, CallIsAConsumerOfAnyProviderPortFromItsInterfaceDescription) {
+  const std::string provider = path("Diagnostic0") + ":diagnostic";
+  CommandResult r = urs({"call", provider, "echo", R"({"text":"héllo RT"})"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.out, "{\"result\":\"héllo RT\"}\n");
+  r = urs({"call", provider, "add", R"({"a":1.5,"b":2})"});
+  EXPECT_EQ(r.out, "{\"result\":3.5}\n");
+  r = urs({"call", provider, "fail", R"({"reason":"jammed","code":9})"});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, HasSubstr("USER_EXCEPTION URS.Failure {\"reason\":\"jammed\",\"code\":9}"));
+  r = urs({"call", provider, "sleep", R"({"ms":3000})", "--deadline-ms", "200"});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, HasSubstr("DEADLINE_EXCEEDED"));
+  r = urs({"call", provider, "explode"});
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.err, HasSubstr("has no operation 'explode' (echo, add, sleep, blob, checksum, fail, notify)"));
+  r = urs({"call", provider, "echo", R"({"text": 5})"});
+  EXPECT_EQ(r.exit_code, 2) << r.out;
+  r = urs({"call", path("Counter0") + ":count", "echo"});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, HasSubstr("provides no interface"));
+  // Calling leaves no connection behind.
+  r = urs({"ls", "-l", path("Diagnostic0")});
+  EXPECT_THAT(r.out, HasSubstr("diagnostic  CorbaPort  0 connections\n"));
+}
+
 TEST_F(RtcCliTest, DataPortsConnectWithTheDefaultPropertiesAndDisAllRemovesThem) {
   CommandResult r = urs({"con", path("Counter0") + ":count", path("Sink0") + ":count"});
   ASSERT_EQ(r.exit_code, 0) << r.err;
