@@ -482,18 +482,8 @@ int call(Session& session, const CallRequest& call) {
   if (!provides) {
     throw Failure(kFailed, call.target + ": provides no interface (a " + port_type(port_profile.in()) + " port)");
   }
-  // The provider's object, as a foreign consumer gets it: a connection holding only this port
-  // publishes its interfaces; it is removed again at once.
-  RTC::ConnectorProfile profile;
-  profile.name = CORBA::string_dup("urs-rtc-call");
-  profile.connector_id = CORBA::string_dup("");
-  profile.ports.length(1);
-  profile.ports[0] = RTC::PortService::_duplicate(port);
-  const RTC::ReturnCode_t code = calling(call.target, [&] { return port->connect(profile); });
-  if (code != RTC::RTC_OK) throw Failure(kFailed, call.target + ": connect returned " + rtc::return_code_name(code));
-  calling(call.target, [&] { return port->disconnect(profile.connector_id.in()); });
   std::vector<bridge::ProvidedInterface> offered;
-  for (auto& provided : bridge::provided_interfaces(profile.properties)) {
+  for (auto& provided : calling(call.target, [&] { return bridge::offered_by(port); })) {
     if (call.interface.empty() || provided.type_name == call.interface) offered.push_back(std::move(provided));
   }
   if (offered.size() != 1) {

@@ -44,6 +44,17 @@ std::vector<ProvidedInterface> provided_interfaces(const SDOPackage::NVList& pro
   return found;
 }
 
+std::vector<ProvidedInterface> offered_by(RTC::PortService_ptr port) {
+  RTC::ConnectorProfile profile;
+  profile.name = CORBA::string_dup("urs-offered-by");
+  profile.connector_id = CORBA::string_dup("");
+  profile.ports.length(1);
+  profile.ports[0] = RTC::PortService::_duplicate(port);
+  if (port->connect(profile) != RTC::RTC_OK) return {};
+  port->disconnect(profile.connector_id.in());
+  return provided_interfaces(profile.properties);
+}
+
 ProviderPort::ProviderPort(std::string name) : PortBase(std::move(name), "CorbaPort") {}
 
 ProviderPort::~ProviderPort() = default;

@@ -27,6 +27,11 @@ struct ProvidedInterface {
 // Reads the provided interfaces published in a connector's properties (each IOR once).
 std::vector<ProvidedInterface> provided_interfaces(const SDOPackage::NVList& properties);
 
+// What a service port provides, got as a foreign consumer gets it: a connection holding only that
+// port (which publishes its interfaces), removed again at once. Empty if the port refuses the
+// connection. CORBA system exceptions propagate.
+std::vector<ProvidedInterface> offered_by(RTC::PortService_ptr port);
+
 class ProviderPort : public rtc::PortBase {
  public:
   explicit ProviderPort(std::string name);
