@@ -106,6 +106,15 @@ Tracer::Tracer(uint32_t domain, const std::string& robot, double time_scale)
   world_ = std::make_unique<world::World>(domain, "urs-lab");
   world_->subscribe(world::Channel::ground_truth, robot,
                     [this](const world::PoseSample& pose) { add(pose.x, pose.y, Clock::now()); });
+  // DDS discovery usually takes milliseconds but can take seconds: start once the robot is seen.
+  const auto give_up = Clock::now() + 15s;
+  while (!latest()) {
+    if (Clock::now() > give_up) {
+      throw std::runtime_error("no pose of robot '" + robot + "' on DDS domain " + std::to_string(domain) +
+                               " within 15 s (is the robot running, in that domain?)");
+    }
+    std::this_thread::sleep_for(5ms);
+  }
 }
 
 Tracer::Tracer(RemoteService& navigation, double time_scale, std::chrono::milliseconds period)
