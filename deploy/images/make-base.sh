@@ -46,7 +46,7 @@ dir=$(mktemp -d /tmp/urs-base.XXXXXX)
 cleanup() { $SUDO rm -rf "$dir"; }
 trap cleanup EXIT
 
-echo "make-base: debootstrap --variant=minbase $suite from $mirror (a few minutes)"
+echo "make-base: debootstrap --variant=minbase $suite from $mirror (about a minute)"
 start=$SECONDS
 $SUDO debootstrap --variant=minbase "$suite" "$dir/root" "$mirror" >"$dir/debootstrap.log" 2>&1 || {
   echo "make-base: debootstrap failed; its log:" >&2; tail -30 "$dir/debootstrap.log" >&2
