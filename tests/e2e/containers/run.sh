@@ -8,7 +8,8 @@
 #       component in another container works (object references carry a reachable address);
 #   scaling: --scale sam-host=2 rtc-manager=2 gives two distinct diag services and two naming
 #       contexts, nothing overwritten;
-#   restart: after the CAMUS server restarts both SAMs re-register.
+#   restarts: a recreated naming service keeps its bindings; after the CAMUS server restarts both
+#       SAMs re-register.
 # Always tears the project down (containers, networks, volumes); a failing step prints the logs.
 #   tests/e2e/containers/run.sh [SOURCE_DIR [BUILD_DIR]]
 # Environment: URS_COMPOSE (compose command, default `docker compose` when present, else
@@ -175,6 +176,18 @@ contexts=$(awk '/^[^ ].*\.host_cxt\/$/' <<<"$out" | wc -l)
 diag_rtcs=$(grep -c "Diagnostic0.rtc" <<<"$out")
 [[ $contexts -eq 3 && $diag_rtcs -eq 2 ]] || fail "expected 3 host contexts and 2 Diagnostic0.rtc, got $contexts and $diag_rtcs"
 grep -q unreachable <<<"$out" && fail "a binding is unreachable"
+
+# ---- the naming service is recreated: its bindings are kept (volume, fixed host name) -------------
+step "jp: rtc-naming recreated, bindings kept and reachable"
+t=$SECONDS
+dc up -d --force-recreate --no-deps rtc-naming >"$tmp/up.log" 2>&1 || { cat "$tmp/up.log"; fail "recreate failed"; }
+wait_healthy 60
+out=$(jp rtc ls) || fail "urs rtc ls: $(cat "$tmp/cli.err")"
+echo "$out"
+[[ $(grep -c "Diagnostic0.rtc" <<<"$out") -eq 2 && $(grep -c "Robot0.rtc *Active" <<<"$out") -eq 1 ]] \
+  || fail "bindings lost after the naming service was recreated"
+grep -q unreachable <<<"$out" && fail "a binding is unreachable after the naming service was recreated"
+say "naming service back with its bindings in $((SECONDS - t)) s"
 
 # ---- the CAMUS server restarts: the SAMs re-register ----------------------------------------------
 step "kr: camus-server restart, both SAMs re-register"
