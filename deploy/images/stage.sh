@@ -60,7 +60,7 @@ install -m 644 "$here/runtime-packages.txt" "$ctx/runtime-packages.txt"
 
 # Every NEEDED library must come from a listed package or the base image.
 base_packages=" libc6 libgcc-s1 libstdc++6 zlib1g "
-listed=" $(grep -v '^#' "$here/runtime-packages.txt" | tr '\n' ' ') "
+listed=" $(sed 's/#.*//' "$here/runtime-packages.txt" | tr -s ' \n' ' ') "
 missing=()
 for name in "${!binaries[@]}"; do
   while read -r lib path; do
