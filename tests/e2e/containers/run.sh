@@ -1,0 +1,201 @@
+#!/usr/bin/env bash
+# e2e (containers): builds the images (Docker's cache reuses what is unchanged), brings up the
+# compose project (CAMUS space kr + RT space jp) under a private project name, waits until every
+# container is healthy, then checks from client containers what a user would:
+#   kr: `urs ls` lists this SAM's services, `urs call diag-<id> echo` answers, the TTS's audio of
+#       "go forward" is recognised as "go forward" by the voice agent;
+#   jp: `urs rtc ls -l` shows robot, localizer, camera and diagnostic RTCs, and `urs rtc act` of a
+#       component in another container works (object references carry a reachable address);
+#   scaling: --scale sam-host=2 rtc-manager=2 gives two distinct diag services and two naming
+#       contexts, nothing overwritten;
+#   restarts: a recreated naming service keeps its bindings; after the CAMUS server restarts both
+#       SAMs re-register.
+# Always tears the project down (containers, networks, volumes); a failing step prints the logs.
+#   tests/e2e/containers/run.sh [SOURCE_DIR [BUILD_DIR]]
+# Environment: URS_COMPOSE (compose command, default `docker compose` when present, else
+# docker-compose), URS_E2E_SKIP_IMAGE_BUILD=1 (use the urslink/*:dev images as they are).
+set -uo pipefail
+here=$(cd "$(dirname "$0")" && pwd)
+root=${1:-$(cd "$here/../../.." && pwd)}
+build=${2:-${URS_BUILD_DIR:-$root/build}}
+t_start=$SECONDS
+
+say() { printf '[%4ds] %s\n' $((SECONDS - t_start)) "$*"; }
+die() { echo "e2e_containers: FAILED: $*" >&2; exit 1; }
+
+# ---- prerequisites: fail loudly, never skip --------------------------------------------------
+command -v docker >/dev/null || die "docker is not installed (Debian: apt-get install docker.io); this test needs it"
+docker info >/dev/null 2>&1 || die "the docker daemon does not answer (is it running? may $(id -un) use it?)"
+if [[ -n "${URS_COMPOSE:-}" ]]; then
+  read -r -a compose_cmd <<<"$URS_COMPOSE"
+elif docker compose version >/dev/null 2>&1; then
+  compose_cmd=(docker compose)
+elif command -v docker-compose >/dev/null; then
+  compose_cmd=(docker-compose)
+else
+  die "neither 'docker compose' nor docker-compose is installed (Debian: apt-get install docker-compose)"
+fi
+
+project=urs-e2e-$$
+compose_file=$root/compose/docker-compose.yml
+dc() { timeout "${DC_TIMEOUT:-180}" "${compose_cmd[@]}" -p "$project" -f "$compose_file" "$@"; }
+
+failed_step=""
+teardown() {
+  local rc=$?
+  if [[ $rc -ne 0 || -n "$failed_step" ]]; then
+    echo "==== step failed: ${failed_step:-setup}; container state:"
+    dc ps -a 2>&1 || true
+    echo "==== container logs (last 80 lines each)"
+    DC_TIMEOUT=60 dc logs --no-color --tail=80 2>&1 || true
+  fi
+  say "tearing down $project"
+  DC_TIMEOUT=120 dc down -v --remove-orphans -t 5 >/dev/null 2>&1 || echo "e2e_containers: teardown of $project failed" >&2
+}
+trap teardown EXIT
+trap 'exit 130' INT TERM
+
+step() { failed_step=$1; say "$1"; }
+fail() { echo "e2e_containers: FAILED at '$failed_step': $*" >&2; exit 1; }
+
+# cli containers (profile `tools`): stdout only; stderr kept for failures
+kr() { dc run --rm -T cli-kr "$@" 2>"$tmp/cli.err"; }
+jp() { dc run --rm -T cli-jp "$@" 2>"$tmp/cli.err"; }
+tmp=$(mktemp -d)
+trap 'teardown; rm -rf "$tmp"' EXIT
+
+# Waits until every running container of the project reports healthy (bounded).
+wait_healthy() {
+  local limit=$1 deadline=$((SECONDS + $1)) ids states bad
+  while :; do
+    ids=$(dc ps -q 2>/dev/null)
+    if [[ -n "$ids" ]]; then
+      states=$(docker inspect -f '{{.Name}} {{.State.Status}} {{if .State.Health}}{{.State.Health.Status}}{{else}}none{{end}}' $ids)
+      bad=$(awk '$2 != "running" || ($3 != "healthy" && $3 != "none")' <<<"$states")
+      [[ -z "$bad" ]] && return 0
+      if awk '$2 == "exited" || $2 == "dead" || $3 == "unhealthy"' <<<"$states" | grep -q .; then
+        fail "a container failed: $(awk '$2 != "running" || $3 == "unhealthy"' <<<"$states" | tr '\n' ';')"
+      fi
+    fi
+    ((SECONDS < deadline)) || fail "not healthy within $limit s: $(tr '\n' ';' <<<"$bad")"
+    sleep 1
+  done
+}
+
+# Retries a check (a command) for up to N seconds.
+eventually() {
+  local limit=$1; shift
+  local deadline=$((SECONDS + limit))
+  until "$@"; do
+    ((SECONDS < deadline)) || return 1
+    sleep 1
+  done
+}
+
+# ---- images -----------------------------------------------------------------------------------
+step "images"
+if [[ "${URS_E2E_SKIP_IMAGE_BUILD:-0}" == 1 ]]; then
+  for s in rtc-naming camus-server sam-host rtc-manager cli; do
+    docker image inspect "urslink/$s:dev" >/dev/null 2>&1 || fail "image urslink/$s:dev is missing"
+  done
+else
+  t=$SECONDS
+  URS_BUILD_DIR=$build timeout 480 "$root/deploy/images/build.sh" rtc-naming camus-server sam-host rtc-manager cli \
+    || fail "deploy/images/build.sh failed"
+  say "images ready in $((SECONDS - t)) s"
+fi
+
+# ---- up -----------------------------------------------------------------------------------------
+step "compose up (${compose_cmd[*]}, project $project)"
+t=$SECONDS
+dc up -d >"$tmp/up.log" 2>&1 || { cat "$tmp/up.log"; fail "compose up failed"; }
+wait_healthy 120
+say "all containers healthy $((SECONDS - t)) s after 'up'"
+
+# ---- kr: the CAMUS space ------------------------------------------------------------------------
+step "kr: urs ls lists the SAM's services"
+sam1=$(docker inspect -f '{{.Config.Hostname}}' "$(dc ps -q sam-host)")
+out=$(kr ls) || fail "urs ls: $(cat "$tmp/cli.err")"
+echo "$out"
+grep -qE "^diag-$sam1 +URS\.Diagnostic +sam@$sam1 +available" <<<"$out" || fail "diag-$sam1 missing"
+grep -qE "^tts-$sam1 +URC\.TextToSpeech " <<<"$out" || fail "tts-$sam1 missing"
+grep -qE "^voice-$sam1 +URC\.VoiceRecognition " <<<"$out" || fail "voice-$sam1 missing"
+
+step "kr: urs call diag echo"
+out=$(kr call "diag-$sam1" echo '{"text":"hello from a container"}') || fail "call: $(cat "$tmp/cli.err")"
+echo "$out"
+[[ "$out" == '{"result":"hello from a container"}' ]] || fail "unexpected echo reply: $out"
+
+step "kr: the TTS's audio of 'go forward' is recognised (espeak-ng and pocketsphinx data in the image)"
+wav=$(kr call "tts-$sam1" speak '{"text":"go forward"}' | python3 -c 'import json,sys; print(json.load(sys.stdin)["result"]["wav"])') \
+  || fail "tts speak: $(cat "$tmp/cli.err")"
+out=$(kr call "voice-$sam1" playBytes "{\"wave\":\"$wav\"}") || fail "voice playBytes: $(cat "$tmp/cli.err")"
+echo "$out"
+grep -q '"text":"go forward"' <<<"$out" || fail "not recognised as 'go forward': $out"
+
+# ---- jp: the RT space ---------------------------------------------------------------------------
+step "jp: urs rtc ls -l shows the device RTCs"
+robot_host=$(docker inspect -f '{{.Config.Hostname}}' "$(dc ps -q rtc-robot)")
+mgr1=$(docker inspect -f '{{.Config.Hostname}}' "$(dc ps -q rtc-manager)")
+out=$(jp rtc ls -l) || fail "urs rtc ls: $(cat "$tmp/cli.err")"
+echo "$out"
+expect_rtc() { awk -v ctx="$1.host_cxt/" -v rtc="$2" -v state="$3" '
+  /^[^ ]/ {in_ctx = ($1 == ctx)} in_ctx && $1 == rtc && $2 == state {found = 1} END {exit !found}' <<<"$out" \
+  || fail "$1.host_cxt/$2 not $3"; }
+expect_rtc "$robot_host" Robot0.rtc Active
+expect_rtc "$robot_host" Localizer0.rtc Active
+expect_rtc "$mgr1" Camera0.rtc Inactive
+expect_rtc "$mgr1" Diagnostic0.rtc Inactive
+
+step "jp: urs rtc act/deact reach a component in another container"
+jp rtc act "$mgr1.host_cxt/Diagnostic0.rtc" >/dev/null || fail "rtc act: $(cat "$tmp/cli.err")"
+out=$(jp rtc ls "$mgr1.host_cxt/Diagnostic0.rtc") || fail "rtc ls: $(cat "$tmp/cli.err")"
+grep -q "Diagnostic0.rtc *Active" <<<"$out" || fail "Diagnostic0 not Active after act: $out"
+jp rtc deact "$mgr1.host_cxt/Diagnostic0.rtc" >/dev/null || fail "rtc deact: $(cat "$tmp/cli.err")"
+
+# ---- scaling ------------------------------------------------------------------------------------
+step "scale: sam-host=2 rtc-manager=2"
+t=$SECONDS
+dc up -d --scale sam-host=2 --scale rtc-manager=2 >"$tmp/up.log" 2>&1 || { cat "$tmp/up.log"; fail "scale up failed"; }
+wait_healthy 90
+say "scaled and healthy in $((SECONDS - t)) s"
+diag_services() { kr ls | awk '$1 ~ /^diag-/ && $4 == "available" {print $1, $3}'; }
+two_diags() { [[ $(diag_services | sort -u | wc -l) -eq 2 ]]; }
+eventually 30 two_diags || fail "expected 2 diag services, got: $(diag_services | tr '\n' ';')"
+diags=$(diag_services)
+echo "$diags"
+[[ $(awk '{print $1}' <<<"$diags" | sort -u | wc -l) -eq 2 && $(awk '{print $2}' <<<"$diags" | sort -u | wc -l) -eq 2 ]] \
+  || fail "the two diag services are not distinct: $diags"
+for d in $(awk '{print $1}' <<<"$diags"); do
+  out=$(kr call "$d" echo "{\"text\":\"$d\"}") || fail "call $d: $(cat "$tmp/cli.err")"
+  [[ "$out" == "{\"result\":\"$d\"}" ]] || fail "$d answered $out"
+done
+out=$(jp rtc ls) || fail "urs rtc ls: $(cat "$tmp/cli.err")"
+echo "$out"
+contexts=$(awk '/^[^ ].*\.host_cxt\/$/' <<<"$out" | wc -l)
+diag_rtcs=$(grep -c "Diagnostic0.rtc" <<<"$out")
+[[ $contexts -eq 3 && $diag_rtcs -eq 2 ]] || fail "expected 3 host contexts and 2 Diagnostic0.rtc, got $contexts and $diag_rtcs"
+grep -q unreachable <<<"$out" && fail "a binding is unreachable"
+
+# ---- the naming service is recreated: its bindings are kept (volume, fixed host name) -------------
+step "jp: rtc-naming recreated, bindings kept and reachable"
+t=$SECONDS
+dc up -d --force-recreate --no-deps rtc-naming >"$tmp/up.log" 2>&1 || { cat "$tmp/up.log"; fail "recreate failed"; }
+wait_healthy 60
+out=$(jp rtc ls) || fail "urs rtc ls: $(cat "$tmp/cli.err")"
+echo "$out"
+[[ $(grep -c "Diagnostic0.rtc" <<<"$out") -eq 2 && $(grep -c "Robot0.rtc *Active" <<<"$out") -eq 1 ]] \
+  || fail "bindings lost after the naming service was recreated"
+grep -q unreachable <<<"$out" && fail "a binding is unreachable after the naming service was recreated"
+say "naming service back with its bindings in $((SECONDS - t)) s"
+
+# ---- the CAMUS server restarts: the SAMs re-register ----------------------------------------------
+step "kr: camus-server restart, both SAMs re-register"
+t=$SECONDS
+dc restart -t 5 camus-server >/dev/null 2>&1 || fail "restart failed"
+eventually 45 two_diags || fail "after the restart: $(diag_services | tr '\n' ';')"
+say "both diag services back $((SECONDS - t)) s after the restart"
+wait_healthy 60
+
+failed_step=""
+say "e2e_containers: every step passed in $((SECONDS - t_start)) s"
