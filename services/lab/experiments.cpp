@@ -253,23 +253,25 @@ SpeedRun run_speed(RemoteService& navigation, Tracer& tracer, double time_scale)
 
 // ---- speech and vision -----------------------------------------------------------------------
 
-SpeechVisionRun run_speech_vision(RemoteService& camera, RemoteService& tts, RemoteService& voice,
+SpeechVisionRun run_speech_vision(RemoteService* camera, RemoteService& tts, RemoteService& voice,
                                   const std::string& text) {
   SpeechVisionRun run;
-  run.path = camera.where() + ", " + tts.where() + ", " + voice.where();
-  URC::ImageRecognition_openCamera_Request open;
-  open.set_device(0);
-  call<URC::ImageRecognition_openCamera_Request, URC::ImageRecognition_openCamera_Reply>(camera, "openCamera", open);
-  URC::ImageRecognition_captureImage_Request capture;
-  capture.set_encoding(URC::IMAGE_ENCODING_PNG);
-  const auto image = call<URC::ImageRecognition_captureImage_Request, URC::ImageRecognition_captureImage_Reply>(
-      camera, "captureImage", capture);
-  run.width = image.result().format().width();
-  run.height = image.result().format().height();
-  run.png_bytes = image.result().data().size();
-  const auto markers = call<URC::ImageRecognition_recognize_Request, URC::ImageRecognition_recognize_Reply>(
-      camera, "recognize", {});
-  for (const auto& marker : markers.result()) run.markers.push_back(marker.content());
+  run.path = (camera ? camera->where() + ", " : "") + tts.where() + ", " + voice.where();
+  if (camera) {
+    URC::ImageRecognition_openCamera_Request open;
+    open.set_device(0);
+    call<URC::ImageRecognition_openCamera_Request, URC::ImageRecognition_openCamera_Reply>(*camera, "openCamera", open);
+    URC::ImageRecognition_captureImage_Request capture;
+    capture.set_encoding(URC::IMAGE_ENCODING_PNG);
+    const auto image = call<URC::ImageRecognition_captureImage_Request, URC::ImageRecognition_captureImage_Reply>(
+        *camera, "captureImage", capture);
+    run.width = image.result().format().width();
+    run.height = image.result().format().height();
+    run.png_bytes = image.result().data().size();
+    const auto markers = call<URC::ImageRecognition_recognize_Request, URC::ImageRecognition_recognize_Reply>(
+        *camera, "recognize", {});
+    for (const auto& marker : markers.result()) run.markers.push_back(marker.content());
+  }
 
   URC::TextToSpeech_speak_Request speak;
   speak.set_text(text);
@@ -336,15 +338,14 @@ void write_speed(const SpeedRun& run, const std::string& dir) {
 
 void write_speech_vision(const SpeechVisionRun& run, const std::string& dir) {
   std::ostringstream md, json, markers;
-  for (std::size_t i = 0; i < run.markers.size(); ++i) {
-    markers << (i ? ", " : "") << run.markers[i];
-    json << "";
+  for (std::size_t i = 0; i < run.markers.size(); ++i) markers << (i ? ", " : "") << run.markers[i];
+ md << "Calls: " << run.path << ".\n\n| step | result |\n|---|---|\n";
+  if (run.width > 0) {
+    md << "| openCamera(0), captureImage(PNG) | " << run.width << " × " << run.height << ", " << run.png_bytes
+       << " bytes |\n"
+       << "| recognize() | " << (run.markers.empty() ? "no marker" : markers.str()) << " |\n";
   }
-  md << "| step | result |\n|---|---|\n"
-     << "| openCamera(0), captureImage(PNG) | " << run.width << " × " << run.height << ", " << run.png_bytes
-     << " bytes |\n"
-     << "| recognize() | " << (run.markers.empty() ? "no marker" : markers.str()) << " |\n"
-     << "| speak(\"" << run.spoken << "\") | " << fixed(run.audio_s, 2) << " s of audio |\n"
+  md << "| speak(\"" << run.spoken << "\") | " << fixed(run.audio_s, 2) << " s of audio |\n"
      << "| playBytes(that audio) | \"" << run.heard << "\" (confidence " << fixed(run.confidence, 2) << ") |\n";
   json << "{\"path\":" << json_string(run.path) << ",\"width\":" << run.width << ",\"height\":" << run.height
        << ",\"png_bytes\":" << run.png_bytes << ",\"markers\":[";

@@ -109,9 +109,9 @@ struct SpeechVisionRun {
   double confidence = 0;
 };
 
-// The second paper's scenario: open the camera, capture an image, recognise markers, speak
-// `text`, recognise the speech.
-SpeechVisionRun run_speech_vision(RemoteService& camera, RemoteService& tts, RemoteService& voice,
+// The second paper's scenario: open the camera, capture an image, recognise markers (skipped
+// without a camera), speak `text`, recognise the speech.
+SpeechVisionRun run_speech_vision(RemoteService* camera, RemoteService& tts, RemoteService& voice,
                                   const std::string& text);
 
 // Reports: CSV, SVG, Markdown, JSON.

@@ -14,7 +14,10 @@
 #include <filesystem>
 #include <iostream>
 
+#include "ImageRecognition.pb.h"
 #include "Navigation.pb.h"
+#include "TextToSpeech.pb.h"
+#include "VoiceRecognition.pb.h"
 #include "experiments.hpp"
 #include "urs/planet/client.hpp"
 #include "urs/rtc/naming.hpp"
@@ -103,9 +106,14 @@ int main(int argc, char** argv) {
   motion_options(speed);
   auto* speech = app.add_subcommand("speech-vision", "Camera, image recognition, TTS and voice recognition");
   camus_options(speech);
-  speech->add_option("--camera", o.camera, "ImageRecognition service")->capture_default_str();
-  speech->add_option("--tts", o.tts, "TextToSpeech service")->capture_default_str();
-  speech->add_option("--voice", o.voice, "VoiceRecognition service")->capture_default_str();
+  speech->add_option("--via", o.via, "camus: services by name through the CAMUS server; rt: provider ports PATH:PORT")
+      ->check(CLI::IsMember({"rt", "camus"}))
+      ->capture_default_str();
+  speech->add_option("--naming", o.naming, "Naming service HOST:PORT (--via rt)")->capture_default_str();
+  speech->add_option("--camera", o.camera, "ImageRecognition service or PATH:PORT (\"\": no camera)")
+      ->capture_default_str();
+  speech->add_option("--tts", o.tts, "TextToSpeech service or PATH:PORT")->capture_default_str();
+  speech->add_option("--voice", o.voice, "VoiceRecognition service or PATH:PORT")->capture_default_str();
   speech->add_option("--text", o.text, "What the TTS says")->capture_default_str();
   auto* report = app.add_subcommand("report", "Combine the runs in --out into experiments.md and square.svg");
   app.require_subcommand(1);
@@ -123,11 +131,26 @@ int main(int argc, char** argv) {
       return 0;
     }
     if (*speech) {
-      auto client = connect(o);
-      auto camera = urs::lab::camus_service(*client, o.camera);
-      auto tts = urs::lab::camus_service(*client, o.tts);
-      auto voice = urs::lab::camus_service(*client, o.voice);
-      const auto run = urs::lab::run_speech_vision(*camera, *tts, *voice, o.text);
+      std::unique_ptr<urs::planet::Client> client;
+      std::unique_ptr<urs::rtc::Orb> orb;
+      std::unique_ptr<urs::rtc::NamingClient> naming;
+      // A service by name on CAMUS, or (--via rt) a provider port PATH:PORT of the interface.
+      auto service = [&](const std::string& name, const google::protobuf::ServiceDescriptor& interface) {
+        if (o.via == "rt") {
+          if (!orb) {
+            orb = std::make_unique<urs::rtc::Orb>();
+            naming = std::make_unique<urs::rtc::NamingClient>(*orb, o.naming);
+          }
+          return urs::lab::rt_provider(*orb, *naming, name, interface);
+        }
+        if (!client) client = connect(o);
+        return urs::lab::camus_service(*client, name);
+      };
+      auto camera = o.camera.empty() ? nullptr
+                                     : service(o.camera, *URC::ImageRecognition_recognize_Request::descriptor()->file()->FindServiceByName("ImageRecognition"));
+      auto tts = service(o.tts, *URC::TextToSpeech_speak_Request::descriptor()->file()->FindServiceByName("TextToSpeech"));
+      auto voice = service(o.voice, *URC::VoiceRecognition_playBytes_Request::descriptor()->file()->FindServiceByName("VoiceRecognition"));
+      const auto run = urs::lab::run_speech_vision(camera.get(), *tts, *voice, o.text);
       urs::lab::write_speech_vision(run, o.out);
       std::cout << "markers: " << run.markers.size() << ", heard \"" << run.heard << "\" for \"" << run.spoken
                 << "\"\n";

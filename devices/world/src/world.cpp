@@ -155,9 +155,12 @@ struct World::Impl {
 };
 
 World::World(uint32_t domain, const std::string& participant_name) : impl_(std::make_unique<Impl>()) {
-  fdds::DomainParticipantQos qos = fdds::PARTICIPANT_QOS_DEFAULT;
-  qos.name(participant_name);
   auto* factory = fdds::DomainParticipantFactory::get_instance();
+  // The default QoS of the XML profile FASTRTPS_DEFAULT_PROFILES_FILE names (e.g. UDP only between
+  // containers), if any: a copy of PARTICIPANT_QOS_DEFAULT would ignore it.
+  factory->load_profiles();
+  fdds::DomainParticipantQos qos = factory->get_default_participant_qos();
+  qos.name(participant_name);
   impl_->participant = factory->create_participant(domain, qos);
   if (impl_->participant == nullptr) {
     throw std::runtime_error("DDS: cannot create a participant in domain " + std::to_string(domain));

@@ -682,9 +682,13 @@ void Bridge::reconcile_exports() {
           break;
         }
       }
+      const auto slash = path.find('/');
+      std::string host = slash == std::string::npos ? "" : path.substr(0, slash);
+      if (host.size() > 9 && host.compare(host.size() - 9, 9, ".host_cxt") == 0) host.resize(host.size() - 9);
       const std::string name = expand(rule.name, {{"instance", provided.component},
                                                    {"port", provided.port},
-                                                   {"interface", interface->name()}});
+                                                   {"interface", interface->name()},
+                                                   {"host", host}});
       try {
         CORBA::Object_var target = orb_.string_to_object(provided.ior);
         auto proxy = std::make_shared<corba_agent::CorbaProxyAgent>(

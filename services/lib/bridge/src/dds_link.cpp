@@ -346,7 +346,9 @@ struct DdsLink::Impl : public fdds::DataReaderListener {
 
 DdsLink::DdsLink(DdsOptions options, CatalogHandler on_catalog, CallHandler on_call)
     : options_(std::move(options)), impl_(std::make_unique<Impl>(options_, std::move(on_catalog), std::move(on_call))) {
-  fdds::DomainParticipantQos qos = fdds::PARTICIPANT_QOS_DEFAULT;
+  auto* factory = fdds::DomainParticipantFactory::get_instance();
+  factory->load_profiles();  // an XML default profile's settings, but for the transports set below
+  fdds::DomainParticipantQos qos = factory->get_default_participant_qos();
   qos.name("urs-bridge/" + options_.space + "/" + options_.bridge);
   // A participant that stops announcing itself (dead process, cut network) is dropped after the
   // lease, which ends its writers' matches and so this space's entries at the others.
@@ -369,7 +371,6 @@ DdsLink::DdsLink(DdsOptions options, CatalogHandler on_catalog, CallHandler on_c
       qos.wire_protocol().builtin.initialPeersList.push_back(locator);
     }
   }
-  auto* factory = fdds::DomainParticipantFactory::get_instance();
   Impl& d = *impl_;
   d.participant = factory->create_participant(options_.domain, qos);
   if (d.participant == nullptr) {

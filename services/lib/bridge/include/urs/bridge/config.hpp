@@ -12,7 +12,8 @@
 //     providers:
 //       - match: "*/Robot*.rtc"     # glob on naming paths ('*' crosses '/')
 //         interface: URC::Navigation  # glob on the provided interface's type_name (default "*")
-//         name: "{instance}.{port}" # the CAMUS service name; {instance} {port} {interface}
+//         name: "{instance}.{port}" # the CAMUS service name; {instance} {port} {interface} {host}
+//                                   # ({host}: the naming context <host>.host_cxt the RTC is bound in)
 //         deadline_ms: 10000        # bound on each call (advertised to CAMUS callers too)
 //   camus_to_rt:                    # CAMUS services offered as RT-Components
 //     poll_ms: 500
