@@ -18,19 +18,15 @@ declare -A binaries=(
   [urs-sam]=services/sam/urs-sam
   [urs-rtc-manager]=services/rtc-manager/urs-rtc-manager
   [urs]=services/cli/urs
+  [urs-bridge]=services/bridge/urs-bridge
+  [urs-lab]=services/lab/urs-lab
 )
-optional=(urs-bridge=services/bridge/urs-bridge)
 
 for name in "${!binaries[@]}"; do
   [[ -x "$build/${binaries[$name]}" ]] || {
     echo "stage: $build/${binaries[$name]} is missing: build first (URS_BUILD_DIR=$build deploy/build.sh)" >&2
     exit 1
   }
-done
-for entry in "${optional[@]}"; do
-  name=${entry%%=*} path=${entry#*=}
-  if [[ -x "$build/$path" ]]; then binaries[$name]=$path
-  else echo "stage: $name not built ($build/$path): the bridge image is left out"; fi
 done
 
 rm -rf "$ctx"

@@ -1,10 +1,10 @@
 #!/usr/bin/env bash
-# e2e: runs the README's main job (deploy/demo.sh) on the built binaries and checks what a user
+# e2e: runs the local demo (deploy/demo-local.sh) on the built binaries and checks what a user
 # would see at each step. Fails on the first missing line, printing the demo's output.
 set -uo pipefail
 root=$1
 build=$2
-out=$(URS_DEMO_NO_BUILD=1 URS_BUILD_DIR="$build" "$root/deploy/demo.sh" 2>&1)
+out=$(URS_DEMO_NO_BUILD=1 URS_BUILD_DIR="$build" "$root/deploy/demo-local.sh" 2>&1)
 rc=$?
 fail() { echo "demo_test: $1"; echo "---- demo output"; echo "$out"; exit 1; }
 [[ $rc -eq 0 ]] || fail "demo exited with $rc"
