@@ -20,6 +20,8 @@ PACKAGES=(
   libqrencode-dev libzbar-dev libpng-dev  # camera device: QR markers, their recognition, PNG frames
   # tools used by tests and scripts
   python3 procps iproute2
+  # containers: the engine, compose, and debootstrap for the base image made from Debian packages
+  docker.io docker-compose debootstrap
 )
 if [[ "${1:-}" == "--with-fuzz" ]]; then
   PACKAGES+=(clang libclang-rt-14-dev)

@@ -2,9 +2,12 @@
 //
 //   urs-bench [--quick] [--json FILE] [--markdown FILE]
 //
-// Rows: raw TCP echo (the floor) and a Planet call client → urs-camus-server → urs-sam → agent,
-// for a 64-byte and a 921,600-byte payload; throughput with 1 and 4 clients; recovery after a
-// server kill -9; resident memory of the server and SAM idle and with 1,000 services.
+// Rows: raw TCP echo (the floor) and a Planet call client → urs-camus-server → urs-sam → agent;
+// a direct omniORB call (static stubs) and the bridged paths both ways through urs-bridge;
+// a direct Fast DDS request/reply (two DdsLinks) and the cross-space paths both ways through two
+// bridges linked by DDS over UDP; each for a 64-byte and a 921,600-byte payload. Also throughput
+// with 1 and 4 clients, a sustained image stream, discovery across spaces, recovery after a server
+// kill -9, and resident memory of the server, SAM and bridges idle and with 1,000 services.
 // Every process is real and runs on 127.0.0.1. Numbers are reported, never asserted.
 
 #include <arpa/inet.h>
@@ -25,6 +28,13 @@
 
 #include "Diagnostic.pb.h"
 #include "bench_stats.hpp"
+#include "corba_stub.hpp"
+#include "naming_service.hpp"
+#include "urs/bridge/dds_link.hpp"
+#include "urs/bridge/provider_port.hpp"
+#include "urs/rtc/naming.hpp"
+#include "urs/rtc/orb.hpp"
+#include "urs/rtc/tools.hpp"
 #include "camus.pb.h"
 #include "process.hpp"
 #include "urs/planet/client.hpp"
@@ -198,6 +208,46 @@ long rss_kib(pid_t pid) {
   return -1;
 }
 
+// A real process started from a YAML configuration, up once its ready file exists.
+std::unique_ptr<urs::test::Process> start_with_config(const std::string& dir, const std::string& name,
+                                                     const std::string& yaml, std::vector<std::string> argv) {
+  std::ofstream(dir + "/" + name + ".yaml") << yaml;
+  argv.insert(argv.end(), {"--config", dir + "/" + name + ".yaml", "--ready-file", dir + "/" + name + ".ready",
+                           "--log-level", "warn"});
+  auto process = std::make_unique<urs::test::Process>(argv, dir + "/" + name + ".log");
+  if (!urs::test::wait_until([&] { return std::filesystem::exists(dir + "/" + name + ".ready"); }, 30s)) {
+    throw std::runtime_error(name + " did not start: " + process->log());
+  }
+  return process;
+}
+
+// The object a provider port offers, as a foreign consumer gets it.
+CORBA::Object_ptr provider(urs::rtc::Orb& orb, urs::rtc::NamingClient& naming, const std::string& path,
+                           const std::string& port) {
+  CORBA::Object_var object = naming.resolve(path);
+  RTC::RTObject_var rtc = RTC::RTObject::_narrow(object);
+  RTC::PortService_var service = urs::rtc::find_port(rtc, port);
+  const auto offered = urs::bridge::offered_by(service);
+  if (offered.empty()) throw std::runtime_error(path + ":" + port + " offers nothing");
+  return orb.string_to_object(offered.front().ior);
+}
+
+// calls/s of `call` run by `clients` threads for `per_client` calls each.
+template <class MakeCall>
+double throughput(int clients, int per_client, MakeCall make_call) {
+  std::vector<std::function<void()>> calls;
+  for (int c = 0; c < clients; ++c) calls.push_back(make_call(c));
+  const auto t0 = std::chrono::steady_clock::now();
+  std::vector<std::thread> threads;
+  for (auto& call : calls) {
+    threads.emplace_back([&call, per_client] {
+      for (int i = 0; i < per_client; ++i) call();
+    });
+  }
+  for (auto& t : threads) t.join();
+  return clients * per_client / std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
 std::string fmt_us(double us) {
   char b[32];
   std::snprintf(b, sizeof(b), us >= 1000 ? "%.2f ms" : "%.1f us", us >= 1000 ? us / 1000 : us);
@@ -284,6 +334,172 @@ int main(int argc, char** argv) {
       extras.push_back({"Planet throughput, " + std::to_string(clients) + " client(s), 64 B", value});
     }
 
+    // ---- the RT side, a bridge in the space, and two spaces linked over DDS -------------------
+    const int domain = 150 + static_cast<int>(getpid() % 60);
+    urs::test::NamingService naming(dir + "/naming");
+    auto manager = start_with_config(dir, "rtc", "components:\n  - type: Diagnostic\n",
+                                     {URS_RTC_MANAGER_BIN, "--space", "bench", "--naming", naming.address(),
+                                      "--host", "benchhost"});
+    auto bridge = start_with_config(
+        dir, "bridge",
+        "name: bridge-bench\n"
+        "rt_to_camus: {poll_ms: 100, providers: [{match: \"benchhost.host_cxt/Diagnostic0.rtc\", name: rt.diag, deadline_ms: 30000}]}\n"
+        "camus_to_rt: {poll_ms: 100, services: [{match: diag, instance: camus_diag, deadline_ms: 30000}]}\n",
+        {URS_BRIDGE_BIN, "--space", "bench", "--server", space.address(), "--naming", naming.address(), "--host",
+         "benchhost"});
+    const std::string dds = "dds: {domain: " + std::to_string(domain) + ", lease_ms: 3000, udp_only: true";
+    auto bridge_jp = start_with_config(
+        dir, "bridge-jp",
+        "name: bridge-jp\n"
+        "rt_to_camus: {poll_ms: 100, providers: [{match: \"benchhost.host_cxt/Diagnostic0.rtc\", name: rt.diag},\n"
+        "                                        {match: \"disc*\", name: \"{instance}@{host}\"}]}\n" + dds +
+            ", import: {allow: [kr/diag]}}\n",
+        {URS_BRIDGE_BIN, "--space", "jp", "--naming", naming.address(), "--host", "jphost"});
+    auto bridge_kr = start_with_config(dir, "bridge-kr", "name: bridge-kr\n" + dds + "}\n",
+                                       {URS_BRIDGE_BIN, "--space", "kr", "--server", space.address()});
+    auto callable = [&](const std::string& service) {
+      return urs::test::wait_until([&] { return client->call(service, "echo", echo_payload, 500ms).ok(); }, 30s);
+    };
+    if (!callable("rt.diag") || !callable("jp/rt.diag")) {
+      throw std::runtime_error("the bridged services never became callable: " + bridge->log() + bridge_kr->log());
+    }
+    urs::rtc::Orb orb;
+    urs::rtc::NamingClient names(orb, naming.address());
+    CORBA::Object_var direct_object = provider(orb, names, "benchhost.host_cxt/Diagnostic0.rtc", "diagnostic");
+    urs::bench::DiagnosticStub direct(direct_object);
+    if (!urs::test::wait_until([&] {
+          CORBA::Object_var bound = names.try_resolve("benchhost.host_cxt/camus_diag.rtc");
+          CORBA::Object_var kr_bound = names.try_resolve("jphost.host_cxt/kr_diag.rtc");
+          return !CORBA::is_nil(bound) && !CORBA::is_nil(kr_bound);
+        }, 30s)) {
+      throw std::runtime_error("the RTCs standing for diag never appeared: " + bridge->log() + bridge_jp->log());
+    }
+    CORBA::Object_var imported_object = provider(orb, names, "benchhost.host_cxt/camus_diag.rtc", "diagnostic");
+    urs::bench::DiagnosticStub imported(imported_object);
+    CORBA::Object_var remote_object = provider(orb, names, "jphost.host_cxt/kr_diag.rtc", "diagnostic");
+    urs::bench::DiagnosticStub remote(remote_object);
+
+    // Direct Fast DDS request/reply: two DdsLinks, the second answering at once (UDP only).
+    const std::string big_reply = [] {
+      URS::Diagnostic_blob_Reply reply;
+      reply.set_result(std::string(921600, 'x'));
+      return reply.SerializeAsString();
+    }();
+    auto answer = [&](urs::bridge::IncomingCall call, std::function<void(urs::planet::CallResult)> reply) {
+      reply(urs::planet::CallResult::success(call.operation == "blob" ? big_reply : call.payload));
+    };
+    urs::bridge::DdsOptions a_options;
+    a_options.domain = static_cast<uint32_t>(domain + 1);
+    a_options.space = "dds-a";
+    a_options.bridge = "a";
+    a_options.udp_only = true;
+    urs::bridge::DdsOptions b_options = a_options;
+    b_options.space = "dds-b";
+    b_options.bridge = "b";
+    urs::bridge::DdsLink dds_a(a_options, [] {}, answer);
+    urs::bridge::DdsLink dds_b(b_options, [] {}, answer);
+    expect_ok(dds_a.call("dds-b", "echo", "echo", echo_payload, 5s), "direct DDS");
+
+    const std::string text(64, 'x');
+    for (const bool big_payload : {false, true}) {
+      const char* size = big_payload ? "921,600 B" : "64 B";
+      const int n = big_payload ? big_iterations : iterations;
+      const int w = big_payload ? 3 : warmup;
+      const std::string op = big_payload ? "blob" : "echo";
+      const std::string& payload = big_payload ? blob_payload : echo_payload;
+      auto stub_call = [&](urs::bench::DiagnosticStub& stub) {
+        return [&stub, big_payload, &text] {
+          if (big_payload) stub.blob(921600); else stub.echo(text);
+        };
+      };
+      auto planet_call = [&](const std::string& service) {
+        return [&, service] { expect_ok(client->call(service, op, payload, 10s), service.c_str()); };
+      };
+      const std::string omni = std::string("omniORB call, static stubs (direct)|") + size;
+      const std::string planet = std::string("Planet call client→server→SAM→SA|") + size;
+      rows.push_back({"omniORB call, static stubs (direct)", size, urs::bench::measure(stub_call(direct), w, n, repetitions), "", 0});
+      rows.push_back({"bridged RTC→CAMUS: client→server→bridge→RTC", size,
+                      urs::bench::measure(planet_call("rt.diag"), w, n, repetitions), omni, big_payload ? 0 : 4.0});
+      rows.push_back({"bridged SA→RT: stub→bridge→server→SAM→SA", size,
+                      urs::bench::measure(stub_call(imported), w, n, repetitions), planet, 0});
+      rows.push_back({"Fast DDS request/reply, UDP (direct)", size,
+                      urs::bench::measure([&] { expect_ok(dds_a.call("dds-b", "x", op, payload, 10s), "DDS"); }, w, n, repetitions),
+                      "", 0});
+      // The native hops a cross-space call traverses: Planet (client→server→SAM-like bridge), one
+      // DDS request/reply, one omniORB call.
+      Summary sum;
+      for (const auto& row : rows) {
+        if (row.payload != size) continue;
+        if (row.path == "omniORB call, static stubs (direct)" || row.path == "Fast DDS request/reply, UDP (direct)" ||
+            row.path == "Planet call client→server→SAM→SA") {
+          sum.median_us += row.summary.median_us;
+          sum.p99_us += row.summary.p99_us;
+          sum.min_median_us += row.summary.min_median_us;
+          sum.max_median_us += row.summary.max_median_us;
+        }
+      }
+      rows.push_back({"sum of the native hops (Planet + Fast DDS + omniORB)", size, sum, "", 0});
+      const std::string hops = std::string("sum of the native hops (Planet + Fast DDS + omniORB)|") + size;
+      rows.push_back({"cross-space: kr client→server→bridge-kr→DDS→bridge-jp→RTC", size,
+                      urs::bench::measure(planet_call("jp/rt.diag"), w, n, repetitions), hops, 1.3});
+      rows.push_back({"cross-space: jp stub→bridge-jp→DDS→bridge-kr→server→SAM→SA", size,
+                      urs::bench::measure(stub_call(remote), w, n, repetitions), hops, 1.3});
+    }
+
+    // Throughput, direct omniORB and bridged RTC→CAMUS, 1 and 4 clients.
+    const int per = quick ? 100 : 3000;
+    for (int clients : {1, 4}) {
+      std::vector<std::unique_ptr<urs::bench::DiagnosticStub>> stubs;
+      std::vector<std::unique_ptr<urs::planet::Client>> planets;
+      const double corba = throughput(clients, per, [&](int) {
+        CORBA::Object_var object = provider(orb, names, "benchhost.host_cxt/Diagnostic0.rtc", "diagnostic");
+        stubs.push_back(std::make_unique<urs::bench::DiagnosticStub>(object));
+        return [stub = stubs.back().get(), &text] { stub->echo(text); };
+      });
+      const double bridged = throughput(clients, per, [&](int) {
+        planets.push_back(connect(space.port()));
+        return [cl = planets.back().get(), &echo_payload] { expect_ok(cl->call("rt.diag", "echo", echo_payload, 5s), "echo"); };
+      });
+      char value[160];
+      std::snprintf(value, sizeof(value), "%.0f calls/s bridged vs %.0f direct omniORB: %.0f%%%s", bridged, corba,
+                    100 * bridged / corba, clients == 4 ? (bridged >= 0.35 * corba ? " (goal >= 35%: met)" : " (goal >= 35%: missed)") : "");
+      extras.push_back({"throughput RTC→CAMUS, " + std::to_string(clients) + " client(s), 64 B", value});
+    }
+
+    // A sustained stream of 921,600-byte images, in space and across spaces.
+    for (const std::string service : {"rt.diag", "jp/rt.diag"}) {
+      const auto t0 = std::chrono::steady_clock::now();
+      const auto duration = quick ? 1s : 5s;
+      int frames = 0, lost = 0;
+      while (std::chrono::steady_clock::now() - t0 < duration) {
+        (client->call(service, "blob", blob_payload, 2s).ok() ? frames : lost)++;
+      }
+      char value[96];
+      std::snprintf(value, sizeof(value), "%.1f frames/s, %d lost (goal 30/s, none lost)",
+                    frames / std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), lost);
+      extras.push_back({"921,600-byte stream through " + service, value});
+    }
+
+    // Discovery across spaces: a new RTC in jp until it answers from kr.
+    std::vector<double> discoveries;
+    for (int i = 0; i < (quick ? 1 : 5); ++i) {
+      const std::string host = "disc" + std::to_string(i);
+      const auto t0 = std::chrono::steady_clock::now();
+      auto newcomer = start_with_config(dir, host, "components:\n  - type: Diagnostic\n",
+                                        {URS_RTC_MANAGER_BIN, "--space", "jp", "--naming", naming.address(), "--host", host});
+      const std::string service = "jp/Diagnostic0@" + host;
+      if (!urs::test::wait_until([&] { return client->call(service, "echo", echo_payload, 200ms).ok(); }, 30s)) {
+        throw std::runtime_error(service + " never became callable");
+      }
+      discoveries.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+    }
+    char found[96];
+    std::snprintf(found, sizeof(found), "median %.0f ms, max %.0f ms (goal median <= 300 ms, p99 <= 1500 ms)",
+                  urs::bench::percentile(discoveries, 0.5), urs::bench::percentile(discoveries, 1.0));
+    extras.push_back({"discovery: RTC bound in jp until callable from kr (bridge polls naming every 100 ms)", found});
+    extras.push_back({"RSS urs-bridge in the space (1 service each way)", std::to_string(rss_kib(bridge->pid())) + " KiB"});
+    extras.push_back({"RSS bridge-kr idle (1 service offered)", std::to_string(rss_kib(bridge_kr->pid())) + " KiB"});
+
     // Memory idle, then with 1,000 registered services.
     extras.push_back({"RSS urs-camus-server idle", std::to_string(rss_kib(space.server().pid())) + " KiB"});
     extras.push_back({"RSS urs-sam idle (1 agent)", std::to_string(rss_kib(space.sam().pid())) + " KiB"});
@@ -303,6 +519,10 @@ int main(int argc, char** argv) {
       }
       if (!urs::test::wait_until([&] { return done.load() == 1000; }, 30s)) throw std::runtime_error("registrations did not complete");
       extras.push_back({"RSS urs-camus-server, 1,000 services", std::to_string(rss_kib(space.server().pid())) + " KiB"});
+      // bridge-kr offers them all to the other spaces: each described by the registry and
+      // announced on DDS with its interface description (bridge-jp imports only kr/diag).
+      std::this_thread::sleep_for(quick ? 3s : 6s);
+      extras.push_back({"RSS bridge-kr offering 1,000 services over DDS", std::to_string(rss_kib(bridge_kr->pid())) + " KiB (goal <= 65536 KiB)"});
     }
 
     // Recovery: kill -9 the server, restart it on the same port, until the SAM's agent answers.

@@ -9,7 +9,14 @@
 #   scaling: --scale sam-host=2 rtc-manager=2 gives two distinct diag services and two naming
 #       contexts, nothing overwritten;
 #   restarts: a recreated naming service keeps its bindings; after the CAMUS server restarts both
-#       SAMs re-register.
+#       SAMs and the bridge re-register.
+#   between the spaces (only DDS crosses the `link` network): jp's RT providers are CAMUS services
+#       in kr and kr's agents RTCs in jp; the demo scenario (a kr client drives jp's robot around
+#       the square, waypoint errors asserted; a jp RT consumer makes kr's TTS speak and kr's voice
+#       recognition hear it); a 921,600-byte image crosses whole; scaling jp's managers gives that
+#       many services in kr; a killed bridge's services vanish from the other space within the
+#       lease, every call in flight gets an answer, and they return with the bridge; cutting the
+#       link makes cross-space calls fail fast with a reason, and reconnecting restores them.
 # Always tears the project down (containers, networks, volumes); a failing step prints the logs.
 #   tests/e2e/containers/run.sh [SOURCE_DIR [BUILD_DIR]]
 # Environment: URS_COMPOSE (compose command, default `docker compose` when present, else
@@ -95,12 +102,12 @@ eventually() {
 # ---- images -----------------------------------------------------------------------------------
 step "images"
 if [[ "${URS_E2E_SKIP_IMAGE_BUILD:-0}" == 1 ]]; then
-  for s in rtc-naming camus-server sam-host rtc-manager cli; do
+  for s in rtc-naming camus-server sam-host rtc-manager cli bridge; do
     docker image inspect "urslink/$s:dev" >/dev/null 2>&1 || fail "image urslink/$s:dev is missing"
   done
 else
   t=$SECONDS
-  URS_BUILD_DIR=$build timeout 480 "$root/deploy/images/build.sh" rtc-naming camus-server sam-host rtc-manager cli \
+  URS_BUILD_DIR=$build timeout 480 "$root/deploy/images/build.sh" rtc-naming camus-server sam-host rtc-manager cli bridge \
     || fail "deploy/images/build.sh failed"
   say "images ready in $((SECONDS - t)) s"
 fi
@@ -153,6 +160,62 @@ out=$(jp rtc ls "$mgr1.host_cxt/Diagnostic0.rtc") || fail "rtc ls: $(cat "$tmp/c
 grep -q "Diagnostic0.rtc *Active" <<<"$out" || fail "Diagnostic0 not Active after act: $out"
 jp rtc deact "$mgr1.host_cxt/Diagnostic0.rtc" >/dev/null || fail "rtc deact: $(cat "$tmp/cli.err")"
 
+# ---- between the spaces --------------------------------------------------------------------------
+lab_in() {  # urs-lab in a space's client container, writing to $tmp/out
+  local space=$1; shift
+  dc run --rm -T --user "$(id -u):$(id -g)" -v "$tmp/out:/out" --entrypoint urs-lab "cli-$space" --out /out "$@" \
+    2>"$tmp/cli.err"
+}
+mkdir -p "$tmp/out"
+step "link: jp's RT providers are services in kr, kr's agents are RTCs in jp"
+jp_listed() { kr ls "jp/$1" | grep -qE "^jp/$1 +\S+ +bridge-kr +available +dds:jp/$1\$"; }
+eventually 60 jp_listed robot1.navigation || fail "jp/robot1.navigation not in kr: $(kr ls)"
+eventually 30 jp_listed "Diagnostic0.diagnostic@$mgr1" || fail "jp's Diagnostic0 not in kr: $(kr ls)"
+kr_bound() { jp rtc ls bridge-jp.host_cxt | grep -q "$1"; }
+eventually 30 kr_bound "kr_tts-$sam1.rtc" || fail "kr's TTS not bound in jp: $(jp rtc ls)"
+out=$(kr call "jp/Diagnostic0.diagnostic@$mgr1" echo '{"text":"from kr to jp"}') || fail "cross-space call: $(cat "$tmp/cli.err")"
+[[ "$out" == '{"result":"from kr to jp"}' ]] || fail "cross-space echo answered $out"
+out=$(jp rtc call "bridge-jp.host_cxt/kr_diag-$sam1.rtc:diagnostic" echo '{"text":"from jp to kr"}') \
+  || fail "cross-space RT call: $(cat "$tmp/cli.err")"
+[[ "$out" == '{"result":"from jp to kr"}' ]] || fail "cross-space RT echo answered $out"
+
+step "demo: a kr client drives jp's robot around the square (waypoint errors < 50 mm)"
+lab_in kr square --via camus --server camus-server:7600 --service jp/robot1.navigation --trace poll \
+  --time-scale 4 --label kr >/dev/null || fail "square path: $(cat "$tmp/cli.err")"
+python3 - "$tmp/out/square-kr.json" <<'PY' || fail "square path: waypoint errors"
+import json, sys
+run = json.load(open(sys.argv[1]))
+legs = [(l["x"], l["y"], l["error_mm"]) for l in run["legs"]]
+print("waypoints:", legs)
+assert [(x, y) for x, y, _ in legs] == [(1.5, 1.0), (1.5, 3.0), (5.0, 3.0), (5.0, 1.0), (1.5, 1.0)]
+assert all(e < 50 for _, _, e in legs)
+PY
+
+step "demo: a jp RT consumer makes kr's TTS speak and kr's voice recognition hear it"
+camera=$(jp rtc ls | awk -v ctx="$mgr1.host_cxt/" '/^[^ ]/{c=$1} c == ctx && /Camera0\.rtc/{print ctx "Camera0.rtc"}')
+lab_in jp speech-vision --via rt --naming rtc-naming:2809 --text "go forward" \
+  --tts "bridge-jp.host_cxt/kr_tts-$sam1.rtc:texttospeech" --voice "bridge-jp.host_cxt/kr_voice-$sam1.rtc:voicerecognition" \
+  --camera "$camera:imagerecognition" >/dev/null || fail "speech-vision: $(cat "$tmp/cli.err")"
+python3 - "$tmp/out/speech-vision.json" <<'PY' || fail "speech-vision: wrong results"
+import json, sys
+run = json.load(open(sys.argv[1]))
+print("heard:", run["heard"], "markers:", run["markers"])
+assert run["heard"] == "go forward"
+assert sorted(run["markers"]) == ["urs:marker:1@6.5,1.0", "urs:marker:2@6.5,3.0"]
+PY
+
+step "a 921,600-byte image crosses from jp to kr whole"
+kr call "jp/Camera0.imagerecognition@$mgr1" openCamera '{"device":0}' >/dev/null || fail "openCamera: $(cat "$tmp/cli.err")"
+kr call "jp/Camera0.imagerecognition@$mgr1" captureImage '{"encoding":"IMAGE_ENCODING_RAW_RGB8"}' >"$tmp/image.json" \
+  || fail "captureImage: $(cat "$tmp/cli.err")"
+python3 - "$tmp/image.json" <<'PY' || fail "the image did not cross whole"
+import base64, json, sys
+image = json.load(open(sys.argv[1]))["result"]
+data = base64.b64decode(image["data"])
+print("image:", image["format"], len(data), "bytes")
+assert len(data) == 921600 == image["format"]["width"] * image["format"]["height"] * 3
+PY
+
 # ---- scaling ------------------------------------------------------------------------------------
 step "scale: sam-host=2 rtc-manager=2"
 t=$SECONDS
@@ -174,8 +237,11 @@ out=$(jp rtc ls) || fail "urs rtc ls: $(cat "$tmp/cli.err")"
 echo "$out"
 contexts=$(awk '/^[^ ].*\.host_cxt\/$/' <<<"$out" | wc -l)
 diag_rtcs=$(grep -c "Diagnostic0.rtc" <<<"$out")
-[[ $contexts -eq 3 && $diag_rtcs -eq 2 ]] || fail "expected 3 host contexts and 2 Diagnostic0.rtc, got $contexts and $diag_rtcs"
+[[ $contexts -eq 4 && $diag_rtcs -eq 2 ]] || fail "expected 4 host contexts (robot, 2 managers, bridge-jp) and 2 Diagnostic0.rtc, got $contexts and $diag_rtcs"
 grep -q unreachable <<<"$out" && fail "a binding is unreachable"
+cameras() { kr ls 'jp/Camera0.*' | awk '$1 ~ /^jp\/Camera0\.imagerecognition@/ && $4 == "available"' | wc -l; }
+two_cameras() { [[ $(cameras) -eq 2 ]]; }
+eventually 30 two_cameras || fail "scaled jp managers: expected 2 cameras in kr, got: $(kr ls 'jp/*')"
 
 # ---- the naming service is recreated: its bindings are kept (volume, fixed host name) -------------
 step "jp: rtc-naming recreated, bindings kept and reachable"
@@ -195,7 +261,53 @@ t=$SECONDS
 dc restart -t 5 camus-server >/dev/null 2>&1 || fail "restart failed"
 eventually 45 two_diags || fail "after the restart: $(diag_services | tr '\n' ';')"
 say "both diag services back $((SECONDS - t)) s after the restart"
+eventually 45 jp_listed robot1.navigation || fail "bridge-kr did not register jp's services again: $(kr ls)"
+say "jp's services registered again by bridge-kr $((SECONDS - t)) s after the restart"
 wait_healthy 60
+
+# ---- faults between the spaces -------------------------------------------------------------------
+step "bridge-jp killed: calls in flight are answered, jp's services vanish from kr within the lease"
+diag_jp="jp/Diagnostic0.diagnostic@$mgr1"
+for i in 1 2 3; do
+  ( dc run --rm -T cli-kr call "$diag_jp" sleep '{"ms":4000}' --deadline-ms 8000 >/dev/null 2>"$tmp/inflight$i.err"
+    echo $? >"$tmp/inflight$i.rc" ) &
+done
+sleep 1.5
+t=$SECONDS
+docker kill "$(dc ps -q bridge-jp)" >/dev/null || fail "docker kill bridge-jp"
+wait
+for i in 1 2 3; do
+  rc=$(cat "$tmp/inflight$i.rc")
+  reason=$(grep '^urs:' "$tmp/inflight$i.err")
+  echo "call $i in flight: exit $rc: $reason"
+  [[ ($rc -eq 1 || $rc -eq 3) && -n "$reason" ]] || fail "call $i in flight was not answered with an error (exit $rc)"
+done
+gone() { ! kr ls 'jp/*' | grep -q '^jp/'; }
+eventually 15 gone || fail "jp's services still in kr: $(kr ls 'jp/*')"
+say "jp's services gone from kr $((SECONDS - t)) s after the kill (lease 3 s)"
+kr call jp/robot1.navigation getPosition >/dev/null && fail "a call to a vanished service succeeded"
+grep -q UNKNOWN_SERVICE "$tmp/cli.err" || fail "no clear error: $(cat "$tmp/cli.err")"
+dc start bridge-jp >/dev/null 2>&1 || fail "restart bridge-jp"
+eventually 60 jp_listed robot1.navigation || fail "jp's services did not come back: $(kr ls)"
+kr call jp/robot1.navigation getPosition >/dev/null || fail "after the restart: $(cat "$tmp/cli.err")"
+say "back $((SECONDS - t)) s after the kill"
+
+step "link cut: cross-space calls fail fast with a reason, and work again once reconnected"
+link=$(docker inspect -f '{{range $k, $v := .NetworkSettings.Networks}}{{$k}} {{end}}' "$(dc ps -q bridge-kr)" | tr ' ' '\n' | grep '_link$')
+[[ -n "$link" ]] || fail "bridge-kr is on no link network"
+docker network disconnect "$link" "$(dc ps -q bridge-kr)" || fail "disconnect"
+t=$SECONDS
+eventually 20 gone || fail "jp's services still in kr with the link cut: $(kr ls 'jp/*')"
+say "cut noticed in $((SECONDS - t)) s"
+t0=$SECONDS
+kr call jp/robot1.navigation getPosition --deadline-ms 10000 >/dev/null && fail "a cross-space call succeeded with the link cut"
+(( SECONDS - t0 < 5 )) || fail "the call with the link cut took $((SECONDS - t0)) s"
+echo "with the link cut: $(cat "$tmp/cli.err")"
+docker network connect "$link" "$(dc ps -q bridge-kr)" || fail "reconnect"
+t=$SECONDS
+eventually 60 jp_listed robot1.navigation || fail "jp's services did not come back after reconnecting: $(kr ls)"
+kr call jp/robot1.navigation getPosition >/dev/null || fail "after reconnecting: $(cat "$tmp/cli.err")"
+say "calls across spaces work again $((SECONDS - t)) s after reconnecting"
 
 failed_step=""
 say "e2e_containers: every step passed in $((SECONDS - t_start)) s"

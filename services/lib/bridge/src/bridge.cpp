@@ -187,6 +187,7 @@ class Bridge::Session {
   std::map<std::string, Remote> remotes;  // by "<space>/<service>"
   std::map<std::string, std::unique_ptr<schema::SchemaPool>> space_pools;
   std::vector<std::unique_ptr<schema::SchemaPool>> extra_pools;  // descriptions that clash within a space
+  Clock::time_point catalog_read_at;
   std::unique_ptr<DdsLink> dds;  // last: destroyed first, so no DDS thread outlives what it uses
 };
 
@@ -364,11 +365,7 @@ void Bridge::open_session() {
     try {
       session->dds = std::make_unique<DdsLink>(
           options,
-          [this](const ServiceEntry& entry, bool alive) {
-            {
-              std::lock_guard lock(remote_mutex_);
-              remote_changes_.emplace_back(entry, alive);
-            }
+          [this] {
             remote_pending_ = true;
             wake_.notify_all();
           },
@@ -948,25 +945,27 @@ void Bridge::serve_remote(Session& session, IncomingCall call, std::function<voi
 void Bridge::poll_dds() {
   auto session = session_;
   if (!session || !session->dds) return;
-  std::vector<std::pair<ServiceEntry, bool>> changes;
-  {
-    std::lock_guard lock(remote_mutex_);
-    changes.swap(remote_changes_);
-    remote_pending_ = false;
-  }
-  const auto& dds = config_.dds;
-  for (const auto& [entry, alive] : changes) {
-    const std::string key = entry.space + "/" + entry.name;
-    auto existing = session->remotes.find(key);
-    if (existing != session->remotes.end() &&
-        (!alive || existing->second.descriptor_set != entry.descriptor_set ||
-         existing->second.interface_name != entry.interface_name)) {
-      withdraw_remote(*session, key);
-      existing = session->remotes.end();
+  // The catalog is read when DDS said it changed, and once a lease anyway.
+  const auto now = Clock::now();
+  if (remote_pending_.exchange(false) || now - session->catalog_read_at > config_.dds.lease) {
+    session->catalog_read_at = now;
+    std::map<std::string, ServiceEntry> offered;  // by "<space>/<service>", allowed ones
+    for (auto& entry : session->dds->catalog()) {
+      std::string key = entry.space + "/" + entry.name;
+      if (allowed(key, config_.dds.import_allow, config_.dds.import_deny)) offered.emplace(std::move(key), std::move(entry));
     }
-    if (!alive || existing != session->remotes.end()) continue;
-    if (!allowed(key, dds.import_allow, dds.import_deny)) continue;
-    import_remote(*session, entry);
+    std::vector<std::string> gone;
+    for (const auto& [key, remote] : session->remotes) {
+      const auto it = offered.find(key);
+      if (it == offered.end() || it->second.descriptor_set != remote.descriptor_set ||
+          it->second.interface_name != remote.interface_name) {
+        gone.push_back(key);
+      }
+    }
+    for (const auto& key : gone) withdraw_remote(*session, key);
+    for (const auto& [key, entry] : offered) {
+      if (!session->remotes.count(key)) import_remote(*session, entry);
+    }
   }
   sync_dds_exports(*session);
 }

@@ -5,6 +5,7 @@
 
 #include <atomic>
 #include <condition_variable>
+#include <fastdds/dds/core/LoanableSequence.hpp>
 #include <fastdds/dds/domain/DomainParticipant.hpp>
 #include <fastdds/dds/domain/DomainParticipantFactory.hpp>
 #include <fastdds/dds/publisher/DataWriter.hpp>
@@ -127,13 +128,8 @@ struct DdsLink::Impl : public fdds::DataReaderListener {
   std::map<std::string, std::shared_ptr<Pending>> pending;  // by request id
   std::atomic<uint64_t> next_id{1};
 
-  std::mutex catalog_mutex;  // what the catalog reader knows of the others
-  struct Known {
-    std::string space;
-    std::string name;
-    fdds::InstanceHandle_t writer;
-  };
-  std::map<fdds::InstanceHandle_t, Known> instances;
+  mutable std::mutex catalog_mutex;  // guards dead_writers
+  std::set<fdds::InstanceHandle_t> dead_writers;  // catalog writers whose liveliness is lost
 
   // ---- entities ----
 
@@ -218,7 +214,7 @@ struct DdsLink::Impl : public fdds::DataReaderListener {
 
   void on_data_available(fdds::DataReader* reader) override {
     if (reader == catalog_reader) {
-      read_catalog(reader);
+      on_catalog();  // the entries stay in the reader's cache: catalog() reads them
     } else if (reader == request_reader) {
       read_requests(reader);
     } else if (reader == reply_reader) {
@@ -226,57 +222,26 @@ struct DdsLink::Impl : public fdds::DataReaderListener {
     }
   }
 
-  void read_catalog(fdds::DataReader* reader) {
-    dds::ServiceEntry sample;
-    fdds::SampleInfo info;
-    while (reader->take_next_sample(&sample, &info) == ReturnCode_t::RETCODE_OK) {
-      if (info.valid_data) {
-        if (sample.space() == options.space) continue;  // our own entries
-        {
-          std::lock_guard lock(catalog_mutex);
-          instances[info.instance_handle] = {sample.space(), sample.name(), info.publication_handle};
-        }
-        ServiceEntry entry{sample.space(), sample.name(), sample.interface_name(), sample.repository_id(),
-                           sample.origin(), sample.bridge(), sample.deadline_ms(), text_of(sample.descriptor_set())};
-        on_catalog(entry, true);
-      } else if (info.instance_state != fdds::ALIVE_INSTANCE_STATE) {
-        gone([&](const Known&, const fdds::InstanceHandle_t& handle) { return handle == info.instance_handle; });
-      }
-    }
-  }
-
-  // Reports and forgets the instances `which` selects.
-  template <typename Which>
-  void gone(Which which) {
-    std::vector<Known> lost;
+  void writer_state(const fdds::InstanceHandle_t& writer, bool alive) {
     {
       std::lock_guard lock(catalog_mutex);
-      for (auto it = instances.begin(); it != instances.end();) {
-        if (which(it->second, it->first)) {
-          lost.push_back(it->second);
-          it = instances.erase(it);
-        } else {
-          ++it;
-        }
+      if (alive) {
+        dead_writers.erase(writer);
+      } else {
+        dead_writers.insert(writer);
       }
     }
-    for (const auto& known : lost) {
-      ServiceEntry entry;
-      entry.space = known.space;
-      entry.name = known.name;
-      on_catalog(entry, false);
-    }
-  }
-
-  void writer_lost(const fdds::InstanceHandle_t& writer) {
-    gone([&](const Known& known, const fdds::InstanceHandle_t&) { return known.writer == writer; });
+    on_catalog();
   }
 
   void on_subscription_matched(fdds::DataReader* reader, const fdds::SubscriptionMatchedStatus& status) override {
-    if (reader == catalog_reader && status.current_count_change < 0) writer_lost(status.last_publication_handle);
+    if (reader != catalog_reader) return;
+    if (status.current_count_change != 0) writer_state(status.last_publication_handle, status.current_count_change > 0);
   }
   void on_liveliness_changed(fdds::DataReader* reader, const fdds::LivelinessChangedStatus& status) override {
-    if (reader == catalog_reader && status.not_alive_count_change > 0) writer_lost(status.last_publication_handle);
+    if (reader != catalog_reader) return;
+    if (status.not_alive_count_change > 0) writer_state(status.last_publication_handle, false);
+    if (status.alive_count_change > 0) writer_state(status.last_publication_handle, true);
   }
 
   void read_requests(fdds::DataReader* reader) {
@@ -433,6 +398,31 @@ DdsLink::~DdsLink() {
     d.pending.clear();
   }
   for (auto& call : left) call->promise.set_value(planet::CallResult::error(planet::UNAVAILABLE, "bridge stopping"));
+}
+
+std::vector<ServiceEntry> DdsLink::catalog() const {
+  Impl& d = *impl_;
+  std::set<fdds::InstanceHandle_t> dead;
+  {
+    std::lock_guard lock(d.catalog_mutex);
+    dead = d.dead_writers;
+  }
+  std::vector<ServiceEntry> entries;
+  fdds::LoanableSequence<dds::ServiceEntry> samples;
+  fdds::SampleInfoSeq infos;
+  if (d.catalog_reader->read(samples, infos, fdds::LENGTH_UNLIMITED, fdds::ANY_SAMPLE_STATE, fdds::ANY_VIEW_STATE,
+                             fdds::ALIVE_INSTANCE_STATE) != ReturnCode_t::RETCODE_OK) {
+    return entries;
+  }
+  for (fdds::LoanableCollection::size_type i = 0; i < samples.length(); ++i) {
+    if (!infos[i].valid_data || dead.count(infos[i].publication_handle)) continue;
+    const dds::ServiceEntry& sample = samples[i];
+    if (sample.space() == options_.space) continue;  // our own entries
+    entries.push_back({sample.space(), sample.name(), sample.interface_name(), sample.repository_id(), sample.origin(),
+                       sample.bridge(), sample.deadline_ms(), text_of(sample.descriptor_set())});
+  }
+  d.catalog_reader->return_loan(samples, infos);
+  return entries;
 }
 
 void DdsLink::announce(const ServiceEntry& entry) {

@@ -166,9 +166,17 @@ CorbaProxyAgent::CorbaProxyAgent(CORBA::ORB_ptr orb, CORBA::Object_ptr target,
 CorbaProxyAgent::~CorbaProxyAgent() = default;
 
 CORBA::Object_ptr CorbaProxyAgent::reference_for(std::chrono::milliseconds timeout) const {
-  CORBA::Object_ptr reference = orb_->string_to_object(target_ior_.c_str());
+  // omniORB keeps a call timeout per object reference: each thread calling through this proxy has
+  // a reference of its own (made once), so calls with different deadlines never share a setting.
+  CORBA::Object_var reference;
+  {
+    std::lock_guard lock(references_mutex_);
+    CORBA::Object_var& mine = references_[std::this_thread::get_id()];
+    if (CORBA::is_nil(mine)) mine = orb_->string_to_object(target_ior_.c_str());
+    reference = CORBA::Object::_duplicate(mine);
+  }
   omniORB::setClientCallTimeout(reference, static_cast<CORBA::ULong>(std::max<std::int64_t>(1, timeout.count())));
-  return reference;
+  return reference._retn();
 }
 
 agent::Outcome CorbaProxyAgent::invoke(const gp::MethodDescriptor& method, const gp::Message& request, gp::Message& reply,

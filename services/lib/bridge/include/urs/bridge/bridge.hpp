@@ -107,9 +107,7 @@ class Bridge {
   std::thread thread_;
   std::shared_ptr<Session> session_;
 
-  // Catalog changes from DDS threads, applied by the bridge's thread.
-  std::mutex remote_mutex_;
-  std::vector<std::pair<ServiceEntry, bool>> remote_changes_;
+  // Set by DDS threads when the other spaces' catalog changed; the bridge's thread reads it.
   std::atomic<bool> remote_pending_{false};
 
   // Used by the bridge's thread only.

@@ -56,9 +56,9 @@ struct IncomingCall {
 
 class DdsLink {
  public:
-  // Another space's entry appeared or changed (alive) or went away (!alive: only space and name
-  // are set).
-  using CatalogHandler = std::function<void(const ServiceEntry& entry, bool alive)>;
+  // The other spaces' catalog changed (an entry written, disposed, or its bridge lost or back):
+  // read catalog() for what it holds now. Runs on a DDS thread; must not block.
+  using CatalogHandler = std::function<void()>;
   // A call to this space's services. `reply` may be called once, from any thread (not for a
   // oneway call).
   using CallHandler = std::function<void(IncomingCall call, std::function<void(planet::CallResult)> reply)>;
@@ -70,6 +70,10 @@ class DdsLink {
   DdsLink& operator=(const DdsLink&) = delete;
 
   const DdsOptions& options() const { return options_; }
+
+  // What the other spaces offer now: every live entry of the catalog (read from the reader's
+  // cache, whose instances DDS keeps up to date), but those of bridges whose liveliness is lost.
+  std::vector<ServiceEntry> catalog() const;
 
   // This space's catalog: announce (or update) and withdraw one service.
   void announce(const ServiceEntry& entry);

@@ -16,6 +16,8 @@
 #include <chrono>
 #include <map>
 #include <memory>
+#include <mutex>
+#include <thread>
 #include <string>
 
 #include "urs/agent/agent.hpp"
@@ -47,8 +49,8 @@ class CorbaProxyAgent : public agent::ServiceAgent {
  private:
   struct Call;  // how one operation is sent and answered
 
-  // A fresh reference to the target: omniORB keeps a call timeout per reference, and each call
-  // needs its own.
+  // The calling thread's own reference to the target, with `timeout` set on it (omniORB keeps a
+  // call timeout per reference; one per thread, so concurrent calls never share a setting).
   CORBA::Object_ptr reference_for(std::chrono::milliseconds timeout) const;
   agent::Outcome answer_user_exception(const Call& call, CORBA::UnknownUserException& raised) const;
 
@@ -56,6 +58,8 @@ class CorbaProxyAgent : public agent::ServiceAgent {
   const CorbaProxyOptions options_;
   CORBA::ORB_var orb_;
   std::string target_ior_;
+  mutable std::mutex references_mutex_;
+  mutable std::map<std::thread::id, CORBA::Object_var> references_;  // one per calling thread
   google::protobuf::DynamicMessageFactory factory_;  // exception messages; read-only once built
   std::unique_ptr<CdrCodec> codec_;
   std::map<const google::protobuf::MethodDescriptor*, std::unique_ptr<Call>> calls_;
