@@ -47,6 +47,17 @@ eprosima::fastrtps::Duration_t duration(std::chrono::milliseconds ms) {
 }
 
 std::vector<uint8_t> bytes_of(const std::string& text) { return {text.begin(), text.end()}; }
+
+// One sample per instance, and room for every service of every space: Fast DDS's default of 10
+// instances would silently refuse the eleventh service.
+fdds::ResourceLimitsQosPolicy catalog_limits() {
+  fdds::ResourceLimitsQosPolicy limits;
+  limits.max_instances = 100000;
+  limits.max_samples_per_instance = 1;
+  limits.max_samples = 100000;
+  limits.allocated_samples = 64;
+  return limits;
+}
 std::string text_of(const std::vector<uint8_t>& bytes) { return {bytes.begin(), bytes.end()}; }
 
 // "HOST" or "HOST:PORT" -> the IPv4 address and port(s) of an initial peer.
@@ -361,6 +372,7 @@ DdsLink::DdsLink(DdsOptions options, CatalogHandler on_catalog, CallHandler on_c
     catalog_writer.liveliness().lease_duration = duration(options_.lease);
     catalog_writer.liveliness().announcement_period = duration(options_.lease / 4);
     catalog_writer.publish_mode().kind = fdds::ASYNCHRONOUS_PUBLISH_MODE;  // descriptor sets exceed one datagram
+    catalog_writer.resource_limits() = catalog_limits();
     d.catalog_writer = d.publisher->create_datawriter(d.catalog_topic, catalog_writer);
 
     fdds::DataReaderQos catalog_reader = fdds::DATAREADER_QOS_DEFAULT;
@@ -370,6 +382,7 @@ DdsLink::DdsLink(DdsOptions options, CatalogHandler on_catalog, CallHandler on_c
     catalog_reader.history().depth = 1;
     catalog_reader.liveliness().kind = fdds::AUTOMATIC_LIVELINESS_QOS;
     catalog_reader.liveliness().lease_duration = duration(options_.lease);
+    catalog_reader.resource_limits() = catalog_limits();
     d.catalog_reader = d.subscriber->create_datareader(d.catalog_topic, catalog_reader, &d);
 
     d.request_reader = d.subscriber->create_datareader(d.topic(request_topic(options_.space), d.request_type),
