@@ -12,10 +12,11 @@ namespace urs::lab {
 
 namespace {
 
-constexpr double kWidth = 720;
+constexpr double kPlotWidth = 490;  // the frame; the figure is 720 px wide unless the legend needs more
 constexpr double kHeight = 520;
 constexpr double kLeft = 70;
-constexpr double kRight = 160;  // room for the legend
+constexpr double kRight = 160;     // room for the legend, at least
+constexpr double kCharWidth = 7;   // a generous estimate of one character at 12 px sans-serif
 constexpr double kTop = 40;
 constexpr double kBottom = 55;
 
@@ -66,7 +67,12 @@ std::string to_svg(const Figure& figure) {
   if (y1 - y0 < 1e-9) y0 -= 0.5, y1 += 0.5;
   const double pad_x = (x1 - x0) * 0.06, pad_y = (y1 - y0) * 0.08;
   x0 -= pad_x, x1 += pad_x, y0 -= pad_y, y1 += pad_y;
-  const double plot_w = kWidth - kLeft - kRight, plot_h = kHeight - kTop - kBottom;
+  // The legend's column is as wide as its longest label (swatch 28 px, margins 14 + 10 px).
+  std::size_t longest = 0;
+  for (const auto& series : figure.series) longest = std::max(longest, series.label.size());
+  const double right = std::max(kRight, 14 + 28 + kCharWidth * static_cast<double>(longest) + 10);
+  const double width = kLeft + kPlotWidth + right;
+  const double plot_w = kPlotWidth, plot_h = kHeight - kTop - kBottom;
   double sx = plot_w / (x1 - x0), sy = plot_h / (y1 - y0);
   if (figure.equal_axes) {  // one scale for both axes, the range grown to fill the frame
     const double s = std::min(sx, sy);
@@ -78,10 +84,10 @@ std::string to_svg(const Figure& figure) {
   auto py = [&](double y) { return kTop + plot_h - (y - y0) * sy; };
 
   std::ostringstream svg;
-  svg << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << kWidth << "\" height=\"" << kHeight
-      << "\" viewBox=\"0 0 " << kWidth << " " << kHeight << "\" font-family=\"sans-serif\" font-size=\"12\">\n";
+  svg << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << width << "\" height=\"" << kHeight
+      << "\" viewBox=\"0 0 " << width << " " << kHeight << "\" font-family=\"sans-serif\" font-size=\"12\">\n";
   svg << "<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n";
-  svg << "<text x=\"" << kWidth / 2 << "\" y=\"22\" text-anchor=\"middle\" font-size=\"15\">" << escaped(figure.title)
+  svg << "<text x=\"" << width / 2 << "\" y=\"22\" text-anchor=\"middle\" font-size=\"15\">" << escaped(figure.title)
       << "</text>\n";
   // Grid and ticks.
   const double step_x = tick_step(x1 - x0, 8), step_y = tick_step(y1 - y0, 6);

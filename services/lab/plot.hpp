@@ -24,7 +24,7 @@ struct Figure {
   bool equal_axes = false;  // one metre is as long on both axes (trajectories)
 };
 
-// The figure as an SVG document, 720 x 520 px.
+// The figure as an SVG document, 520 px high and 720 px wide, wider when a legend label needs it.
 std::string to_svg(const Figure& figure);
 
 // Writes `text` to `path`; throws std::runtime_error naming the path on failure.
