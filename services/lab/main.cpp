@@ -19,6 +19,7 @@
 #include "TextToSpeech.pb.h"
 #include "VoiceRecognition.pb.h"
 #include "experiments.hpp"
+#include "navigation_stub.hpp"
 #include "urs/planet/client.hpp"
 #include "urs/rtc/naming.hpp"
 #include "urs/rtc/orb.hpp"
@@ -92,7 +93,7 @@ int main(int argc, char** argv) {
         ->capture_default_str();
   };
   auto* square = app.add_subcommand("square", "Drive the square path and trace it");
-  square->add_option("--via", o.via, "rt: CORBA straight to the RTC's port; camus: through the CAMUS server")
+  square->add_option("--via", o.via, "rt: CORBA straight to the RTC's port (omniORB stubs); camus: through the CAMUS server")
       ->check(CLI::IsMember({"rt", "camus"}))
       ->capture_default_str();
   square->add_option("--naming", o.naming, "Naming service HOST:PORT (--via rt)")->capture_default_str();
@@ -160,12 +161,11 @@ int main(int argc, char** argv) {
     std::unique_ptr<urs::rtc::Orb> orb;
     std::unique_ptr<urs::rtc::NamingClient> naming;
     std::unique_ptr<urs::lab::RemoteService> navigation;
-    const auto& interface = *URC::Navigation_moveTo_Request::descriptor()->file()->FindServiceByName("Navigation");
     if (*square && o.via == "rt") {
       if (o.port.empty()) throw urs::util::ConfigError("--via rt needs --port PATH:PORT");
       orb = std::make_unique<urs::rtc::Orb>();
       naming = std::make_unique<urs::rtc::NamingClient>(*orb, o.naming);
-      navigation = urs::lab::rt_provider(*orb, *naming, o.port, interface);
+      navigation = urs::lab::rt_navigation_stub(*orb, *naming, o.port);
     } else {
       client = connect(o);
       navigation = urs::lab::camus_service(*client, o.service);
