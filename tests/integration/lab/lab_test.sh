@@ -20,6 +20,10 @@ def check(ok, what):
 square = [(1.5, 1.0), (1.5, 3.0), (5.0, 3.0), (5.0, 1.0), (1.5, 1.0)]
 for label in ("a-rt-consumer", "b-camus-through-bridge"):
     run = json.load(open(os.path.join(out, "square-%s.json" % label)))
+    # run a is the paper's RT consumer on compiled stubs; run b goes through the CAMUS server
+    expected = "RT provider labpc.host_cxt/Robot0.rtc:navigation (omniORB stubs)" if label.startswith("a-") \
+        else "CAMUS service robot1.navigation"
+    check(run["path"] == expected, "%s: called %r" % (label, run["path"]))
     legs = run["legs"]
     check([(l["x"], l["y"]) for l in legs] == square, "%s: waypoints %s" % (label, legs))
     for l in legs:
