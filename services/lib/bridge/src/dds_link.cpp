@@ -153,23 +153,21 @@ struct DdsLink::Impl : public fdds::DataReaderListener {
     return made;
   }
 
-  fdds::DataWriterQos rpc_writer_qos() const {
-    fdds::DataWriterQos qos = fdds::DATAWRITER_QOS_DEFAULT;
+  // Reliable and volatile, the same on writers and readers or they would not match.
+  template <class Qos>
+  static Qos rpc_qos(Qos qos) {
     qos.reliability().kind = fdds::RELIABLE_RELIABILITY_QOS;
     qos.durability().kind = fdds::VOLATILE_DURABILITY_QOS;
     qos.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
     qos.history().depth = 256;
+    return qos;
+  }
+  static fdds::DataWriterQos rpc_writer_qos() {
+    fdds::DataWriterQos qos = rpc_qos(fdds::DATAWRITER_QOS_DEFAULT);
     qos.publish_mode().kind = fdds::ASYNCHRONOUS_PUBLISH_MODE;  // large payloads are fragmented
     return qos;
   }
-  fdds::DataReaderQos rpc_reader_qos() const {
-    fdds::DataReaderQos qos = fdds::DATAREADER_QOS_DEFAULT;
-    qos.reliability().kind = fdds::RELIABLE_RELIABILITY_QOS;
-    qos.durability().kind = fdds::VOLATILE_DURABILITY_QOS;
-    qos.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
-    qos.history().depth = 256;
-    return qos;
-  }
+  static fdds::DataReaderQos rpc_reader_qos() { return rpc_qos(fdds::DATAREADER_QOS_DEFAULT); }
 
   // Caller holds `mutex`.
   fdds::DataWriter* request_writer(const std::string& space) {
@@ -373,6 +371,9 @@ DdsLink::DdsLink(DdsOptions options, CatalogHandler on_catalog, CallHandler on_c
     catalog_writer.liveliness().announcement_period = duration(options_.lease / 4);
     catalog_writer.publish_mode().kind = fdds::ASYNCHRONOUS_PUBLISH_MODE;  // descriptor sets exceed one datagram
     catalog_writer.resource_limits() = catalog_limits();
+    // Each entry takes what its description needs: a preallocated pool would give every sample the
+    // type's maximum size (tens of kB for its unbounded sequence), 1,000 entries ~ 60 MiB.
+    catalog_writer.endpoint().history_memory_policy = eprosima::fastrtps::rtps::DYNAMIC_REUSABLE_MEMORY_MODE;
     d.catalog_writer = d.publisher->create_datawriter(d.catalog_topic, catalog_writer);
 
     fdds::DataReaderQos catalog_reader = fdds::DATAREADER_QOS_DEFAULT;
@@ -383,6 +384,7 @@ DdsLink::DdsLink(DdsOptions options, CatalogHandler on_catalog, CallHandler on_c
     catalog_reader.liveliness().kind = fdds::AUTOMATIC_LIVELINESS_QOS;
     catalog_reader.liveliness().lease_duration = duration(options_.lease);
     catalog_reader.resource_limits() = catalog_limits();
+    catalog_reader.endpoint().history_memory_policy = eprosima::fastrtps::rtps::DYNAMIC_REUSABLE_MEMORY_MODE;
     d.catalog_reader = d.subscriber->create_datareader(d.catalog_topic, catalog_reader, &d);
 
     d.request_reader = d.subscriber->create_datareader(d.topic(request_topic(options_.space), d.request_type),
