@@ -4,7 +4,9 @@
 // agent, urs-bridge with no naming service). Each space's services are callable from the other
 // under the other space's prefix; a dead bridge's services vanish within the lease and return
 // with it; a restarted CAMUS server gets the imported services back; filters and loop prevention
-// keep the catalogs as configured.
+// keep the catalogs as configured. The spaces also share state: jp's RTC lifecycle states and
+// robot poses reach kr's context, kr's agents, context entries and events reach any DDS reader
+// (here a third "space" observing the link), and a lost bridge's state ends with it.
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -12,9 +14,16 @@
 #include <future>
 #include <iostream>
 
+#include <google/protobuf/struct.pb.h>
+
+#include <mutex>
+
 #include "Diagnostic.pb.h"
 #include "bridge_fixture.hpp"
+#include "camus.pb.h"
+#include "urs/bridge/state_link.hpp"
 #include "urs/corba_agent/corba_proxy.hpp"
+#include "urs/world/world.hpp"
 
 namespace urs::test {
 namespace {
@@ -37,7 +46,8 @@ class Federation : public BridgeSpaceTest {
     kr_ = launch_bridge("bridge-kr",
                         "name: bridge-kr\n" + dds() +
                             "  export: {allow: [\"*\"], deny: []}\n"
-                            "  import: {as_rtc: \"\"}\n",
+                            "  import: {as_rtc: \"\"}\n"
+                            "  state: {events: [\"alarm/#\"], context: {allow: [\"room.*\"]}}\n",
                         {"--server", server_address_});
   }
 
@@ -62,8 +72,30 @@ class Federation : public BridgeSpaceTest {
                         "  poll_ms: 100\n"
                         "  providers:\n"
                         "    - {match: \"*\", name: \"rt.{instance}\", deadline_ms: 5000}\n" +
-                            dds() + "  export: {deny: [\"rt.Secret*\"]}\n",
+                            dds() + "  export: {deny: [\"rt.Secret*\"]}\n" +
+                            "  state: {period_ms: 100, poses: {domain: " + std::to_string(devices_domain()) +
+                            ", source: ground_truth, robots: [robot1], period_ms: 20}}\n",
                         {"--naming", naming_->address(), "--host", "jphost"}, "jp");
+  }
+
+  uint32_t devices_domain() const { return static_cast<uint32_t>(domain_ + 30); }
+
+  // kr's context entry `key` (its value), or nullopt if it has none.
+  std::optional<google::protobuf::Value> context(const std::string& key) {
+    camus::ContextGetRequest request;
+    request.set_key(key);
+    const auto r = planet_->call("camus.context", "Get", request.SerializeAsString(), 2s);
+    camus::ContextEntry entry;
+    if (!r.ok() || !entry.ParseFromString(r.payload)) return std::nullopt;
+    return entry.value();
+  }
+  std::string context_field(const std::string& key, const std::string& field) {
+    const auto value = context(key);
+    if (!value || !value->has_struct_value()) return "";
+    const auto& fields = value->struct_value().fields();
+    auto it = fields.find(field);
+    if (it == fields.end()) return "";
+    return it->second.has_string_value() ? it->second.string_value() : std::to_string(it->second.number_value());
   }
 
   Observed call(const std::string& service, const std::string& operation, const gp::Message& request,
@@ -180,6 +212,135 @@ TEST_F(Federation, ADeadBridgesServicesVanishWithinTheLeaseAndReturnWithIt) {
   echo.set_text("after the server restart");
   const Observed again = call("jp/rt.Diagnostic0", "echo", echo);
   EXPECT_EQ(again.status, planet::OK) << again.message;
+}
+
+// What a third space sees of the others' state over DDS: a plain participant of the link.
+struct StateObserver {
+  explicit StateObserver(uint32_t domain, std::chrono::milliseconds lease) {
+    bridge::DdsOptions options;
+    options.domain = domain;
+    options.space = "obs";
+    options.bridge = "observer";
+    options.lease = lease;
+    options.udp_only = true;
+    link = std::make_unique<bridge::DdsLink>(options, [] {}, [](bridge::IncomingCall, auto) {});
+    bridge::StateHandlers handlers;
+    handlers.component = [this](const bridge::ComponentState& c, bool alive) {
+      std::lock_guard lock(mutex);
+      if (alive) {
+        components[c.space + "/" + c.name] = c;
+      } else {
+        components.erase(c.space + "/" + c.name);
+      }
+    };
+    handlers.context = [this](const bridge::ContextState& e, bool alive) {
+      std::lock_guard lock(mutex);
+      if (alive) {
+        context[e.space + "/" + e.key] = e.value_json;
+      } else {
+        context.erase(e.space + "/" + e.key);
+      }
+    };
+    handlers.event = [this](const bridge::SpaceEvent& e) {
+      std::lock_guard lock(mutex);
+      events.push_back(e);
+    };
+    state = std::make_unique<bridge::StateLink>(*link, handlers, std::nullopt);
+  }
+  template <class F>
+  auto with(F f) {
+    std::lock_guard lock(mutex);
+    return f();
+  }
+
+  std::mutex mutex;
+  std::map<std::string, bridge::ComponentState> components;
+  std::map<std::string, std::string> context;
+  std::vector<bridge::SpaceEvent> events;
+  std::unique_ptr<bridge::DdsLink> link;
+  std::unique_ptr<bridge::StateLink> state;  // last: destroyed first
+};
+
+TEST_F(Federation, SpacesShareStateOverDds) {
+  StateObserver observer(static_cast<uint32_t>(domain_), kLease);
+  const std::string diag = "jphost.host_cxt/Diagnostic0.rtc";
+
+  // jp's RTC lifecycle states reach kr's context, and follow the component's transitions.
+  ASSERT_TRUE(wait_until([&] { return !context_field("jp/component/" + diag, "state").empty(); }, 20s)) << jp_->log();
+  EXPECT_EQ(context_field("jp/component/" + diag, "type_name"), "Diagnostic");
+  EXPECT_EQ(context_field("jp/component/" + diag, "host"), "jphost.host_cxt");
+  auto rtc = resolve<RTC::RTObject>(diag);
+  RTC::ExecutionContextList_var contexts = rtc->get_owned_contexts();
+  ASSERT_GT(contexts->length(), 0u);
+  ASSERT_EQ(contexts[0]->activate_component(rtc), RTC::RTC_OK);
+  EXPECT_TRUE(wait_until([&] { return context_field("jp/component/" + diag, "state") == "Active"; }, 10s));
+  ASSERT_EQ(contexts[0]->deactivate_component(rtc), RTC::RTC_OK);
+  EXPECT_TRUE(wait_until([&] { return context_field("jp/component/" + diag, "state") == "Inactive"; }, 10s));
+  // The bridge's own RTC stands for nothing of jp's own: not shared.
+  EXPECT_FALSE(context("jp/component/jphost.host_cxt/Bridge0.rtc"));
+
+  // A robot of jp, on jp's own devices domain: its pose reaches kr's context.
+  world::World devices(devices_domain(), "federation-test-robot");
+  world::PoseSample pose;
+  pose.robot = "robot1";
+  pose.x = 1.25;
+  pose.y = 3.5;
+  pose.theta = 0.5;
+  pose.stamp = std::chrono::system_clock::now();
+  ASSERT_TRUE(wait_until(
+      [&] {
+        devices.publish(world::Channel::ground_truth, pose);
+        return context_field("jp/pose/robot1", "x") == std::to_string(1.25);
+      },
+      20s))
+      << jp_->log() << kr_->log();
+  EXPECT_EQ(context_field("jp/pose/robot1", "y"), std::to_string(3.5));
+
+  // kr's agents and the context entries it allows reach the observer; those it denies do not.
+  EXPECT_TRUE(wait_until([&] { return observer.with([&] { return observer.components.count("kr/diag") == 1; }); }, 20s));
+  EXPECT_EQ(observer.with([&] { return observer.components["kr/diag"].kind; }), "agent");
+  EXPECT_EQ(observer.with([&] { return observer.components["kr/diag"].state; }), "Available");
+  EXPECT_TRUE(observer.with([&] { return observer.components.count("jp/" + diag) == 1; }));
+  ASSERT_EQ(urs({"context", "set", "room.temperature", "21.5"}).exit_code, 0);
+  ASSERT_EQ(urs({"context", "set", "secret.code", "\"1234\""}).exit_code, 0);
+  EXPECT_TRUE(wait_until([&] { return observer.with([&] { return observer.context.count("kr/room.temperature") == 1; }); },
+                         10s));
+  EXPECT_EQ(observer.with([&] { return observer.context["kr/room.temperature"]; }), "21.5");
+  ASSERT_EQ(urs({"context", "rm", "room.temperature"}).exit_code, 0);
+  EXPECT_TRUE(wait_until([&] { return observer.with([&] { return observer.context.empty(); }); }, 10s));
+  EXPECT_EQ(observer.with([&] { return observer.context.count("kr/secret.code"); }), 0u);
+
+  // kr's events on the shared topics reach the observer, every one and in order.
+  constexpr int kEvents = 300;
+  for (int i = 0; i < kEvents; ++i) {
+    google::protobuf::Value value;
+    value.set_number_value(i);
+    ASSERT_TRUE(planet_->publish("alarm/fire", value.SerializeAsString(), value.GetTypeName()).ok());
+  }
+  ASSERT_TRUE(planet_->publish("other/topic", "x", "none").ok());
+  EXPECT_TRUE(wait_until([&] { return observer.with([&] { return observer.events.size() >= kEvents; }); }, 20s))
+      << observer.with([&] { return observer.events.size(); });
+  observer.with([&] {
+    ASSERT_EQ(observer.events.size(), static_cast<std::size_t>(kEvents));
+    for (int i = 0; i < kEvents; ++i) {
+      google::protobuf::Value value;
+      ASSERT_TRUE(value.ParseFromString(observer.events[i].payload));
+      EXPECT_EQ(value.number_value(), i);
+      EXPECT_EQ(observer.events[i].topic, "alarm/fire");
+      EXPECT_EQ(observer.events[i].space, "kr");
+      if (i > 0) {
+        EXPECT_GT(observer.events[i].seq, observer.events[i - 1].seq);
+      }
+    }
+  });
+
+  // A lost bridge's state ends with it, in kr's context and at the observer, and comes back.
+  jp_->kill9();
+  EXPECT_TRUE(wait_until([&] { return !context("jp/component/" + diag); }, kLease * 6));
+  EXPECT_TRUE(wait_until([&] { return observer.with([&] { return observer.components.count("jp/" + diag) == 0; }); },
+                         kLease * 6));
+  start_jp();
+  EXPECT_TRUE(wait_until([&] { return context_field("jp/component/" + diag, "state") == "Inactive"; }, 20s));
 }
 
 }  // namespace

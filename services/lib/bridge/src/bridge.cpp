@@ -13,6 +13,7 @@
 #include "urs/bridge/planet_proxy_agent.hpp"
 #include "urs/bridge/dds_link.hpp"
 #include "urs/bridge/provider_port.hpp"
+#include "urs/bridge/space_state.hpp"
 #include "urs/corba_agent/agent_component.hpp"
 #include "urs/corba_agent/corba_proxy.hpp"
 #include "urs/rtc/component.hpp"
@@ -188,7 +189,8 @@ class Bridge::Session {
   std::map<std::string, std::unique_ptr<schema::SchemaPool>> space_pools;
   std::vector<std::unique_ptr<schema::SchemaPool>> extra_pools;  // descriptions that clash within a space
   Clock::time_point catalog_read_at;
-  std::unique_ptr<DdsLink> dds;  // last: destroyed first, so no DDS thread outlives what it uses
+  std::unique_ptr<DdsLink> dds;  // near last: destroyed early, so no DDS thread outlives what it uses
+  std::unique_ptr<SpaceState> state;  // on `dds`: destroyed before it
 };
 
 // ---- a component found in the naming service -------------------------------------------------
@@ -203,6 +205,7 @@ struct Bridge::Known {
   };
   std::string ior;
   std::string instance;
+  std::string type_name;
   bool reachable = false;
   bool bridged = false;  // carries an origin: something a bridge made
   Clock::time_point retry_at;
@@ -378,6 +381,13 @@ void Bridge::open_session() {
       spdlog::error("bridge {}: no link to other spaces: {}", config_.name, e.what());
     }
   }
+  if (session->dds) {
+    try {
+      session->state = std::make_unique<SpaceState>(config_, *session->dds, session->client.get());
+    } catch (const std::exception& e) {
+      spdlog::error("bridge {}: the spaces share no state: {}", config_.name, e.what());
+    }
+  }
   {
     std::lock_guard lock(mutex_);
     session_ = session;
@@ -445,6 +455,7 @@ void Bridge::close_session() {
     std::lock_guard lock(mutex_);
     session.swap(session_);
   }
+  session->state.reset();
   session->dds.reset();  // the others drop this space's services; no more calls arrive
   for (auto& [key, remote] : session->remotes) {
     if (remote.component) manager_->destroy(*remote.component);
@@ -471,6 +482,7 @@ void Bridge::poll_rt() {
   // 1. What the naming service holds now (only components some rule may concern).
   auto concerned = [this](const std::string& path) {
     if (path == own_path_) return false;
+    if (session_->state && config_.dds.state.components) return true;  // every RTC's state is shared
     for (const auto& rule : config_.providers) {
       if (glob_match(rule.match, path)) return true;
     }
@@ -529,6 +541,7 @@ void Bridge::poll_rt() {
       RTC::RTObject_var rtc = RTC::RTObject::_narrow(bounded);
       RTC::ComponentProfile_var profile = rtc->get_component_profile();
       known->instance = profile->instance_name.in();
+      known->type_name = profile->type_name.in();
       known->bridged = !nv_text(profile->properties, kOrigin).empty() || !nv_text(profile->properties, "urslink.bridge").empty();
       for (CORBA::ULong i = 0; i < profile->port_profiles.length(); ++i) {
         const RTC::PortProfile& port = profile->port_profiles[i];
@@ -645,6 +658,30 @@ void Bridge::poll_rt() {
 
   reconcile_exports();
   sync_dds_exports(*session_);
+  if (session_->state && session_->state->rtc_states_due()) share_rtc_states();
+}
+
+void Bridge::share_rtc_states() {
+  std::vector<ComponentState> states;
+  for (const auto& [path, known] : known_) {
+    if (known->bridged) continue;  // the bridge's own RTCs stand for other spaces' services
+    ComponentState state;
+    state.name = path;
+    state.kind = "rtc";
+    state.type_name = known->type_name;
+    const auto slash = path.rfind('/');
+    state.host = slash == std::string::npos ? "" : path.substr(0, slash);
+    state.state = "Unreachable";
+    if (known->reachable) {
+      try {
+        RTC::RTObject_var rtc = RTC::RTObject::_unchecked_narrow(known->probe);
+        state.state = rtc::state_name(rtc::component_state(rtc));
+      } catch (const CORBA::Exception&) {
+      }
+    }
+    states.push_back(std::move(state));
+  }
+  session_->state->rtc_states(states);
 }
 
 void Bridge::reconcile_exports() {
@@ -774,11 +811,13 @@ void Bridge::poll_camus() {
   warned_.erase("registry");
   std::map<std::string, const ServiceRule*> wanted;
   session->camus_native.clear();
+  std::vector<ComponentState> agents;
   for (const auto& info : reply.services()) {
     if (info.state() != "available" || info.owner() == config_.name) continue;
     if (info.name().compare(0, 6, "camus.") == 0) continue;  // the server's own built-in services
     if (info.properties().count(kOrigin)) continue;  // a bridged service: never bridged again
     session->camus_native[info.name()] = info;
+    agents.push_back({"", info.name(), "agent", "Available", info.interface(), info.owner(), {}});
     if (!manager_) continue;
     for (const auto& rule : config_.services) {
       if (glob_match(rule.match, info.name())) {
@@ -787,6 +826,7 @@ void Bridge::poll_camus() {
       }
     }
   }
+  if (session->state) session->state->agent_states(agents);
   for (auto it = session->imports.begin(); it != session->imports.end();) {
     if (wanted.count(it->first)) {
       ++it;

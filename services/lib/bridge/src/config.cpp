@@ -23,13 +23,14 @@ void read_string(const YAML::Node& node, const std::string& key, const std::stri
   }
 }
 
-void read_poll(const YAML::Node& node, const std::string& where, std::chrono::milliseconds& out,
-               std::vector<std::string>& errors) {
-  if (!node["poll_ms"]) return;
+// Reads a period in milliseconds (10..60000) at `key` of `node`.
+void read_ms(const YAML::Node& node, const std::string& key, const std::string& where, std::chrono::milliseconds& out,
+             std::vector<std::string>& errors) {
+  if (!node[key]) return;
   int ms = 0;
-  if (!util::read_scalar(node["poll_ms"], where + ".poll_ms", ms, errors)) return;
+  if (!util::read_scalar(node[key], where + "." + key, ms, errors)) return;
   if (ms < 10 || ms > 60000) {
-    errors.push_back(where + ".poll_ms: " + std::to_string(ms) + " is outside 10..60000");
+    errors.push_back(where + "." + key + ": " + std::to_string(ms) + " is outside 10..60000");
     return;
   }
   out = std::chrono::milliseconds(ms);
@@ -123,6 +124,43 @@ void read_filter(const YAML::Node& node, const std::string& where, std::vector<s
   if (node["deny"]) deny = read_strings(node["deny"], where + ".deny", errors);
 }
 
+void read_state(const YAML::Node& node, uint32_t link_domain, StateConfig& state, std::vector<std::string>& errors) {
+  if (!node.IsMap()) {
+    errors.push_back("dds.state: a map is expected");
+    return;
+  }
+  util::check_keys(node, "dds.state", {"components", "period_ms", "poses", "events", "context", "import"}, errors);
+  if (node["components"]) util::read_scalar(node["components"], "dds.state.components", state.components, errors);
+  read_ms(node, "period_ms", "dds.state", state.period, errors);
+  if (const YAML::Node poses = node["poses"]) {
+    util::check_keys(poses, "dds.state.poses", {"domain", "source", "robots", "period_ms"}, errors);
+    PoseRelay relay;
+    if (!poses["domain"]) {
+      errors.push_back("dds.state.poses.domain: missing (the devices' DDS domain)");
+    } else if (util::read_scalar(poses["domain"], "dds.state.poses.domain", relay.domain, errors) &&
+               (relay.domain > 232 || relay.domain == link_domain)) {
+      errors.push_back("dds.state.poses.domain: " + std::to_string(relay.domain) +
+                       (relay.domain > 232 ? " is outside 0..232" : " is the link's domain; give the devices their own"));
+    }
+    std::string source = "localizer";
+    if (poses["source"] && util::read_scalar(poses["source"], "dds.state.poses.source", source, errors) &&
+        source != "localizer" && source != "ground_truth") {
+      errors.push_back("dds.state.poses.source: '" + source + "' is neither localizer nor ground_truth");
+    }
+    relay.ground_truth = source == "ground_truth";
+    if (poses["robots"]) relay.robots = read_strings(poses["robots"], "dds.state.poses.robots", errors);
+    if (relay.robots.empty()) errors.push_back("dds.state.poses.robots: name at least one robot");
+    read_ms(poses, "period_ms", "dds.state.poses", relay.period, errors);
+    state.poses = relay;
+  }
+  if (node["events"]) state.events = read_strings(node["events"], "dds.state.events", errors);
+  if (const YAML::Node context = node["context"]) {
+    util::check_keys(context, "dds.state.context", {"allow", "deny"}, errors);
+    read_filter(context, "dds.state.context", state.context_allow, state.context_deny, errors);
+  }
+  if (node["import"]) util::read_scalar(node["import"], "dds.state.import", state.import, errors);
+}
+
 void read_dds(const YAML::Node& node, DdsConfig& dds, std::vector<std::string>& errors) {
   dds.enabled = true;
   if (!node.IsMap()) {
@@ -130,7 +168,7 @@ void read_dds(const YAML::Node& node, DdsConfig& dds, std::vector<std::string>& 
     return;
   }
   util::check_keys(node, "dds", {"domain", "lease_ms", "udp_only", "socket_buffer_bytes", "initial_peers", "export",
-                                 "import"},
+                                 "import", "state"},
                    errors);
   if (node["domain"] && util::read_scalar(node["domain"], "dds.domain", dds.domain, errors) && dds.domain > 232) {
     errors.push_back("dds.domain: " + std::to_string(dds.domain) + " is outside 0..232");
@@ -161,6 +199,7 @@ void read_dds(const YAML::Node& node, DdsConfig& dds, std::vector<std::string>& 
       errors.push_back("dds.import.deadline_ms: must be > 0");
     }
   }
+  if (node["state"]) read_state(node["state"], dds.domain, dds.state, errors);
 }
 
 }  // namespace
@@ -190,7 +229,7 @@ BridgeConfig load_bridge_config(const std::string& path, const std::string& host
       errors.push_back("rt_to_camus: a map with 'providers' is expected");
     } else {
       util::check_keys(rt, "rt_to_camus", {"poll_ms", "providers"}, errors);
-      read_poll(rt, "rt_to_camus", config.rt_poll, errors);
+      read_ms(rt, "poll_ms", "rt_to_camus", config.rt_poll, errors);
       if (const YAML::Node list = list_of(rt, "providers", "rt_to_camus", errors)) {
         util::for_each_map(list, "rt_to_camus.providers", "a match", {"match", "interface", "name", "deadline_ms"},
                            errors, [&](const YAML::Node& node, const std::string& where) {
@@ -209,7 +248,7 @@ BridgeConfig load_bridge_config(const std::string& path, const std::string& host
       errors.push_back("camus_to_rt: a map with 'services' is expected");
     } else {
       util::check_keys(camus, "camus_to_rt", {"poll_ms", "services"}, errors);
-      read_poll(camus, "camus_to_rt", config.camus_poll, errors);
+      read_ms(camus, "poll_ms", "camus_to_rt", config.camus_poll, errors);
       if (const YAML::Node list = list_of(camus, "services", "camus_to_rt", errors)) {
         util::for_each_map(list, "camus_to_rt.services", "a match", {"match", "instance", "deadline_ms"}, errors,
                            [&](const YAML::Node& node, const std::string& where) {

@@ -415,6 +415,8 @@ DdsLink::~DdsLink() {
   for (auto& call : left) call->promise.set_value(planet::CallResult::error(planet::UNAVAILABLE, "bridge stopping"));
 }
 
+fdds::DomainParticipant* DdsLink::participant() const { return impl_->participant; }
+
 std::vector<ServiceEntry> DdsLink::catalog() const {
   Impl& d = *impl_;
   std::set<fdds::InstanceHandle_t> dead;

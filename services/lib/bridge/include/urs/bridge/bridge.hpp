@@ -81,6 +81,7 @@ class Bridge {
   void open_planet(Session& session);
   void close_session();
   void poll_rt();
+  void share_rtc_states();
   void poll_camus();
   void reconcile_exports();
   void on_data(std::size_t entry, const google::protobuf::Message& value);

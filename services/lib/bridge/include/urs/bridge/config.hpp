@@ -38,6 +38,16 @@
 //              as_camus: "{space}/{service}",      # CAMUS name ("" = not on CAMUS)
 //              as_rtc: "{space}_{service}",        # RTC instance ("" = not in naming)
 //              deadline_ms: 10000}
+//     state:                        # shared state besides the catalog
+//       components: true            # RTC lifecycle states and CAMUS agents of this space
+//       period_ms: 1000             # how often RTC states are read
+//       poses: {domain: 1, source: localizer, robots: [robot1], period_ms: 100}
+//                                   # relay the robots' poses from the devices' own domain
+//       events: ["robot1.navigation/#"]   # Planet patterns of the CAMUS events shared
+//       context: {allow: ["robot1.*"], deny: []}  # globs on the CAMUS context keys shared
+//       import: true                # the others' state into this space's CAMUS context/events:
+//                                   # <space>/component/<name>, <space>/pose/<robot>,
+//                                   # <space>/<key>, events on <space>/<topic>
 //   events_to_rt:                   # CAMUS events feeding RT InPorts
 //     - topic: "robot1.navigation/arrived"  # Planet subscription pattern
 //       type: URC.Pose2D            # the events' type; others on the topic are skipped
@@ -46,6 +56,7 @@
 
 #include <chrono>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -79,6 +90,26 @@ struct EventsToRt {
   std::string port;
 };
 
+// Robot poses of this space's devices (urs/localizer/pose or urs/world/pose in their own DDS
+// domain, idl/dds/WorldState.idl) relayed to the other spaces, each robot at most every `period`.
+struct PoseRelay {
+  uint32_t domain = 1;        // the devices' domain: must differ from the link's
+  bool ground_truth = false;  // false: the localizers' measurements
+  std::vector<std::string> robots;
+  std::chrono::milliseconds period{100};
+};
+
+// What a space shares over DDS besides its catalog (StateLink, docs/federation.md).
+struct StateConfig {
+  bool components = true;                   // RTC lifecycle states and CAMUS agents
+  std::chrono::milliseconds period{1000};   // how often RTC states are read
+  std::optional<PoseRelay> poses;
+  std::vector<std::string> events;          // Planet patterns of the CAMUS events shared
+  std::vector<std::string> context_allow;   // globs on the CAMUS context keys shared (none by default)
+  std::vector<std::string> context_deny;
+  bool import = true;                       // the others' state into this space's CAMUS context and events
+};
+
 struct DdsConfig {
   bool enabled = false;
   uint32_t domain = 0;
@@ -93,6 +124,7 @@ struct DdsConfig {
   std::string as_camus = "{space}/{service}";
   std::string as_rtc = "{space}_{service}";
   uint32_t deadline_ms = 10000;
+  StateConfig state;
 };
 
 struct BridgeConfig {

@@ -17,6 +17,10 @@
 
 #include "urs/planet/status.hpp"
 
+namespace eprosima::fastdds::dds {
+class DomainParticipant;
+}
+
 namespace urs::bridge {
 
 struct DdsOptions {
@@ -70,6 +74,8 @@ class DdsLink {
   DdsLink& operator=(const DdsLink&) = delete;
 
   const DdsOptions& options() const { return options_; }
+  // The link's participant, for the other endpoints a space shares on it (StateLink).
+  eprosima::fastdds::dds::DomainParticipant* participant() const;
 
   // What the other spaces offer now: every live entry of the catalog (read from the reader's
   // cache, whose instances DDS keeps up to date), but those of bridges whose liveliness is lost.

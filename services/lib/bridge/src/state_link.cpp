@@ -1,0 +1,442 @@
+#include "urs/bridge/state_link.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <fastdds/dds/domain/DomainParticipant.hpp>
+#include <fastdds/dds/publisher/DataWriter.hpp>
+#include <fastdds/dds/publisher/Publisher.hpp>
+#include <fastdds/dds/subscriber/DataReader.hpp>
+#include <fastdds/dds/subscriber/DataReaderListener.hpp>
+#include <fastdds/dds/subscriber/SampleInfo.hpp>
+#include <fastdds/dds/subscriber/Subscriber.hpp>
+#include <fastdds/dds/topic/Topic.hpp>
+#include <fastdds/dds/topic/TypeSupport.hpp>
+#include <map>
+#include <mutex>
+#include <stdexcept>
+
+#include "SpaceState.h"
+#include "SpaceStatePubSubTypes.h"
+#include "urs/world/world.hpp"
+
+namespace urs::bridge {
+
+namespace fdds = eprosima::fastdds::dds;
+using SystemClock = std::chrono::system_clock;
+
+namespace {
+
+constexpr const char* kComponentTopic = "urs/state/component";
+constexpr const char* kPoseTopic = "urs/state/pose";
+constexpr const char* kContextTopic = "urs/state/context";
+constexpr const char* kEventTopic = "urs/state/event";
+constexpr const char* kGone = "Gone";  // ComponentState.state of a component that left its space
+
+eprosima::fastrtps::Duration_t duration(std::chrono::milliseconds ms) {
+  return eprosima::fastrtps::Duration_t(static_cast<double>(ms.count()) / 1000.0);
+}
+
+template <class Sample>
+void stamp_into(Sample& sample, SystemClock::time_point stamp) {
+  const auto ns = std::chrono::duration_cast<std::chrono::nanoseconds>(stamp.time_since_epoch()).count();
+  sample.sec(ns / 1000000000);
+  sample.nsec(static_cast<uint32_t>(ns % 1000000000));
+}
+template <class Sample>
+SystemClock::time_point stamp_of(const Sample& sample) {
+  return SystemClock::time_point(std::chrono::duration_cast<SystemClock::duration>(
+      std::chrono::seconds(sample.sec()) + std::chrono::nanoseconds(sample.nsec())));
+}
+
+// Keyed state (components, context): reliable, transient-local, keep-last 1 per instance, with
+// the link's lease, and room for every entry of every space (Fast DDS's default is 10 instances).
+template <class Qos>
+Qos state_qos(Qos qos, std::chrono::milliseconds lease) {
+  qos.reliability().kind = fdds::RELIABLE_RELIABILITY_QOS;
+  qos.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
+  qos.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
+  qos.history().depth = 1;
+  qos.liveliness().kind = fdds::AUTOMATIC_LIVELINESS_QOS;
+  qos.liveliness().lease_duration = duration(lease);
+  qos.resource_limits().max_instances = 100000;
+  qos.resource_limits().max_samples_per_instance = 1;
+  qos.resource_limits().max_samples = 100000;
+  qos.resource_limits().allocated_samples = 64;
+  qos.endpoint().history_memory_policy = eprosima::fastrtps::rtps::DYNAMIC_REUSABLE_MEMORY_MODE;
+  return qos;
+}
+
+// Poses: a stream where the newest sample is all that matters.
+template <class Qos>
+Qos pose_qos(Qos qos) {
+  qos.reliability().kind = fdds::BEST_EFFORT_RELIABILITY_QOS;
+  qos.durability().kind = fdds::VOLATILE_DURABILITY_QOS;
+  qos.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
+  qos.history().depth = 1;
+  qos.resource_limits().max_instances = 10000;
+  qos.resource_limits().max_samples_per_instance = 1;
+  qos.resource_limits().max_samples = 10000;
+  return qos;
+}
+
+// Events: every one reaches every matched reader, in order; a writer whose readers lag by more
+// than the history blocks the publisher briefly and then refuses (never overwrites unsent ones).
+constexpr int32_t kEventHistory = 4096;
+template <class Qos>
+Qos event_qos(Qos qos) {
+  qos.reliability().kind = fdds::RELIABLE_RELIABILITY_QOS;
+  qos.reliability().max_blocking_time = duration(std::chrono::milliseconds(100));
+  qos.durability().kind = fdds::VOLATILE_DURABILITY_QOS;
+  qos.history().kind = fdds::KEEP_ALL_HISTORY_QOS;
+  qos.resource_limits().max_instances = 1;
+  qos.resource_limits().max_samples_per_instance = kEventHistory;
+  qos.resource_limits().max_samples = kEventHistory;
+  qos.resource_limits().allocated_samples = 16;
+  qos.endpoint().history_memory_policy = eprosima::fastrtps::rtps::DYNAMIC_REUSABLE_MEMORY_MODE;
+  return qos;
+}
+
+std::pair<std::string, std::string> key_of(const ComponentState& c) { return {c.space, c.name}; }
+std::pair<std::string, std::string> key_of(const ContextState& e) { return {e.space, e.key}; }
+
+// The other spaces' entries of one keyed topic, by (space, name): what each instance holds and
+// which writer (bridge) wrote it, so that a lost bridge's entries end and come back with it.
+template <class Value>
+class KeyedIn {
+ public:
+  using Key = std::pair<std::string, std::string>;
+  using Handler = std::function<void(const Value&, bool alive)>;
+  explicit KeyedIn(Handler handler) : handler_(std::move(handler)) {}
+
+  void arrived(const fdds::InstanceHandle_t& instance, const fdds::InstanceHandle_t& writer, Key key, Value value) {
+    std::lock_guard lock(mutex_);
+    by_instance_[instance] = key;
+    Entry& entry = entries_[key];
+    entry = {std::move(value), writer, true};
+    if (handler_) handler_(entry.value, true);
+  }
+  void ended(const fdds::InstanceHandle_t& instance) {
+    std::lock_guard lock(mutex_);
+    auto key = by_instance_.find(instance);
+    if (key == by_instance_.end()) return;
+    auto entry = entries_.find(key->second);
+    if (entry != entries_.end()) {
+      if (entry->second.alive && handler_) handler_(entry->second.value, false);
+      entries_.erase(entry);
+    }
+    by_instance_.erase(key);
+  }
+  void writer(const fdds::InstanceHandle_t& writer, bool alive) {
+    std::lock_guard lock(mutex_);
+    for (auto& [key, entry] : entries_) {
+      if (entry.writer != writer || entry.alive == alive) continue;
+      entry.alive = alive;
+      if (handler_) handler_(entry.value, alive);
+    }
+  }
+
+ private:
+  struct Entry {
+    Value value;
+    fdds::InstanceHandle_t writer;
+    bool alive = false;
+  };
+  Handler handler_;
+  std::mutex mutex_;
+  std::map<fdds::InstanceHandle_t, Key> by_instance_;
+  std::map<Key, Entry> entries_;
+};
+
+}  // namespace
+
+struct StateLink::Impl : public fdds::DataReaderListener {
+  Impl(DdsLink& link, StateHandlers handlers)
+      : link(link), space(link.options().space), handlers(std::move(handlers)),
+        components_in(this->handlers.component), context_in(this->handlers.context) {}
+
+  DdsLink& link;
+  const std::string space;
+  StateHandlers handlers;
+  fdds::DomainParticipant* participant = nullptr;
+  fdds::Publisher* publisher = nullptr;
+  fdds::Subscriber* subscriber = nullptr;
+  fdds::TypeSupport component_type{new dds::ComponentStatePubSubType()};
+  fdds::TypeSupport pose_type{new dds::SpacePosePubSubType()};
+  fdds::TypeSupport context_type{new dds::ContextEntryPubSubType()};
+  fdds::TypeSupport event_type{new dds::SpaceEventPubSubType()};
+  std::vector<fdds::Topic*> topics;
+  fdds::DataWriter* component_writer = nullptr;
+  fdds::DataWriter* pose_writer = nullptr;
+  fdds::DataWriter* context_writer = nullptr;
+  fdds::DataWriter* event_writer = nullptr;
+  fdds::DataReader* component_reader = nullptr;
+  fdds::DataReader* pose_reader = nullptr;
+  fdds::DataReader* context_reader = nullptr;
+  fdds::DataReader* event_reader = nullptr;
+
+  KeyedIn<ComponentState> components_in;
+  KeyedIn<ContextState> context_in;
+
+  mutable std::mutex mutex;  // guards what is written below
+  std::map<std::string, ComponentState> components_out;
+  std::map<std::string, std::chrono::steady_clock::time_point> pose_sent;  // by robot
+
+  std::optional<PoseRelay> relay;
+  std::unique_ptr<world::World> world;  // last: destroyed first, so no pose arrives after the rest
+
+  fdds::Topic* topic(const char* name, fdds::TypeSupport& type) {
+    if (type.register_type(participant) != ReturnCode_t::RETCODE_OK) {
+      throw std::runtime_error(std::string("DDS: cannot register type ") + type.get_type_name());
+    }
+    fdds::Topic* made = participant->create_topic(name, type.get_type_name(), fdds::TOPIC_QOS_DEFAULT);
+    if (made == nullptr) throw std::runtime_error(std::string("DDS: cannot create topic ") + name);
+    topics.push_back(made);
+    return made;
+  }
+
+  void create(std::chrono::milliseconds lease) {
+    publisher = participant->create_publisher(fdds::PUBLISHER_QOS_DEFAULT);
+    subscriber = participant->create_subscriber(fdds::SUBSCRIBER_QOS_DEFAULT);
+    if (publisher == nullptr || subscriber == nullptr) throw std::runtime_error("DDS: cannot create a publisher");
+    fdds::Topic* components = topic(kComponentTopic, component_type);
+    fdds::Topic* poses = topic(kPoseTopic, pose_type);
+    fdds::Topic* context = topic(kContextTopic, context_type);
+    fdds::Topic* events = topic(kEventTopic, event_type);
+
+    fdds::DataWriterQos keyed = state_qos(fdds::DATAWRITER_QOS_DEFAULT, lease);
+    keyed.liveliness().announcement_period = duration(lease / 4);
+    keyed.publish_mode().kind = fdds::ASYNCHRONOUS_PUBLISH_MODE;  // a context value may exceed a datagram
+    component_writer = publisher->create_datawriter(components, keyed);
+    context_writer = publisher->create_datawriter(context, keyed);
+    pose_writer = publisher->create_datawriter(poses, pose_qos(fdds::DATAWRITER_QOS_DEFAULT));
+    fdds::DataWriterQos streamed = event_qos(fdds::DATAWRITER_QOS_DEFAULT);
+    streamed.publish_mode().kind = fdds::ASYNCHRONOUS_PUBLISH_MODE;  // payloads up to images
+    event_writer = publisher->create_datawriter(events, streamed);
+
+    const fdds::DataReaderQos keyed_in = state_qos(fdds::DATAREADER_QOS_DEFAULT, lease);
+    component_reader = subscriber->create_datareader(components, keyed_in, this);
+    context_reader = subscriber->create_datareader(context, keyed_in, this);
+    pose_reader = subscriber->create_datareader(poses, pose_qos(fdds::DATAREADER_QOS_DEFAULT), this);
+    event_reader = subscriber->create_datareader(events, event_qos(fdds::DATAREADER_QOS_DEFAULT), this);
+    if (!component_writer || !context_writer || !pose_writer || !event_writer || !component_reader ||
+        !context_reader || !pose_reader || !event_reader) {
+      throw std::runtime_error("DDS: cannot create the state endpoints");
+    }
+  }
+
+  void destroy() {
+    world.reset();
+    if (subscriber) {
+      for (auto* reader : {component_reader, context_reader, pose_reader, event_reader}) {
+        if (reader) {
+          reader->set_listener(nullptr);
+          subscriber->delete_datareader(reader);
+        }
+      }
+      participant->delete_subscriber(subscriber);
+    }
+    if (publisher) {
+      for (auto* writer : {component_writer, context_writer, pose_writer, event_writer}) {
+        if (writer) publisher->delete_datawriter(writer);
+      }
+      participant->delete_publisher(publisher);
+    }
+    for (auto* made : topics) participant->delete_topic(made);
+  }
+
+  // ---- reading ----
+
+  void on_data_available(fdds::DataReader* reader) override {
+    if (reader == component_reader) {
+      read_components();
+    } else if (reader == context_reader) {
+      read_context();
+    } else if (reader == pose_reader) {
+      read_poses();
+    } else if (reader == event_reader) {
+      read_events();
+    }
+  }
+
+  // Takes what arrived on a keyed topic into `in`: `convert` gives the entry of a sample, or
+  // nullopt for a tombstone (the entry ended in its space).
+  template <class Sample, class Value, class Convert>
+  void read_keyed(fdds::DataReader* reader, KeyedIn<Value>& in, Convert convert) {
+    Sample sample;
+    fdds::SampleInfo info;
+    while (reader->take_next_sample(&sample, &info) == ReturnCode_t::RETCODE_OK) {
+      if (info.valid_data && sample.space() == space) continue;
+      std::optional<Value> value;
+      if (info.valid_data) value = convert(sample);
+      if (!value) {
+        in.ended(info.instance_handle);
+        continue;
+      }
+      in.arrived(info.instance_handle, info.publication_handle, key_of(*value), std::move(*value));
+    }
+  }
+
+  void read_components() {
+    read_keyed<dds::ComponentState>(component_reader, components_in,
+                                    [](const dds::ComponentState& s) -> std::optional<ComponentState> {
+      if (s.state() == kGone) return std::nullopt;
+      return ComponentState{s.space(), s.name(), s.kind(), s.state(), s.type_name(), s.host(), stamp_of(s)};
+    });
+  }
+
+  void read_context() {
+    read_keyed<dds::ContextEntry>(context_reader, context_in, [](const dds::ContextEntry& s) -> std::optional<ContextState> {
+      if (s.value_json().empty()) return std::nullopt;
+      return ContextState{s.space(), s.key(), s.value_json(), s.source(), s.version(), stamp_of(s)};
+    });
+  }
+
+  void read_poses() {
+    dds::SpacePose sample;
+    fdds::SampleInfo info;
+    while (pose_reader->take_next_sample(&sample, &info) == ReturnCode_t::RETCODE_OK) {
+      if (!info.valid_data || sample.space() == space || !handlers.pose) continue;
+      handlers.pose({sample.space(), sample.robot(), sample.x(), sample.y(), sample.theta(), stamp_of(sample)});
+    }
+  }
+
+  void read_events() {
+    dds::SpaceEvent sample;
+    fdds::SampleInfo info;
+    while (event_reader->take_next_sample(&sample, &info) == ReturnCode_t::RETCODE_OK) {
+      if (!info.valid_data || sample.space() == space || !handlers.event) continue;
+      handlers.event({sample.space(), sample.seq(), sample.topic(), sample.content_type(), sample.source(),
+                      stamp_of(sample), std::string(sample.payload().begin(), sample.payload().end())});
+    }
+  }
+
+  void writer_state(fdds::DataReader* reader, const fdds::InstanceHandle_t& writer, bool alive) {
+    if (reader == component_reader) components_in.writer(writer, alive);
+    if (reader == context_reader) context_in.writer(writer, alive);
+  }
+  void on_subscription_matched(fdds::DataReader* reader, const fdds::SubscriptionMatchedStatus& status) override {
+    if (status.current_count_change < 0) writer_state(reader, status.last_publication_handle, false);
+  }
+  void on_liveliness_changed(fdds::DataReader* reader, const fdds::LivelinessChangedStatus& status) override {
+    if (status.not_alive_count_change > 0) writer_state(reader, status.last_publication_handle, false);
+    if (status.alive_count_change > 0) writer_state(reader, status.last_publication_handle, true);
+  }
+
+  // ---- poses of this space ----
+
+  void relay_pose(const world::PoseSample& pose) {
+    const auto now = std::chrono::steady_clock::now();
+    {
+      std::lock_guard lock(mutex);
+      auto& sent = pose_sent[pose.robot];
+      if (now - sent < relay->period) return;
+      sent = now;
+    }
+    dds::SpacePose sample;
+    sample.space(space);
+    sample.robot(pose.robot);
+    sample.x(pose.x);
+    sample.y(pose.y);
+    sample.theta(pose.theta);
+    stamp_into(sample, pose.stamp);
+    pose_writer->write(&sample);
+  }
+};
+
+StateLink::StateLink(DdsLink& link, StateHandlers handlers, std::optional<PoseRelay> poses)
+    : impl_(std::make_unique<Impl>(link, std::move(handlers))) {
+  Impl& d = *impl_;
+  d.participant = link.participant();
+  try {
+    d.create(link.options().lease);
+    if (poses) {
+      if (poses->domain == link.options().domain) {
+        throw std::runtime_error("the devices' domain " + std::to_string(poses->domain) +
+                                 " is the link's: other spaces' robots would be relayed as this space's");
+      }
+      d.relay = *poses;
+      d.world = std::make_unique<world::World>(poses->domain, "urs-bridge/" + link.options().space + "/poses");
+      const auto channel = poses->ground_truth ? world::Channel::ground_truth : world::Channel::localizer;
+      for (const auto& robot : poses->robots) {
+        d.world->subscribe(channel, robot, [&d](const world::PoseSample& pose) { d.relay_pose(pose); });
+      }
+    }
+  } catch (...) {
+    d.destroy();
+    throw;
+  }
+}
+
+StateLink::~StateLink() { impl_->destroy(); }
+
+void StateLink::set_component(ComponentState state) {
+  Impl& d = *impl_;
+  state.space = d.space;
+  std::lock_guard lock(d.mutex);
+  auto it = d.components_out.find(state.name);
+  if (it != d.components_out.end() && it->second == state) return;
+  dds::ComponentState sample;
+  sample.space(d.space);
+  sample.name(state.name);
+  sample.kind(state.kind);
+  sample.state(state.state);
+  sample.type_name(state.type_name);
+  sample.host(state.host);
+  stamp_into(sample, state.stamp == SystemClock::time_point{} ? SystemClock::now() : state.stamp);
+  if (!d.component_writer->write(&sample)) {
+    spdlog::warn("dds: the state of {} could not be written", state.name);
+    return;
+  }
+  d.components_out[state.name] = std::move(state);
+}
+
+// A component that left is written once more as "Gone" (a tombstone, kept for late joiners)
+// rather than disposed: every reader sees it as a plain sample, whatever its vendor.
+void StateLink::drop_component(const std::string& name) {
+  Impl& d = *impl_;
+  std::lock_guard lock(d.mutex);
+  auto it = d.components_out.find(name);
+  if (it == d.components_out.end()) return;
+  dds::ComponentState sample;
+  sample.space(d.space);
+  sample.name(name);
+  sample.kind(it->second.kind);
+  sample.state(kGone);
+  stamp_into(sample, SystemClock::now());
+  if (!d.component_writer->write(&sample)) spdlog::warn("dds: the departure of {} could not be written", name);
+  d.components_out.erase(it);
+}
+
+void StateLink::set_context(ContextState entry) {
+  Impl& d = *impl_;
+  dds::ContextEntry sample;
+  sample.space(d.space);
+  sample.key(entry.key);
+  sample.value_json(entry.value_json);
+  sample.source(entry.source);
+  sample.version(entry.version);
+  stamp_into(sample, entry.stamp == SystemClock::time_point{} ? SystemClock::now() : entry.stamp);
+  if (!d.context_writer->write(&sample)) spdlog::warn("dds: context entry {} could not be written", entry.key);
+}
+
+// A removed key is written with an empty value (a tombstone), as drop_component does.
+void StateLink::drop_context(const std::string& key) {
+  ContextState removed;
+  removed.key = key;
+  set_context(removed);
+}
+
+bool StateLink::publish_event(const SpaceEvent& event) {
+  Impl& d = *impl_;
+  dds::SpaceEvent sample;
+  sample.space(d.space);
+  sample.seq(event.seq);
+  sample.topic(event.topic);
+  sample.content_type(event.content_type);
+  sample.source(event.source);
+  stamp_into(sample, event.stamp);
+  sample.payload(std::vector<uint8_t>(event.payload.begin(), event.payload.end()));
+  return d.event_writer->write(&sample);
+}
+
+}  // namespace urs::bridge
