@@ -8,7 +8,10 @@
 // robot poses reach kr's context, kr's agents, context entries and events reach any DDS reader
 // (here a third "space" observing the link), and a lost bridge's state ends with it.
 
+#include <arpa/inet.h>
 #include <gtest/gtest.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
 #include <unistd.h>
 
 #include <future>
@@ -43,8 +46,12 @@ class Federation : public BridgeSpaceTest {
     domain_ = 100 + static_cast<int>(getpid() % 100);  // tests running side by side stay apart
     start_manager("m", "jphost", "components:\n  - type: Diagnostic\n  - type: Diagnostic\n    instance: Secret0\n");
     start_jp();
+    start_kr();
+  }
+
+  void start_kr(const std::string& discovery = "") {
     kr_ = launch_bridge("bridge-kr",
-                        "name: bridge-kr\n" + dds() +
+                        "name: bridge-kr\n" + dds(discovery) +
                             "  export: {allow: [\"*\"], deny: []}\n"
                             "  import: {as_rtc: \"\"}\n"
                             "  state: {events: [\"alarm/#\"], context: {allow: [\"room.*\"]}}\n",
@@ -60,22 +67,35 @@ class Federation : public BridgeSpaceTest {
     BridgeSpaceTest::TearDown();
   }
 
-  std::string dds() const {
+  std::string dds(const std::string& discovery = "") const {
     return "dds:\n  domain: " + std::to_string(domain_) + "\n  lease_ms: " + std::to_string(kLease.count()) +
-           "\n  udp_only: true\n";
+           "\n  udp_only: true\n" + discovery;
   }
 
-  void start_jp() {
+  void start_jp(const std::string& discovery = "") {
     jp_ = launch_bridge("bridge-jp",
                         "name: bridge-jp\n"
                         "rt_to_camus:\n"
                         "  poll_ms: 100\n"
                         "  providers:\n"
                         "    - {match: \"*\", name: \"rt.{instance}\", deadline_ms: 5000}\n" +
-                            dds() + "  export: {deny: [\"rt.Secret*\"]}\n" +
+                            dds(discovery) + "  export: {deny: [\"rt.Secret*\"]}\n" +
                             "  state: {period_ms: 100, poses: {domain: " + std::to_string(devices_domain()) +
                             ", source: ground_truth, robots: [robot1], period_ms: 20}}\n",
                         {"--naming", naming_->address(), "--host", "jphost"}, "jp");
+  }
+
+  // A UDP port nothing listens on now.
+  static uint16_t free_udp_port() {
+    const int fd = socket(AF_INET, SOCK_DGRAM, 0);
+    sockaddr_in address{};
+    address.sin_family = AF_INET;
+    address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    bind(fd, reinterpret_cast<sockaddr*>(&address), sizeof address);
+    socklen_t length = sizeof address;
+    getsockname(fd, reinterpret_cast<sockaddr*>(&address), &length);
+    close(fd);
+    return ntohs(address.sin_port);
   }
 
   uint32_t devices_domain() const { return static_cast<uint32_t>(domain_ + 30); }
@@ -212,6 +232,26 @@ TEST_F(Federation, ADeadBridgesServicesVanishWithinTheLeaseAndReturnWithIt) {
   echo.set_text("after the server restart");
   const Observed again = call("jp/rt.Diagnostic0", "echo", echo);
   EXPECT_EQ(again.status, planet::OK) << again.message;
+}
+
+// Sites that pass no multicast: bridge-jp is a Fast DDS discovery server, bridge-kr its client
+// (a client discovers nothing but through its servers), and the spaces link as before.
+TEST_F(Federation, SpacesLinkThroughADiscoveryServer) {
+  jp_.reset();
+  kr_.reset();
+  ASSERT_TRUE(wait_service_gone("jp/rt.Diagnostic0", 15s));
+  const std::string server = "127.0.0.1:" + std::to_string(free_udp_port());
+  start_jp("  discovery: {listen: \"" + server + "\"}\n");
+  start_kr("  discovery: {servers: [\"" + server + "\"]}\n");
+  ASSERT_TRUE(wait_for_service("jp/rt.Diagnostic0", 20s)) << jp_->log() << kr_->log();
+  URS::Diagnostic_echo_Request echo;
+  echo.set_text("through the discovery server");
+  const Observed echoed = call("jp/rt.Diagnostic0", "echo", echo);
+  ASSERT_EQ(echoed.status, planet::OK) << echoed.message;
+  URS::Diagnostic_echo_Reply reply;
+  ASSERT_TRUE(reply.ParseFromString(echoed.payload));
+  EXPECT_EQ(reply.result(), echo.text());
+  EXPECT_NE(kr_->log().find("discovery server"), std::string::npos) << kr_->log();
 }
 
 // What a third space sees of the others' state over DDS: a plain participant of the link.

@@ -364,6 +364,9 @@ void Bridge::open_session() {
     options.udp_only = config_.dds.udp_only;
     options.socket_buffer_bytes = config_.dds.socket_buffer_bytes;
     options.initial_peers = config_.dds.initial_peers;
+    options.discovery_listen = config_.dds.discovery_listen;
+    options.discovery_server_id = config_.dds.discovery_server_id;
+    options.discovery_servers = config_.dds.discovery_servers;
     Session* s = session.get();
     try {
       session->dds = std::make_unique<DdsLink>(
@@ -375,8 +378,11 @@ void Bridge::open_session() {
           [this, s](IncomingCall call, std::function<void(planet::CallResult)> reply) {
             serve_remote(*s, std::move(call), std::move(reply));
           });
-      spdlog::info("bridge {}: space {} joined DDS domain {}{}", config_.name, config_.space, config_.dds.domain,
-                   config_.dds.udp_only ? " (UDP only)" : "");
+      std::string discovery;
+      if (!options.discovery_listen.empty()) discovery = ", discovery server at " + options.discovery_listen;
+      for (const auto& server : options.discovery_servers) discovery += ", discovery server " + server;
+      spdlog::info("bridge {}: space {} joined DDS domain {}{}{}", config_.name, config_.space, config_.dds.domain,
+                   config_.dds.udp_only ? " (UDP only)" : "", discovery);
     } catch (const std::exception& e) {
       spdlog::error("bridge {}: no link to other spaces: {}", config_.name, e.what());
     }

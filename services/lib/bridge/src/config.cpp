@@ -167,8 +167,8 @@ void read_dds(const YAML::Node& node, DdsConfig& dds, std::vector<std::string>& 
     errors.push_back("dds: a map is expected");
     return;
   }
-  util::check_keys(node, "dds", {"domain", "lease_ms", "udp_only", "socket_buffer_bytes", "initial_peers", "export",
-                                 "import", "state"},
+  util::check_keys(node, "dds", {"domain", "lease_ms", "udp_only", "socket_buffer_bytes", "initial_peers", "discovery",
+                                 "export", "import", "state"},
                    errors);
   if (node["domain"] && util::read_scalar(node["domain"], "dds.domain", dds.domain, errors) && dds.domain > 232) {
     errors.push_back("dds.domain: " + std::to_string(dds.domain) + " is outside 0..232");
@@ -185,6 +185,37 @@ void read_dds(const YAML::Node& node, DdsConfig& dds, std::vector<std::string>& 
     util::read_scalar(node["socket_buffer_bytes"], "dds.socket_buffer_bytes", dds.socket_buffer_bytes, errors);
   }
   if (node["initial_peers"]) dds.initial_peers = read_strings(node["initial_peers"], "dds.initial_peers", errors);
+  if (const YAML::Node discovery = node["discovery"]) {
+    util::check_keys(discovery, "dds.discovery", {"listen", "id", "servers"}, errors);
+    auto host_port = [&](const std::string& address, const std::string& where) {
+      const auto colon = address.rfind(':');
+      int port = 0;
+      try {
+        port = colon == std::string::npos ? 0 : std::stoi(address.substr(colon + 1));
+      } catch (const std::exception&) {
+      }
+      if (colon == 0 || port <= 0 || port > 65535) {
+        errors.push_back(where + ": '" + address + "' is not HOST:PORT");
+      }
+    };
+    if (discovery["listen"] &&
+        util::read_scalar(discovery["listen"], "dds.discovery.listen", dds.discovery_listen, errors)) {
+      host_port(dds.discovery_listen, "dds.discovery.listen");
+    }
+    if (discovery["id"] && util::read_scalar(discovery["id"], "dds.discovery.id", dds.discovery_server_id, errors) &&
+        dds.discovery_server_id > 255) {
+      errors.push_back("dds.discovery.id: " + std::to_string(dds.discovery_server_id) + " is outside 0..255");
+    }
+    if (discovery["servers"]) {
+      dds.discovery_servers = read_strings(discovery["servers"], "dds.discovery.servers", errors);
+      for (std::size_t i = 0; i < dds.discovery_servers.size(); ++i) {
+        host_port(dds.discovery_servers[i], "dds.discovery.servers[" + std::to_string(i) + "]");
+      }
+    }
+    if (dds.discovery_listen.empty() && dds.discovery_servers.empty()) {
+      errors.push_back("dds.discovery: give 'listen' (be the server) or 'servers' (use them)");
+    }
+  }
   if (const YAML::Node out = node["export"]) {
     util::check_keys(out, "dds.export", {"allow", "deny"}, errors);
     read_filter(out, "dds.export", dds.export_allow, dds.export_deny, errors);

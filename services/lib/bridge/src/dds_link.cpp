@@ -17,6 +17,7 @@
 #include <fastdds/dds/subscriber/Subscriber.hpp>
 #include <fastdds/dds/topic/Topic.hpp>
 #include <fastdds/dds/topic/TypeSupport.hpp>
+#include <fastdds/rtps/attributes/ServerAttributes.h>
 #include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
 #include <fastdds/rtps/transport/shared_mem/SharedMemTransportDescriptor.h>
 #include <fastrtps/utils/IPLocator.h>
@@ -318,6 +319,38 @@ struct DdsLink::Impl : public fdds::DataReaderListener {
   }
 };
 
+// Discovery through a Fast DDS discovery server: this participant is the server, or a client of
+// the servers given (their GUID prefixes are Fast DDS's defaults for their ids).
+void DdsLink::use_discovery_server(fdds::DomainParticipantQos& qos) const {
+  auto& discovery = qos.wire_protocol().builtin.discovery_config;
+  auto one_locator = [](const std::string& address) {
+    if (address.rfind(':') == std::string::npos) {
+      throw std::runtime_error("DDS discovery server '" + address + "': HOST:PORT expected");
+    }
+    return peer_locators(address, 0).front();
+  };
+  if (!options_.discovery_listen.empty()) {
+    discovery.discoveryProtocol = rtps::DiscoveryProtocol_t::SERVER;
+    if (!rtps::get_server_client_default_guidPrefix(static_cast<int>(options_.discovery_server_id),
+                                                    qos.wire_protocol().prefix)) {
+      throw std::runtime_error("DDS discovery server id " + std::to_string(options_.discovery_server_id) +
+                               " is out of range");
+    }
+    qos.wire_protocol().builtin.metatrafficUnicastLocatorList.push_back(one_locator(options_.discovery_listen));
+  }
+  if (!options_.discovery_servers.empty() && options_.discovery_listen.empty()) {
+    discovery.discoveryProtocol = rtps::DiscoveryProtocol_t::CLIENT;
+  }
+  for (std::size_t id = 0; id < options_.discovery_servers.size(); ++id) {
+    eprosima::fastdds::rtps::RemoteServerAttributes server;
+    if (!rtps::get_server_client_default_guidPrefix(static_cast<int>(id), server.guidPrefix)) {
+      throw std::runtime_error("DDS: at most " + std::to_string(id) + " discovery servers");
+    }
+    server.metatrafficUnicastLocatorList.push_back(one_locator(options_.discovery_servers[id]));
+    discovery.m_DiscoveryServers.push_back(server);
+  }
+}
+
 DdsLink::DdsLink(DdsOptions options, CatalogHandler on_catalog, CallHandler on_call)
     : options_(std::move(options)), impl_(std::make_unique<Impl>(options_, std::move(on_catalog), std::move(on_call))) {
   auto* factory = fdds::DomainParticipantFactory::get_instance();
@@ -345,6 +378,7 @@ DdsLink::DdsLink(DdsOptions options, CatalogHandler on_catalog, CallHandler on_c
       qos.wire_protocol().builtin.initialPeersList.push_back(locator);
     }
   }
+  use_discovery_server(qos);
   Impl& d = *impl_;
   d.participant = factory->create_participant(options_.domain, qos);
   if (d.participant == nullptr) {

@@ -33,6 +33,9 @@
 //     udp_only: false               # true between containers (no shared memory)
 //     socket_buffer_bytes: 4194304
 //     initial_peers: [bridge-kr]    # HOST or HOST:PORT, for networks without multicast
+//     discovery:                    # or a Fast DDS discovery server (docs/federation.md):
+//       listen: "0.0.0.0:11811"     #   this bridge is the server (with id `id`, default 0)
+//       servers: ["site-a:11811"]   #   or a client of these servers (the N-th has id N)
 //     export: {allow: ["*"], deny: []}             # globs on this space's service names
 //     import: {allow: ["*"], deny: [],             # globs on "<space>/<service>"
 //              as_camus: "{space}/{service}",      # CAMUS name ("" = not on CAMUS)
@@ -117,6 +120,9 @@ struct DdsConfig {
   bool udp_only = false;
   uint32_t socket_buffer_bytes = 4u << 20;
   std::vector<std::string> initial_peers;
+  std::string discovery_listen;                 // this bridge is a Fast DDS discovery server
+  uint32_t discovery_server_id = 0;
+  std::vector<std::string> discovery_servers;   // this bridge discovers through these servers
   std::vector<std::string> export_allow{"*"};
   std::vector<std::string> export_deny;
   std::vector<std::string> import_allow{"*"};

@@ -19,6 +19,7 @@
 
 namespace eprosima::fastdds::dds {
 class DomainParticipant;
+class DomainParticipantQos;
 }
 
 namespace urs::bridge {
@@ -35,6 +36,13 @@ struct DdsOptions {
   // Unicast addresses of other bridges' hosts ("HOST" or "HOST:PORT"), for networks without
   // multicast; without a port, the default ports of the first participants of the domain.
   std::vector<std::string> initial_peers;
+  // A Fast DDS discovery server instead of multicast discovery (sites that pass no multicast):
+  // `discovery_listen` "HOST:PORT" makes this participant the server with id `discovery_server_id`;
+  // `discovery_servers` "HOST:PORT" makes it a client of those servers (the N-th has id N, as in
+  // ROS_DISCOVERY_SERVER).
+  std::string discovery_listen;
+  uint32_t discovery_server_id = 0;
+  std::vector<std::string> discovery_servers;
 };
 
 struct ServiceEntry {
@@ -94,6 +102,8 @@ class DdsLink {
               std::string payload);
 
  private:
+  void use_discovery_server(eprosima::fastdds::dds::DomainParticipantQos& qos) const;
+
   struct Impl;
   const DdsOptions options_;
   std::unique_ptr<Impl> impl_;
