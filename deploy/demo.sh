@@ -8,6 +8,7 @@
 #      bridge-jp, CORBA) and writes its trace plot;
 #   2. an RT consumer in jp makes kr's TTS speak and kr's voice recognition hear it (through the
 #      RTCs bridge-jp made for them) and reads jp's camera;
+#   3. shows the state the spaces share over DDS: jp's robot pose and RTC states in kr's context;
 # and prints a summary. Outputs in ${URS_DEMO_OUT:-build/demo}: experiments.md, square.svg, CSV.
 # The spaces are taken down at the end unless URS_DEMO_KEEP=1 (then: cd compose; docker-compose ps).
 # The local, single-machine demo of every piece is deploy/demo-local.sh.
@@ -69,6 +70,10 @@ camera=$(jp rtc ls | awk '/host_cxt\/$/{context=$1} /Camera0\.rtc/{print context
 lab_in jp speech-vision --via rt --naming rtc-naming:2809 --text "go forward" \
   --tts "bridge-jp.host_cxt/kr_tts-$sam.rtc:texttospeech" \
   --voice "bridge-jp.host_cxt/kr_voice-$sam.rtc:voicerecognition" --camera "$camera:imagerecognition"
+
+step "3. shared state over DDS: kr's context holds jp's robot pose and RTC lifecycle states"
+kr context get jp/pose/robot1
+kr context ls 'jp/component/*'
 
 step "summary ($out/experiments.md, trace plot $out/square.svg)"
 lab_in kr report

@@ -31,6 +31,7 @@ fi
 t_base=$((SECONDS - t0))
 
 "$here/stage.sh" "$ctx"
+"$root/compose/make-token.sh"  # the Planet token compose gives space kr (a secret, not in an image)
 
 for service in "${services[@]}"; do
   if [[ $service == bridge && ! -x "$ctx/opt/urslink/bin/urs-bridge" ]]; then

@@ -86,7 +86,7 @@ int main(int argc, char** argv) {
   std::string log_level = "warn";
   int timeout_ms = 5000;
   app.add_option("--server", server, "CAMUS server HOST:PORT (env URS_SERVER)")->capture_default_str();
-  app.add_option("--token-file", token_file, "File holding the space's token (or env URS_TOKEN)");
+  app.add_option("--token-file", token_file, "File holding the space's token (or env URS_TOKEN_FILE, or the token in URS_TOKEN)");
   app.add_option("--timeout-ms", timeout_ms, "Connection and built-in call timeout")->capture_default_str();
   app.add_option("--log-level", log_level, urs::util::kLogLevels)->capture_default_str();
 
@@ -166,6 +166,7 @@ int main(int argc, char** argv) {
     auto endpoint = urs::util::parse_endpoint(server, "--server");
     options.host = endpoint.host;
     options.port = endpoint.port;
+    if (token_file.empty()) token_file = env_or("URS_TOKEN_FILE", "");
     options.token = token_file.empty() ? env_or("URS_TOKEN", "") : urs::util::read_token_file(token_file);
   } catch (const std::exception& e) {
     std::cerr << "urs: " << e.what() << "\n";

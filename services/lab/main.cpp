@@ -55,7 +55,8 @@ std::unique_ptr<urs::planet::Client> connect(const Options& o) {
   urs::planet::ClientOptions options;
   options.host = endpoint.host;
   options.port = endpoint.port;
-  options.token = urs::util::read_token_file(o.token_file);
+  const char* env_file = std::getenv("URS_TOKEN_FILE");
+  options.token = urs::util::read_token_file(o.token_file.empty() && env_file ? env_file : o.token_file);
   options.peer_name = "urs-lab";
   auto client = std::make_unique<urs::planet::Client>(options);
   client->start();
@@ -79,7 +80,7 @@ int main(int argc, char** argv) {
   app.add_option("--log-level", o.log_level, urs::util::kLogLevels)->capture_default_str();
   auto camus_options = [&](CLI::App* command) {
     command->add_option("--server", o.server, "CAMUS server HOST:PORT")->capture_default_str();
-    command->add_option("--token-file", o.token_file, "File holding the space's Planet token");
+    command->add_option("--token-file", o.token_file, "File holding the space's Planet token (or env URS_TOKEN_FILE)");
   };
   auto motion_options = [&](CLI::App* command) {
     command->add_option("--service", o.service, "Navigation service on CAMUS")->capture_default_str();

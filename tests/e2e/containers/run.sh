@@ -16,7 +16,9 @@
 #       recognition hear it); a 921,600-byte image crosses whole; scaling jp's managers gives that
 #       many services in kr; a killed bridge's services vanish from the other space within the
 #       lease, every call in flight gets an answer, and they return with the bridge; cutting the
-#       link makes cross-space calls fail fast with a reason, and reconnecting restores them.
+#       link makes cross-space calls fail fast with a reason, and reconnecting restores them;
+#       shared state: jp's RTC lifecycle states and robot pose are entries of kr's context, and
+#       leave it with jp's bridge; kr refuses a Planet client without its token.
 # Always tears the project down (containers, networks, volumes); a failing step prints the logs.
 #   tests/e2e/containers/run.sh [SOURCE_DIR [BUILD_DIR]]
 # Environment: URS_COMPOSE (compose command, default `docker compose` when present, else
@@ -191,6 +193,34 @@ assert [(x, y) for x, y, _ in legs] == [(1.5, 1.0), (1.5, 3.0), (5.0, 3.0), (5.0
 assert all(e < 50 for _, _, e in legs)
 PY
 
+step "state: jp's robot pose and RTC lifecycle states are in kr's context (shared over DDS)"
+robot_state() {
+  kr context ls 'jp/component/*' >"$tmp/components.json" || return 1
+  python3 - "$tmp/components.json" <<'PY'
+import json, sys
+text = open(sys.argv[1]).read()
+entries = [json.loads(line) for line in text.splitlines() if line.strip()]
+entries = entries[0]["entries"] if len(entries) == 1 and "entries" in entries[0] else entries
+robots = [e for e in entries if e["key"].endswith("/Robot0.rtc")]
+assert robots and robots[0]["value"]["state"] == "Active" and robots[0]["source"] == "dds:jp", robots
+PY
+}
+eventually 30 robot_state || fail "jp's Robot0 is not Active in kr's context: $(cat "$tmp/components.json")"
+robot_pose() {
+  kr context get jp/pose/robot1 >"$tmp/pose.json" || return 1
+  python3 - "$tmp/pose.json" <<'PY'
+import json, sys
+pose = json.load(open(sys.argv[1]))["value"]
+print("jp/pose/robot1 in kr:", pose)
+assert abs(pose["x"] - 1.5) < 0.2 and abs(pose["y"] - 1.0) < 0.2, pose  # back where the square ends
+PY
+}
+eventually 30 robot_pose || fail "jp's robot pose is not in kr's context: $(cat "$tmp/pose.json")"
+
+step "kr: a Planet client without the space's token is refused"
+dc run --rm -T -e URS_TOKEN_FILE= cli-kr ls >/dev/null 2>"$tmp/cli.err" && fail "a client without the token was let in"
+grep -q UNAUTHENTICATED "$tmp/cli.err" || fail "no clear refusal: $(cat "$tmp/cli.err")"
+
 step "demo: a jp RT consumer makes kr's TTS speak and kr's voice recognition hear it"
 camera=$(jp rtc ls | awk -v ctx="$mgr1.host_cxt/" '/^[^ ]/{c=$1} c == ctx && /Camera0\.rtc/{print ctx "Camera0.rtc"}')
 lab_in jp speech-vision --via rt --naming rtc-naming:2809 --text "go forward" \
@@ -285,6 +315,8 @@ done
 gone() { ! kr ls 'jp/*' | grep -q '^jp/'; }
 eventually 15 gone || fail "jp's services still in kr: $(kr ls 'jp/*')"
 say "jp's services gone from kr $((SECONDS - t)) s after the kill (lease 3 s)"
+state_gone() { ! kr context ls 'jp/component/*' | grep -q Robot0; }
+eventually 15 state_gone || fail "jp's component states still in kr: $(kr context ls 'jp/component/*')"
 kr call jp/robot1.navigation getPosition >/dev/null && fail "a call to a vanished service succeeded"
 grep -q UNKNOWN_SERVICE "$tmp/cli.err" || fail "no clear error: $(cat "$tmp/cli.err")"
 dc start bridge-jp >/dev/null 2>&1 || fail "restart bridge-jp"

@@ -85,6 +85,16 @@ class Federation : public BridgeSpaceTest {
                         {"--naming", naming_->address(), "--host", "jphost"}, "jp");
   }
 
+  // kr's CAMUS server killed and started again on its port, with its data.
+  void restart_server() {
+    const std::string port = server_address_.substr(server_address_.rfind(':') + 1);
+    server_->kill9();
+    server_ = std::make_unique<Process>(
+        std::vector<std::string>{URS_SERVER_BIN, "--space", space_, "--listen", "127.0.0.1:" + port, "--data-dir",
+                                 dir_ + "/data", "--heartbeat-ms", "200", "--heartbeat-timeout-ms", "1000"},
+        dir_ + "/server2.log");
+  }
+
   // A UDP port nothing listens on now.
   static uint16_t free_udp_port() {
     const int fd = socket(AF_INET, SOCK_DGRAM, 0);
@@ -221,12 +231,7 @@ TEST_F(Federation, ADeadBridgesServicesVanishWithinTheLeaseAndReturnWithIt) {
   EXPECT_EQ(call("jp/rt.Diagnostic0", "echo", echo).status, planet::OK);
 
   // kr's CAMUS server dies and comes back on its port: bridge-kr registers the imports again.
-  const std::string port = server_address_.substr(server_address_.rfind(':') + 1);
-  server_->kill9();
-  server_ = std::make_unique<Process>(
-      std::vector<std::string>{URS_SERVER_BIN, "--space", space_, "--listen", "127.0.0.1:" + port, "--data-dir",
-                               dir_ + "/data", "--heartbeat-ms", "200", "--heartbeat-timeout-ms", "1000"},
-      dir_ + "/server2.log");
+  restart_server();
   ASSERT_TRUE(wait_for_service("jp/rt.Diagnostic0", 20s)) << kr_->log();
   ASSERT_TRUE(planet_->wait_connected(10s));
   echo.set_text("after the server restart");
@@ -373,6 +378,18 @@ TEST_F(Federation, SpacesShareStateOverDds) {
       }
     }
   });
+
+  // kr's CAMUS server dies and comes back on its port: what jp shares keeps arriving.
+  restart_server();
+  ASSERT_TRUE(planet_->wait_connected(10s));
+  pose.x = 2.75;
+  ASSERT_TRUE(wait_until(
+      [&] {
+        devices.publish(world::Channel::ground_truth, pose);
+        return context_field("jp/pose/robot1", "x") == std::to_string(2.75);
+      },
+      20s))
+      << kr_->log();
 
   // A lost bridge's state ends with it, in kr's context and at the observer, and comes back.
   jp_->kill9();

@@ -11,9 +11,13 @@
 #include <fastdds/dds/subscriber/Subscriber.hpp>
 #include <fastdds/dds/topic/Topic.hpp>
 #include <fastdds/dds/topic/TypeSupport.hpp>
+#include <fastdds/dds/core/LoanableSequence.hpp>
+#include <condition_variable>
 #include <map>
 #include <mutex>
+#include <set>
 #include <stdexcept>
+#include <thread>
 
 #include "SpaceState.h"
 #include "SpaceStatePubSubTypes.h"
@@ -98,53 +102,72 @@ Qos event_qos(Qos qos) {
 
 std::pair<std::string, std::string> key_of(const ComponentState& c) { return {c.space, c.name}; }
 std::pair<std::string, std::string> key_of(const ContextState& e) { return {e.space, e.key}; }
+bool same(const ComponentState& a, const ComponentState& b) { return a == b; }
+bool same(const ContextState& a, const ContextState& b) {
+  return a.value_json == b.value_json && a.version == b.version && a.source == b.source;
+}
 
-// The other spaces' entries of one keyed topic, by (space, name): what each instance holds and
-// which writer (bridge) wrote it, so that a lost bridge's entries end and come back with it.
-template <class Value>
+// The other spaces' entries of one keyed topic, read from the reader's cache (keep-last 1 per
+// instance) as it is now: the live instances of writers whose liveliness holds, but tombstones.
+// Each reconcile() reports what appeared, changed or ended since the one before, so an end is
+// seen however DDS tells it (a tombstone, a writer unmatched or lost, an instance left with no
+// writer). Only StateLink's reader thread calls it: never a DDS listener, which runs holding the
+// reader's own lock (reading the cache from two threads under two locks would deadlock).
+template <class Sample, class Value>
 class KeyedIn {
  public:
-  using Key = std::pair<std::string, std::string>;
   using Handler = std::function<void(const Value&, bool alive)>;
-  explicit KeyedIn(Handler handler) : handler_(std::move(handler)) {}
+  using Convert = std::function<std::optional<Value>(const Sample&)>;  // nullopt: a tombstone
+  KeyedIn(Handler handler, Convert convert) : handler_(std::move(handler)), convert_(std::move(convert)) {}
 
-  void arrived(const fdds::InstanceHandle_t& instance, const fdds::InstanceHandle_t& writer, Key key, Value value) {
-    std::lock_guard lock(mutex_);
-    by_instance_[instance] = key;
-    Entry& entry = entries_[key];
-    entry = {std::move(value), writer, true};
-    if (handler_) handler_(entry.value, true);
-  }
-  void ended(const fdds::InstanceHandle_t& instance) {
-    std::lock_guard lock(mutex_);
-    auto key = by_instance_.find(instance);
-    if (key == by_instance_.end()) return;
-    auto entry = entries_.find(key->second);
-    if (entry != entries_.end()) {
-      if (entry->second.alive && handler_) handler_(entry->second.value, false);
-      entries_.erase(entry);
-    }
-    by_instance_.erase(key);
+  void attach(fdds::DataReader* reader, std::string own_space) {
+    reader_ = reader;
+    own_space_ = std::move(own_space);
   }
   void writer(const fdds::InstanceHandle_t& writer, bool alive) {
     std::lock_guard lock(mutex_);
-    for (auto& [key, entry] : entries_) {
-      if (entry.writer != writer || entry.alive == alive) continue;
-      entry.alive = alive;
-      if (handler_) handler_(entry.value, alive);
+    if (alive) {
+      dead_.erase(writer);
+    } else {
+      dead_.insert(writer);
     }
+  }
+  void reconcile() {
+    std::set<fdds::InstanceHandle_t> dead;
+    {
+      std::lock_guard lock(mutex_);  // never held while DDS is called: listeners take it holding DDS's locks
+      dead = dead_;
+    }
+    std::map<std::pair<std::string, std::string>, Value> now;
+    fdds::LoanableSequence<Sample> samples;
+    fdds::SampleInfoSeq infos;
+    if (reader_->read(samples, infos, fdds::LENGTH_UNLIMITED, fdds::ANY_SAMPLE_STATE, fdds::ANY_VIEW_STATE,
+                      fdds::ALIVE_INSTANCE_STATE) == ReturnCode_t::RETCODE_OK) {
+      for (fdds::LoanableCollection::size_type i = 0; i < samples.length(); ++i) {
+        if (!infos[i].valid_data || dead.count(infos[i].publication_handle)) continue;
+        if (samples[i].space() == own_space_) continue;
+        if (auto value = convert_(samples[i])) now.emplace(key_of(*value), std::move(*value));
+      }
+      reader_->return_loan(samples, infos);
+    }
+    for (const auto& [key, value] : held_) {
+      if (!now.count(key) && handler_) handler_(value, false);
+    }
+    for (const auto& [key, value] : now) {
+      auto it = held_.find(key);
+      if ((it == held_.end() || !same(it->second, value)) && handler_) handler_(value, true);
+    }
+    held_ = std::move(now);
   }
 
  private:
-  struct Entry {
-    Value value;
-    fdds::InstanceHandle_t writer;
-    bool alive = false;
-  };
   Handler handler_;
-  std::mutex mutex_;
-  std::map<fdds::InstanceHandle_t, Key> by_instance_;
-  std::map<Key, Entry> entries_;
+  Convert convert_;
+  fdds::DataReader* reader_ = nullptr;
+  std::string own_space_;
+  std::mutex mutex_;                       // guards dead_
+  std::set<fdds::InstanceHandle_t> dead_;  // writers whose liveliness is lost
+  std::map<std::pair<std::string, std::string>, Value> held_;  // the reader thread's own
 };
 
 }  // namespace
@@ -152,7 +175,16 @@ class KeyedIn {
 struct StateLink::Impl : public fdds::DataReaderListener {
   Impl(DdsLink& link, StateHandlers handlers)
       : link(link), space(link.options().space), handlers(std::move(handlers)),
-        components_in(this->handlers.component), context_in(this->handlers.context) {}
+        components_in(this->handlers.component,
+                      [](const dds::ComponentState& s) -> std::optional<ComponentState> {
+                        if (s.state() == kGone) return std::nullopt;
+                        return ComponentState{s.space(),     s.name(), s.kind(), s.state(),
+                                              s.type_name(), s.host(), stamp_of(s)};
+                      }),
+        context_in(this->handlers.context, [](const dds::ContextEntry& s) -> std::optional<ContextState> {
+          if (s.value_json().empty()) return std::nullopt;
+          return ContextState{s.space(), s.key(), s.value_json(), s.source(), s.version(), stamp_of(s)};
+        }) {}
 
   DdsLink& link;
   const std::string space;
@@ -174,8 +206,8 @@ struct StateLink::Impl : public fdds::DataReaderListener {
   fdds::DataReader* context_reader = nullptr;
   fdds::DataReader* event_reader = nullptr;
 
-  KeyedIn<ComponentState> components_in;
-  KeyedIn<ContextState> context_in;
+  KeyedIn<dds::ComponentState, ComponentState> components_in;
+  KeyedIn<dds::ContextEntry, ContextState> context_in;
 
   mutable std::mutex mutex;  // guards what is written below
   std::map<std::string, ComponentState> components_out;
@@ -222,10 +254,14 @@ struct StateLink::Impl : public fdds::DataReaderListener {
         !context_reader || !pose_reader || !event_reader) {
       throw std::runtime_error("DDS: cannot create the state endpoints");
     }
+    components_in.attach(component_reader, space);
+    context_in.attach(context_reader, space);
+    reader_thread = std::thread([this, lease] { read_state(std::max(std::chrono::milliseconds(50), lease / 4)); });
   }
 
   void destroy() {
     world.reset();
+    stop_reader();
     if (subscriber) {
       for (auto* reader : {component_reader, context_reader, pose_reader, event_reader}) {
         if (reader) {
@@ -248,47 +284,14 @@ struct StateLink::Impl : public fdds::DataReaderListener {
 
   void on_data_available(fdds::DataReader* reader) override {
     if (reader == component_reader) {
-      read_components();
+      wake_reader();
     } else if (reader == context_reader) {
-      read_context();
+      wake_reader();
     } else if (reader == pose_reader) {
       read_poses();
     } else if (reader == event_reader) {
       read_events();
     }
-  }
-
-  // Takes what arrived on a keyed topic into `in`: `convert` gives the entry of a sample, or
-  // nullopt for a tombstone (the entry ended in its space).
-  template <class Sample, class Value, class Convert>
-  void read_keyed(fdds::DataReader* reader, KeyedIn<Value>& in, Convert convert) {
-    Sample sample;
-    fdds::SampleInfo info;
-    while (reader->take_next_sample(&sample, &info) == ReturnCode_t::RETCODE_OK) {
-      if (info.valid_data && sample.space() == space) continue;
-      std::optional<Value> value;
-      if (info.valid_data) value = convert(sample);
-      if (!value) {
-        in.ended(info.instance_handle);
-        continue;
-      }
-      in.arrived(info.instance_handle, info.publication_handle, key_of(*value), std::move(*value));
-    }
-  }
-
-  void read_components() {
-    read_keyed<dds::ComponentState>(component_reader, components_in,
-                                    [](const dds::ComponentState& s) -> std::optional<ComponentState> {
-      if (s.state() == kGone) return std::nullopt;
-      return ComponentState{s.space(), s.name(), s.kind(), s.state(), s.type_name(), s.host(), stamp_of(s)};
-    });
-  }
-
-  void read_context() {
-    read_keyed<dds::ContextEntry>(context_reader, context_in, [](const dds::ContextEntry& s) -> std::optional<ContextState> {
-      if (s.value_json().empty()) return std::nullopt;
-      return ContextState{s.space(), s.key(), s.value_json(), s.source(), s.version(), stamp_of(s)};
-    });
   }
 
   void read_poses() {
@@ -313,9 +316,50 @@ struct StateLink::Impl : public fdds::DataReaderListener {
   void writer_state(fdds::DataReader* reader, const fdds::InstanceHandle_t& writer, bool alive) {
     if (reader == component_reader) components_in.writer(writer, alive);
     if (reader == context_reader) context_in.writer(writer, alive);
+    wake_reader();
+  }
+
+  // ---- the reader thread: the others' components and context, off the DDS threads ----
+
+  std::thread reader_thread;
+  std::mutex wake_mutex;
+  std::condition_variable wake;
+  bool dirty = false;
+  bool stopping = false;
+
+  void wake_reader() {
+    {
+      std::lock_guard lock(wake_mutex);
+      dirty = true;
+    }
+    wake.notify_one();
+  }
+  // Reconciles when DDS reports a change, and every `period` anyway (an end DDS tells without a
+  // listener call is seen then).
+  void read_state(std::chrono::milliseconds period) {
+    std::unique_lock lock(wake_mutex);
+    while (!stopping) {
+      wake.wait_for(lock, period, [&] { return dirty || stopping; });
+      if (stopping) break;
+      dirty = false;
+      lock.unlock();
+      components_in.reconcile();
+      context_in.reconcile();
+      lock.lock();
+    }
+  }
+  void stop_reader() {
+    {
+      std::lock_guard lock(wake_mutex);
+      stopping = true;
+    }
+    wake.notify_one();
+    if (reader_thread.joinable()) reader_thread.join();
   }
   void on_subscription_matched(fdds::DataReader* reader, const fdds::SubscriptionMatchedStatus& status) override {
-    if (status.current_count_change < 0) writer_state(reader, status.last_publication_handle, false);
+    if (status.current_count_change != 0) {
+      writer_state(reader, status.last_publication_handle, status.current_count_change > 0);
+    }
   }
   void on_liveliness_changed(fdds::DataReader* reader, const fdds::LivelinessChangedStatus& status) override {
     if (status.not_alive_count_change > 0) writer_state(reader, status.last_publication_handle, false);

@@ -11,8 +11,10 @@
 // its handlers. Components and context are keyed state: a writer's entries end ("gone") when it
 // disposes them or when its bridge is lost (liveliness, lease), and come back with the bridge.
 //
-// Threads: handlers run on Fast DDS's listener threads, one sample at a time per topic, and must
-// not block. The writing methods may be called from any thread.
+// Threads: the component and context handlers run on StateLink's own reader thread, which reads
+// the readers' caches when DDS reports a change and every quarter lease; the pose and event
+// handlers on Fast DDS's listener threads, one sample at a time. None may block. The writing
+// methods may be called from any thread.
 
 #include <chrono>
 #include <cstdint>

@@ -1,0 +1,109 @@
+// urs-bridge configuration: what it accepts, its defaults, and every error named with its key.
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "urs/bridge/config.hpp"
+#include "urs/util/cli.hpp"
+
+namespace urs::bridge {
+namespace {
+
+class BridgeConfigTest : public ::testing::Test {
+ protected:
+  BridgeConfig load(const std::string& yaml) {
+    std::ofstream(path_) << yaml;
+    return load_bridge_config(path_, "host1");
+  }
+  // The error message of a configuration that must be refused.
+  std::string refused(const std::string& yaml) {
+    try {
+      load(yaml);
+    } catch (const util::ConfigError& e) {
+      return e.what();
+    }
+    ADD_FAILURE() << "accepted:\n" << yaml;
+    return "";
+  }
+  void TearDown() override { std::filesystem::remove(path_); }
+
+  const std::string path_ = ::testing::TempDir() + "bridge-config-" + std::to_string(getpid()) + ".yaml";
+};
+
+TEST_F(BridgeConfigTest, DefaultsWithoutDds) {
+  const BridgeConfig config = load("name: b\n");
+  EXPECT_EQ(config.name, "b");
+  EXPECT_FALSE(config.dds.enabled);
+  EXPECT_TRUE(config.dds.state.components);
+  EXPECT_FALSE(config.dds.state.poses);
+  EXPECT_TRUE(config.dds.state.events.empty());
+  EXPECT_TRUE(config.dds.state.context_allow.empty());
+  EXPECT_EQ(load("{}\n").name, "bridge@host1");
+}
+
+TEST_F(BridgeConfigTest, SharedStateAndDiscoveryServer) {
+  const BridgeConfig config = load(
+      "dds:\n"
+      "  domain: 3\n"
+      "  discovery: {servers: [\"site-a:11811\", \"10.0.0.2:11812\"]}\n"
+      "  state:\n"
+      "    components: false\n"
+      "    period_ms: 250\n"
+      "    poses: {domain: 4, source: ground_truth, robots: [r1, r2], period_ms: 50}\n"
+      "    events: [\"robot1/#\"]\n"
+      "    context: {allow: [\"room.*\"], deny: [\"room.secret\"]}\n"
+      "    import: false\n");
+  const DdsConfig& dds = config.dds;
+  EXPECT_TRUE(dds.enabled);
+  EXPECT_EQ(dds.discovery_servers, (std::vector<std::string>{"site-a:11811", "10.0.0.2:11812"}));
+  EXPECT_TRUE(dds.discovery_listen.empty());
+  EXPECT_FALSE(dds.state.components);
+  EXPECT_EQ(dds.state.period.count(), 250);
+  ASSERT_TRUE(dds.state.poses);
+  EXPECT_EQ(dds.state.poses->domain, 4u);
+  EXPECT_TRUE(dds.state.poses->ground_truth);
+  EXPECT_EQ(dds.state.poses->robots, (std::vector<std::string>{"r1", "r2"}));
+  EXPECT_EQ(dds.state.poses->period.count(), 50);
+  EXPECT_EQ(dds.state.events, std::vector<std::string>{"robot1/#"});
+  EXPECT_TRUE(allowed("room.temperature", dds.state.context_allow, dds.state.context_deny));
+  EXPECT_FALSE(allowed("room.secret", dds.state.context_allow, dds.state.context_deny));
+  EXPECT_FALSE(dds.state.import);
+
+  const BridgeConfig server = load("dds: {discovery: {listen: \"0.0.0.0:11811\", id: 2}}\n");
+  EXPECT_EQ(server.dds.discovery_listen, "0.0.0.0:11811");
+  EXPECT_EQ(server.dds.discovery_server_id, 2u);
+}
+
+TEST_F(BridgeConfigTest, EveryStateAndDiscoveryErrorIsNamedWithItsKey) {
+  const std::string message = refused(
+      "dds:\n"
+      "  domain: 1\n"
+      "  discovery: {servers: [\"no-port\", \"host:99999\"], id: 300, extra: 1}\n"
+      "  state:\n"
+      "    period_ms: 5\n"
+      "    poses: {domain: 1, source: sonar}\n"
+      "    colour: blue\n");
+  for (const char* expected : {
+           "dds.discovery.servers[0]: 'no-port' is not HOST:PORT",
+           "dds.discovery.servers[1]: 'host:99999' is not HOST:PORT",
+           "dds.discovery.id: 300 is outside 0..255",
+           "dds.discovery.extra",
+           "dds.state.period_ms: 5 is outside 10..60000",
+           "dds.state.poses.domain: 1 is the link's domain; give the devices their own",
+           "dds.state.poses.source: 'sonar' is neither localizer nor ground_truth",
+           "dds.state.poses.robots: name at least one robot",
+           "dds.state.colour",
+       }) {
+    EXPECT_NE(message.find(expected), std::string::npos) << "missing \"" << expected << "\" in:\n" << message;
+  }
+  EXPECT_NE(refused("dds: {discovery: {}}\n").find("dds.discovery: give 'listen' (be the server) or 'servers'"),
+            std::string::npos);
+  EXPECT_NE(refused("dds: {state: {poses: {robots: [r]}}}\n").find("dds.state.poses.domain: missing"),
+            std::string::npos);
+}
+
+}  // namespace
+}  // namespace urs::bridge
