@@ -72,8 +72,9 @@ lab_in jp speech-vision --via rt --naming rtc-naming:2809 --text "go forward" \
   --voice "bridge-jp.host_cxt/kr_voice-$sam.rtc:voicerecognition" --camera "$camera:imagerecognition"
 
 step "3. shared state over DDS: kr's context holds jp's robot pose and RTC lifecycle states"
-kr context get jp/pose/robot1
-kr context ls 'jp/component/*'
+kr context ls 'jp/*' | python3 -c 'import json, sys
+for e in json.load(sys.stdin)["entries"]:
+    print(e["key"].ljust(56), json.dumps(e["value"], sort_keys=True))'
 
 step "summary ($out/experiments.md, trace plot $out/square.svg)"
 lab_in kr report

@@ -19,7 +19,7 @@ PACKAGES=(
   libespeak-ng-dev libpocketsphinx-dev libsphinxbase-dev pocketsphinx-en-us  # speech devices
   libqrencode-dev libzbar-dev libpng-dev  # camera device: QR markers, their recognition, PNG frames
   # tools used by tests and scripts
-  python3 procps iproute2
+  python3 procps iproute2 nftables  # nftables: the two-hosts test's sites pass no multicast
   # containers: the engine, compose, and debootstrap for the base image made from Debian packages
   docker.io docker-compose debootstrap
 )
