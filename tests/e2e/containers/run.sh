@@ -27,10 +27,8 @@ set -uo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 root=${1:-$(cd "$here/../../.." && pwd)}
 build=${2:-${URS_BUILD_DIR:-$root/build}}
-t_start=$SECONDS
-
-say() { printf '[%4ds] %s\n' $((SECONDS - t_start)) "$*"; }
-die() { echo "e2e_containers: FAILED: $*" >&2; exit 1; }
+test_name=e2e_containers
+source "$here/../steps.sh"
 
 # ---- prerequisites: fail loudly, never skip --------------------------------------------------
 command -v docker >/dev/null || die "docker is not installed (Debian: apt-get install docker.io); this test needs it"
@@ -49,7 +47,6 @@ project=urs-e2e-$$
 compose_file=$root/compose/docker-compose.yml
 dc() { timeout "${DC_TIMEOUT:-180}" "${compose_cmd[@]}" -p "$project" -f "$compose_file" "$@"; }
 
-failed_step=""
 teardown() {
   local rc=$?
   if [[ $rc -ne 0 || -n "$failed_step" ]]; then
@@ -64,8 +61,6 @@ teardown() {
 trap teardown EXIT
 trap 'exit 130' INT TERM
 
-step() { failed_step=$1; say "$1"; }
-fail() { echo "e2e_containers: FAILED at '$failed_step': $*" >&2; exit 1; }
 
 # cli containers (profile `tools`): stdout only; stderr kept for failures
 kr() { dc run --rm -T cli-kr "$@" 2>"$tmp/cli.err"; }
@@ -87,16 +82,6 @@ wait_healthy() {
       fi
     fi
     ((SECONDS < deadline)) || fail "not healthy within $limit s: $(tr '\n' ';' <<<"$bad")"
-    sleep 1
-  done
-}
-
-# Retries a check (a command) for up to N seconds.
-eventually() {
-  local limit=$1; shift
-  local deadline=$((SECONDS + limit))
-  until "$@"; do
-    ((SECONDS < deadline)) || return 1
     sleep 1
   done
 }

@@ -13,9 +13,8 @@ here=$(cd "$(dirname "$0")" && pwd)
 root=${1:-$(cd "$here/../../.." && pwd)}
 build=${2:-${URS_BUILD_DIR:-$root/build}}
 bin=$build/services
-t_start=$SECONDS
-say() { printf '[%4ds] %s\n' $((SECONDS - t_start)) "$*"; }
-die() { echo "e2e_two_hosts: FAILED: $*" >&2; exit 1; }
+test_name=e2e_two_hosts
+source "$here/../steps.sh"
 
 [[ $(id -u) -eq 0 ]] || die "needs root for ip netns (run as root, as CI does)"
 command -v ip >/dev/null || die "ip (Debian: iproute2) is not installed"
@@ -26,7 +25,6 @@ tag=u$$
 jp=urs-jp-$tag
 kr=urs-kr-$tag
 work=$(mktemp -d)
-failed_step=""
 cleanup() {
   local rc=$?
   if [[ $rc -ne 0 || -n "$failed_step" ]]; then
@@ -41,16 +39,6 @@ cleanup() {
 }
 trap cleanup EXIT
 trap 'exit 130' INT TERM
-step() { failed_step=$1; say "$1"; }
-fail() { echo "e2e_two_hosts: FAILED at '$failed_step': $*" >&2; exit 1; }
-eventually() {
-  local limit=$1; shift
-  local deadline=$((SECONDS + limit))
-  until "$@"; do
-    ((SECONDS < deadline)) || return 1
-    sleep 0.5
-  done
-}
 
 step "two hosts: network namespaces $jp (10.77.0.1) and $kr (10.77.0.2), multicast dropped"
 ip netns add "$jp" && ip netns add "$kr" || fail "ip netns add"
