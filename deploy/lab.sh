@@ -22,7 +22,17 @@ bin=$build/services
 out=${URS_LAB_OUT:-$build/lab}
 scale=${URS_LAB_TIME_SCALE:-1}
 work=$(mktemp -d /tmp/urs-lab-XXXXXX)
-domain=$(( 120 + RANDOM % 100 ))  # a DDS domain of its own for the robot's world state
+# A DDS domain of its own for the robot's world state: the first of 10..230 whose lock in
+# /tmp/urs-dds-domains no other run (test, benchmark, lab) holds; held until this script exits.
+mkdir -p /tmp/urs-dds-domains && chmod 1777 /tmp/urs-dds-domains 2>/dev/null || true
+for ((i = 0; i < 221; i++)); do
+  domain=$(( 10 + ($$ + i) % 221 ))
+  exec {domain_lock}>>"/tmp/urs-dds-domains/$domain"
+  flock -n "$domain_lock" && break
+  exec {domain_lock}>&-
+  domain=""
+done
+[[ -n "$domain" ]] || { echo "lab: no free DDS domain (locks in /tmp/urs-dds-domains)" >&2; exit 1; }
 mkdir -p "$out" "$work/naming" "$work/data"
 rm -f "$out"/square-*.{csv,md,json}
 

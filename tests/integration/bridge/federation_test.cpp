@@ -23,6 +23,7 @@
 
 #include "Diagnostic.pb.h"
 #include "bridge_fixture.hpp"
+#include "dds_domain.hpp"
 #include "camus.pb.h"
 #include "urs/bridge/state_link.hpp"
 #include "urs/corba_agent/corba_proxy.hpp"
@@ -43,7 +44,7 @@ class Federation : public BridgeSpaceTest {
     space_ = "kr";
     BridgeSpaceTest::SetUp();
     if (HasFatalFailure()) return;
-    domain_ = 100 + static_cast<int>(getpid() % 100);  // tests running side by side stay apart
+    domain_ = static_cast<int>(domains_[0]);  // tests running side by side stay apart
     start_manager("m", "jphost", "components:\n  - type: Diagnostic\n  - type: Diagnostic\n    instance: Secret0\n");
     start_jp();
     start_kr();
@@ -108,7 +109,7 @@ class Federation : public BridgeSpaceTest {
     return ntohs(address.sin_port);
   }
 
-  uint32_t devices_domain() const { return static_cast<uint32_t>(domain_ + 30); }
+  uint32_t devices_domain() const { return domains_[1]; }
 
   // kr's context entry `key` (its value), or nullopt if it has none.
   std::optional<google::protobuf::Value> context(const std::string& key) {
@@ -134,6 +135,7 @@ class Federation : public BridgeSpaceTest {
     return {r.status, r.payload, r.exception_type, r.message};
   }
 
+  const DdsDomains domains_{2};  // the link's and jp's devices'
   int domain_ = 0;
   std::unique_ptr<Process> jp_;
   std::unique_ptr<Process> kr_;
@@ -228,7 +230,8 @@ TEST_F(Federation, ADeadBridgesServicesVanishWithinTheLeaseAndReturnWithIt) {
   start_jp();
   ASSERT_TRUE(wait_for_service("jp/rt.Diagnostic0", 20s)) << kr_->log();
   echo.set_text("back");
-  EXPECT_EQ(call("jp/rt.Diagnostic0", "echo", echo).status, planet::OK);
+  const Observed back = call("jp/rt.Diagnostic0", "echo", echo);
+  EXPECT_EQ(back.status, planet::OK) << back.message;
 
   // kr's CAMUS server dies and comes back on its port: bridge-kr registers the imports again.
   restart_server();
@@ -345,7 +348,7 @@ TEST_F(Federation, SpacesShareStateOverDds) {
   EXPECT_TRUE(wait_until([&] { return observer.with([&] { return observer.components.count("kr/diag") == 1; }); }, 20s));
   EXPECT_EQ(observer.with([&] { return observer.components["kr/diag"].kind; }), "agent");
   EXPECT_EQ(observer.with([&] { return observer.components["kr/diag"].state; }), "Available");
-  EXPECT_TRUE(observer.with([&] { return observer.components.count("jp/" + diag) == 1; }));
+  EXPECT_TRUE(wait_until([&] { return observer.with([&] { return observer.components.count("jp/" + diag) == 1; }); }, 10s));
   ASSERT_EQ(urs({"context", "set", "room.temperature", "21.5"}).exit_code, 0);
   ASSERT_EQ(urs({"context", "set", "secret.code", "\"1234\""}).exit_code, 0);
   EXPECT_TRUE(wait_until([&] { return observer.with([&] { return observer.context.count("kr/room.temperature") == 1; }); },

@@ -59,12 +59,20 @@ SpaceState::SpaceState(const BridgeConfig& config, DdsLink& link, planet::Client
   link_ = std::make_unique<StateLink>(link, std::move(handlers), state.poses);
 
   if (client_ == nullptr) return;
+  // Events arrive on the Planet client's I/O thread: the DDS writes happen on the exporter's.
   for (const auto& pattern : state.events) {
-    subscriptions_.push_back(client_->subscribe(pattern, [this](const planet::Event& e) { export_event(e); }));
+    subscriptions_.push_back(client_->subscribe(pattern, [this](const planet::Event& e) {
+      exporter_.post([this, e](bool cancelled) {
+        if (!cancelled) export_event(e);
+      });
+    }));
   }
   if (!state.context_allow.empty()) {
-    subscriptions_.push_back(
-        client_->subscribe(std::string(kContextPrefix) + "#", [this](const planet::Event& e) { export_context(e); }));
+    subscriptions_.push_back(client_->subscribe(std::string(kContextPrefix) + "#", [this](const planet::Event& e) {
+      exporter_.post([this, e](bool cancelled) {
+        if (!cancelled) export_context(e);
+      });
+    }));
     // What the context holds already (the subscription brings the changes from now on).
     importer_.post([this](bool cancelled) {
       if (cancelled) return;
@@ -90,6 +98,7 @@ SpaceState::~SpaceState() {
   if (client_) {
     for (uint64_t id : subscriptions_) client_->unsubscribe(id);
   }
+  exporter_.stop();
   link_.reset();
   importer_.stop();
 }

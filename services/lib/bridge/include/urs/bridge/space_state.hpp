@@ -15,7 +15,9 @@
 // Loops: nothing imported is shared again (context entries it sets have the source
 // "dds:<space>"; events it publishes on <space>/... are recognised by their topic).
 // Threads: the constructor, the destructor and the *_states methods run on the bridge's thread;
-// what arrives over DDS is written into CAMUS by one importer thread, in arrival order.
+// what arrives over DDS is written into CAMUS by one importer thread, and this space's events and
+// context changes onto DDS by one exporter thread, each in arrival order (never on the Planet
+// client's I/O thread nor on a DDS listener).
 
 #include <chrono>
 #include <map>
@@ -69,6 +71,7 @@ class SpaceState {
   std::mutex poses_mutex_;  // the newest pose per "<space>/pose/<robot>" not yet written into CAMUS
   std::map<std::string, std::string> poses_;
   agent::WorkerPool importer_{1};
+  agent::WorkerPool exporter_{1};  // this space's events and context changes, in order, onto DDS
   std::unique_ptr<StateLink> link_;  // last: destroyed first, so nothing arrives into the rest
 };
 
