@@ -876,7 +876,8 @@ void Bridge::sync_dds_exports(Session& session) {
     entry.interface_name = info.interface();
     entry.origin = "camus";
     entry.deadline_ms = info.deadline_ms();
-    entry.descriptor_set = described->second;
+    // The description stays in `described` only (filled in when announced): copies in `desired`
+    // and `announced` took two descriptor sets per service (docs/performance.md).
     desired[name] = entry;
     served[name] = false;
   }
@@ -891,7 +892,14 @@ void Bridge::sync_dds_exports(Session& session) {
                       known->second.origin == entry.origin && known->second.deadline_ms == entry.deadline_ms;
     if (same && !refresh) continue;
     if (!same) spdlog::info("bridge: offering {} to the other spaces", name);
-    session.dds->announce(entry);
+    const auto described = entry.descriptor_set.empty() ? session.described.find(name) : session.described.end();
+    if (described != session.described.end()) {
+      ServiceEntry full = entry;
+      full.descriptor_set = described->second;
+      session.dds->announce(full);
+    } else {
+      session.dds->announce(entry);
+    }
     session.announced[name] = entry;
   }
   if (refresh) session.announced_at = Clock::now();
