@@ -172,7 +172,14 @@ class Bridge::Session {
 
   // ---- between spaces (DDS) ----
   std::map<std::string, camus::ServiceInfo> camus_native;  // this space's own CAMUS services, last listed
-  std::map<std::string, std::string> described;           // CAMUS service -> its descriptor set
+  // A descriptor set is some kB; the services of one interface share theirs.
+  struct ByContent {
+    bool operator()(const std::shared_ptr<const std::string>& a, const std::shared_ptr<const std::string>& b) const {
+      return *a < *b;
+    }
+  };
+  std::set<std::shared_ptr<const std::string>, ByContent> descriptions;     // each distinct descriptor set
+  std::map<std::string, std::shared_ptr<const std::string>> described;  // CAMUS service -> its descriptor set
   std::map<std::string, ServiceEntry> announced;            // what this space offers the others
   Clock::time_point announced_at;
   std::mutex served_mutex;                                  // read by DDS threads
@@ -869,7 +876,8 @@ void Bridge::sync_dds_exports(Session& session) {
       const auto result = session.client->call("camus.registry", "Describe", request.SerializeAsString(), kCamusTimeout);
       camus::DescribeReply reply;
       if (!result.ok() || !reply.ParseFromString(result.payload)) continue;  // tried again next poll
-      described = session.described.emplace(name, reply.descriptor_set()).first;
+      const auto description = *session.descriptions.insert(std::make_shared<const std::string>(reply.descriptor_set())).first;
+      described = session.described.emplace(name, description).first;
     }
     ServiceEntry entry;
     entry.name = name;
@@ -895,7 +903,7 @@ void Bridge::sync_dds_exports(Session& session) {
     const auto described = entry.descriptor_set.empty() ? session.described.find(name) : session.described.end();
     if (described != session.described.end()) {
       ServiceEntry full = entry;
-      full.descriptor_set = described->second;
+      full.descriptor_set = *described->second;
       session.dds->announce(full);
     } else {
       session.dds->announce(entry);
