@@ -1,6 +1,9 @@
 // urs-bench: URSLink paths side by side with the native paths they add to, measured in one run.
 //
-//   urs-bench [--quick] [--json FILE] [--markdown FILE]
+//   urs-bench [--quick] [--only TEXT]... [--json FILE] [--markdown FILE]
+//
+// --only TEXT measures only the rows ("path | payload") and measurements whose label contains
+// TEXT (every --only given must match), to profile one path; the processes are started anyway.
 //
 // Rows: raw TCP echo (the floor) and a Planet call client → urs-camus-server → urs-sam → agent;
 // a direct omniORB call (static stubs) and the bridged paths both ways through urs-bridge;
@@ -18,6 +21,7 @@
 #include <sys/uio.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cstring>
 #include <filesystem>
@@ -260,13 +264,15 @@ int main(int argc, char** argv) {
   bool quick = false;
   std::string json_path;
   std::string markdown_path;
+  std::vector<std::string> only;
   for (int i = 1; i < argc; ++i) {
     std::string a = argv[i];
     if (a == "--quick") quick = true;
     else if (a == "--json" && i + 1 < argc) json_path = argv[++i];
     else if (a == "--markdown" && i + 1 < argc) markdown_path = argv[++i];
+    else if (a == "--only" && i + 1 < argc) only.push_back(argv[++i]);
     else {
-      std::cerr << "usage: urs-bench [--quick] [--json FILE] [--markdown FILE]\n";
+      std::cerr << "usage: urs-bench [--quick] [--only TEXT]... [--json FILE] [--markdown FILE]\n";
       return 2;
     }
   }
@@ -280,6 +286,13 @@ int main(int argc, char** argv) {
   std::string dir = urs::test::make_temp_dir("bench");
   std::vector<Row> rows;
   std::vector<std::pair<std::string, std::string>> extras;  // name, value
+  auto wanted = [&only](const std::string& label) {
+    return std::all_of(only.begin(), only.end(), [&](const std::string& t) { return label.find(t) != std::string::npos; });
+  };
+  // A row measured by `run` (a Summary), unless --only leaves it out.
+  auto add_row = [&](const std::string& path, const std::string& payload, auto&& run, std::string baseline, double goal) {
+    if (wanted(path + " | " + payload)) rows.push_back({path, payload, run(), std::move(baseline), goal});
+  };
   try {
     RawEcho echo;
     Space space(dir);
@@ -294,29 +307,30 @@ int main(int argc, char** argv) {
     // 64-byte calls.
     int fd = echo.connect_client();
     std::string small(64, 'x');
-    rows.push_back({"raw TCP echo", "64 B", urs::bench::measure([&] { RawEcho::round_trip(fd, small); }, warmup, iterations, repetitions), "", 0});
+    add_row("raw TCP echo", "64 B", [&] { return urs::bench::measure([&] { RawEcho::round_trip(fd, small); }, warmup, iterations, repetitions); }, "", 0);
     URS::Diagnostic_echo_Request echo_req;
     echo_req.set_text(std::string(64, 'x'));
     const std::string echo_payload = echo_req.SerializeAsString();
-    rows.push_back({"Planet call client→server→SAM→SA", "64 B",
-                    urs::bench::measure([&] { expect_ok(client->call("diag", "echo", echo_payload, 5s), "echo"); },
-                                        warmup, iterations, repetitions),
-                    "raw TCP echo|64 B", 2.5});
+    add_row("Planet call client→server→SAM→SA", "64 B",
+            [&] { return urs::bench::measure([&] { expect_ok(client->call("diag", "echo", echo_payload, 5s), "echo"); },
+                                warmup, iterations, repetitions); },
+            "raw TCP echo|64 B", 2.5);
 
     // 921,600-byte replies.
     std::string big(921600, 'x');
-    rows.push_back({"raw TCP echo", "921,600 B", urs::bench::measure([&] { RawEcho::round_trip(fd, big); }, 3, big_iterations, repetitions), "", 0});
+    add_row("raw TCP echo", "921,600 B", [&] { return urs::bench::measure([&] { RawEcho::round_trip(fd, big); }, 3, big_iterations, repetitions); }, "", 0);
     URS::Diagnostic_blob_Request blob_req;
     blob_req.set_size(921600);
     const std::string blob_payload = blob_req.SerializeAsString();
-    rows.push_back({"Planet call client→server→SAM→SA", "921,600 B",
-                    urs::bench::measure([&] { expect_ok(client->call("diag", "blob", blob_payload, 10s), "blob"); },
-                                        3, big_iterations, repetitions),
-                    "raw TCP echo|921,600 B", 0});
+    add_row("Planet call client→server→SAM→SA", "921,600 B",
+            [&] { return urs::bench::measure([&] { expect_ok(client->call("diag", "blob", blob_payload, 10s), "blob"); },
+                                3, big_iterations, repetitions); },
+            "raw TCP echo|921,600 B", 0);
     close(fd);
 
     // Throughput: calls per second with 1 and 4 concurrent clients.
     for (int clients : {1, 4}) {
+      if (!wanted("Planet throughput, " + std::to_string(clients) + " client(s), 64 B")) continue;
       std::vector<std::unique_ptr<urs::planet::Client>> pool;
       for (int c = 0; c < clients; ++c) pool.push_back(connect(space.port()));
       const int per_client = quick ? 200 : 5000;
@@ -417,38 +431,41 @@ int main(int argc, char** argv) {
       };
       const std::string omni = std::string("omniORB call, static stubs (direct)|") + size;
       const std::string planet = std::string("Planet call client→server→SAM→SA|") + size;
-      rows.push_back({"omniORB call, static stubs (direct)", size, urs::bench::measure(stub_call(direct), w, n, repetitions), "", 0});
-      rows.push_back({"bridged RTC→CAMUS: client→server→bridge→RTC", size,
-                      urs::bench::measure(planet_call("rt.diag"), w, n, repetitions), omni, big_payload ? 0 : 4.0});
-      rows.push_back({"bridged SA→RT: stub→bridge→server→SAM→SA", size,
-                      urs::bench::measure(stub_call(imported), w, n, repetitions), planet, 0});
-      rows.push_back({"Fast DDS request/reply, UDP (direct)", size,
-                      urs::bench::measure([&] { expect_ok(dds_a.call("dds-b", "x", op, payload, 10s), "DDS"); }, w, n, repetitions),
-                      "", 0});
+      add_row("omniORB call, static stubs (direct)", size, [&] { return urs::bench::measure(stub_call(direct), w, n, repetitions); }, "", 0);
+      add_row("bridged RTC→CAMUS: client→server→bridge→RTC", size,
+              [&] { return urs::bench::measure(planet_call("rt.diag"), w, n, repetitions); }, omni, big_payload ? 0 : 4.0);
+      add_row("bridged SA→RT: stub→bridge→server→SAM→SA", size,
+              [&] { return urs::bench::measure(stub_call(imported), w, n, repetitions); }, planet, 0);
+      add_row("Fast DDS request/reply, UDP (direct)", size,
+              [&] { return urs::bench::measure([&] { expect_ok(dds_a.call("dds-b", "x", op, payload, 10s), "DDS"); }, w, n, repetitions); },
+              "", 0);
       // The native hops a cross-space call traverses: Planet (client→server→SAM-like bridge), one
       // DDS request/reply, one omniORB call.
       Summary sum;
+      int counted = 0;
       for (const auto& row : rows) {
         if (row.payload != size) continue;
         if (row.path == "omniORB call, static stubs (direct)" || row.path == "Fast DDS request/reply, UDP (direct)" ||
             row.path == "Planet call client→server→SAM→SA") {
+          ++counted;
           sum.median_us += row.summary.median_us;
           sum.p99_us += row.summary.p99_us;
           sum.min_median_us += row.summary.min_median_us;
           sum.max_median_us += row.summary.max_median_us;
         }
       }
-      rows.push_back({"sum of the native hops (Planet + Fast DDS + omniORB)", size, sum, "", 0});
+      if (counted > 0) rows.push_back({"sum of the native hops (Planet + Fast DDS + omniORB)", size, sum, "", 0});
       const std::string hops = std::string("sum of the native hops (Planet + Fast DDS + omniORB)|") + size;
-      rows.push_back({"cross-space: kr client→server→bridge-kr→DDS→bridge-jp→RTC", size,
-                      urs::bench::measure(planet_call("jp/rt.diag"), w, n, repetitions), hops, 1.3});
-      rows.push_back({"cross-space: jp stub→bridge-jp→DDS→bridge-kr→server→SAM→SA", size,
-                      urs::bench::measure(stub_call(remote), w, n, repetitions), hops, 1.3});
+      add_row("cross-space: kr client→server→bridge-kr→DDS→bridge-jp→RTC", size,
+              [&] { return urs::bench::measure(planet_call("jp/rt.diag"), w, n, repetitions); }, hops, 1.3);
+      add_row("cross-space: jp stub→bridge-jp→DDS→bridge-kr→server→SAM→SA", size,
+              [&] { return urs::bench::measure(stub_call(remote), w, n, repetitions); }, hops, 1.3);
     }
 
     // Throughput, direct omniORB and bridged RTC→CAMUS, 1 and 4 clients.
     const int per = quick ? 100 : 3000;
     for (int clients : {1, 4}) {
+      if (!wanted("throughput RTC→CAMUS, " + std::to_string(clients) + " client(s), 64 B")) continue;
       std::vector<std::unique_ptr<urs::bench::DiagnosticStub>> stubs;
       std::vector<std::unique_ptr<urs::planet::Client>> planets;
       const double corba = throughput(clients, per, [&](int) {
@@ -468,6 +485,7 @@ int main(int argc, char** argv) {
 
     // A sustained stream of 921,600-byte images, in space and across spaces.
     for (const std::string service : {"rt.diag", "jp/rt.diag"}) {
+      if (!wanted("921,600-byte stream through " + service)) continue;
       const auto t0 = std::chrono::steady_clock::now();
       const auto duration = quick ? 1s : 5s;
       int frames = 0, lost = 0;
@@ -481,68 +499,76 @@ int main(int argc, char** argv) {
     }
 
     // Discovery across spaces: a new RTC in jp until it answers from kr.
-    std::vector<double> discoveries;
-    for (int i = 0; i < (quick ? 1 : 5); ++i) {
-      const std::string host = "disc" + std::to_string(i);
-      const auto t0 = std::chrono::steady_clock::now();
-      auto newcomer = start_with_config(dir, host, "components:\n  - type: Diagnostic\n",
-                                        {URS_RTC_MANAGER_BIN, "--space", "jp", "--naming", naming.address(), "--host", host});
-      const std::string service = "jp/Diagnostic0@" + host;
-      if (!urs::test::wait_until([&] { return client->call(service, "echo", echo_payload, 200ms).ok(); }, 30s)) {
-        throw std::runtime_error(service + " never became callable");
+    if (wanted("discovery")) {
+      std::vector<double> discoveries;
+      for (int i = 0; i < (quick ? 1 : 5); ++i) {
+        const std::string host = "disc" + std::to_string(i);
+        const auto t0 = std::chrono::steady_clock::now();
+        auto newcomer = start_with_config(dir, host, "components:\n  - type: Diagnostic\n",
+                                          {URS_RTC_MANAGER_BIN, "--space", "jp", "--naming", naming.address(), "--host", host});
+        const std::string service = "jp/Diagnostic0@" + host;
+        if (!urs::test::wait_until([&] { return client->call(service, "echo", echo_payload, 200ms).ok(); }, 30s)) {
+          throw std::runtime_error(service + " never became callable");
+        }
+        discoveries.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
       }
-      discoveries.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+      char found[96];
+      std::snprintf(found, sizeof(found), "median %.0f ms, max %.0f ms (goal median <= 300 ms, p99 <= 1500 ms)",
+                    urs::bench::percentile(discoveries, 0.5), urs::bench::percentile(discoveries, 1.0));
+      extras.push_back({"discovery: RTC bound in jp until callable from kr (bridge polls naming every 100 ms)", found});
     }
-    char found[96];
-    std::snprintf(found, sizeof(found), "median %.0f ms, max %.0f ms (goal median <= 300 ms, p99 <= 1500 ms)",
-                  urs::bench::percentile(discoveries, 0.5), urs::bench::percentile(discoveries, 1.0));
-    extras.push_back({"discovery: RTC bound in jp until callable from kr (bridge polls naming every 100 ms)", found});
-    extras.push_back({"RSS urs-bridge in the space (1 service each way)", std::to_string(rss_kib(bridge->pid())) + " KiB"});
-    extras.push_back({"RSS bridge-kr idle (1 service offered)", std::to_string(rss_kib(bridge_kr->pid())) + " KiB"});
 
-    // Memory idle, then with 1,000 registered services.
-    extras.push_back({"RSS urs-camus-server idle", std::to_string(rss_kib(space.server().pid())) + " KiB"});
-    extras.push_back({"RSS urs-sam idle (1 agent)", std::to_string(rss_kib(space.sam().pid())) + " KiB"});
-    {
-      auto provider = connect(space.port(), urs::planet::SAM);
-      const std::string desc = urs::schema::descriptor_set_for(*URS::Diagnostic_echo_Request::descriptor()->file());
-      std::atomic<int> done{0};
-      for (int i = 0; i < 1000; ++i) {
-        urs::camus::RegisterRequest reg;
-        reg.mutable_service()->set_name("svc" + std::to_string(i));
-        reg.mutable_service()->set_interface("URS.Diagnostic");
-        reg.set_descriptor_set(desc);
-        provider->register_service(reg, [&](urs::planet::CallResult r) {
-          expect_ok(r, "register");
-          ++done;
-        });
+    if (wanted("RSS bridge-kr offering 1,000 services over DDS")) {  // and the other RSS lines
+      extras.push_back({"RSS urs-bridge in the space (1 service each way)", std::to_string(rss_kib(bridge->pid())) + " KiB"});
+      extras.push_back({"RSS bridge-kr idle (1 service offered)", std::to_string(rss_kib(bridge_kr->pid())) + " KiB"});
+
+      // Memory idle, then with 1,000 registered services.
+      extras.push_back({"RSS urs-camus-server idle", std::to_string(rss_kib(space.server().pid())) + " KiB"});
+      extras.push_back({"RSS urs-sam idle (1 agent)", std::to_string(rss_kib(space.sam().pid())) + " KiB"});
+      {
+        auto provider = connect(space.port(), urs::planet::SAM);
+        const std::string desc = urs::schema::descriptor_set_for(*URS::Diagnostic_echo_Request::descriptor()->file());
+        std::atomic<int> done{0};
+        for (int i = 0; i < 1000; ++i) {
+          urs::camus::RegisterRequest reg;
+          reg.mutable_service()->set_name("svc" + std::to_string(i));
+          reg.mutable_service()->set_interface("URS.Diagnostic");
+          reg.set_descriptor_set(desc);
+          provider->register_service(reg, [&](urs::planet::CallResult r) {
+            expect_ok(r, "register");
+            ++done;
+          });
+        }
+        if (!urs::test::wait_until([&] { return done.load() == 1000; }, 30s)) throw std::runtime_error("registrations did not complete");
+        extras.push_back({"RSS urs-camus-server, 1,000 services", std::to_string(rss_kib(space.server().pid())) + " KiB"});
+        // bridge-kr offers them all to the other spaces: each described by the registry and
+        // announced on DDS with its interface description (bridge-jp imports only kr/diag).
+        std::this_thread::sleep_for(quick ? 3s : 6s);
+        extras.push_back({"RSS bridge-kr offering 1,000 services over DDS", std::to_string(rss_kib(bridge_kr->pid())) + " KiB (goal <= 65536 KiB)"});
       }
-      if (!urs::test::wait_until([&] { return done.load() == 1000; }, 30s)) throw std::runtime_error("registrations did not complete");
-      extras.push_back({"RSS urs-camus-server, 1,000 services", std::to_string(rss_kib(space.server().pid())) + " KiB"});
-      // bridge-kr offers them all to the other spaces: each described by the registry and
-      // announced on DDS with its interface description (bridge-jp imports only kr/diag).
-      std::this_thread::sleep_for(quick ? 3s : 6s);
-      extras.push_back({"RSS bridge-kr offering 1,000 services over DDS", std::to_string(rss_kib(bridge_kr->pid())) + " KiB (goal <= 65536 KiB)"});
     }
 
     // Recovery: kill -9 the server, restart it on the same port, until the SAM's agent answers.
-    std::vector<double> recoveries;
-    for (int r = 0; r < (quick ? 1 : 5); ++r) {
-      int port = space.port();
-      space.server().kill9();
-      auto t0 = std::chrono::steady_clock::now();
-      space.start_server(port);
-      auto probe = connect(space.port());
-      URS::Diagnostic_echo_Request ping;
-      if (!urs::test::wait_until([&] { return probe->call("diag", "echo", ping.SerializeAsString(), 200ms).ok(); }, 10s)) {
-        throw std::runtime_error("diag not callable after a server restart");
+    if (wanted("recovery")) {
+      std::vector<double> recoveries;
+      for (int r = 0; r < (quick ? 1 : 5); ++r) {
+        int port = space.port();
+        space.server().kill9();
+        auto t0 = std::chrono::steady_clock::now();
+        space.start_server(port);
+        auto probe = connect(space.port());
+        URS::Diagnostic_echo_Request ping;
+        if (!urs::test::wait_until([&] { return probe->call("diag", "echo", ping.SerializeAsString(), 200ms).ok(); }, 10s)) {
+          throw std::runtime_error("diag not callable after a server restart");
+        }
+        recoveries.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
       }
-      recoveries.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+      char value[64];
+      std::snprintf(value, sizeof(value), "median %.0f ms, max %.0f ms (goal <= 1000 ms)",
+                    urs::bench::percentile(recoveries, 0.5), urs::bench::percentile(recoveries, 1.0));
+      extras.push_back({"recovery after server kill -9 until SA callable", value});
     }
-    char value[64];
-    std::snprintf(value, sizeof(value), "median %.0f ms, max %.0f ms (goal <= 1000 ms)",
-                  urs::bench::percentile(recoveries, 0.5), urs::bench::percentile(recoveries, 1.0));
-    extras.push_back({"recovery after server kill -9 until SA callable", value});
+
   } catch (const std::exception& e) {
     std::cerr << "urs-bench: " << e.what() << "\n";
     std::filesystem::remove_all(dir);

@@ -173,7 +173,14 @@ class Bridge::Session {
 
   // ---- between spaces (DDS) ----
   std::map<std::string, camus::ServiceInfo> camus_native;  // this space's own CAMUS services, last listed
-  std::map<std::string, std::string> described;           // CAMUS service -> its descriptor set
+  // A descriptor set is some kB; the services of one interface share theirs.
+  struct ByContent {
+    bool operator()(const std::shared_ptr<const std::string>& a, const std::shared_ptr<const std::string>& b) const {
+      return *a < *b;
+    }
+  };
+  std::set<std::shared_ptr<const std::string>, ByContent> descriptions;     // each distinct descriptor set
+  std::map<std::string, std::shared_ptr<const std::string>> described;  // CAMUS service -> its descriptor set
   std::map<std::string, ServiceEntry> announced;            // what this space offers the others
   Clock::time_point announced_at;
   std::mutex served_mutex;                                  // read by DDS threads
@@ -915,14 +922,16 @@ void Bridge::sync_dds_exports(Session& session) {
       const auto result = session.client->call("camus.registry", "Describe", request.SerializeAsString(), kCamusTimeout);
       camus::DescribeReply reply;
       if (!result.ok() || !reply.ParseFromString(result.payload)) continue;  // tried again next poll
-      described = session.described.emplace(name, reply.descriptor_set()).first;
+      const auto description = *session.descriptions.insert(std::make_shared<const std::string>(reply.descriptor_set())).first;
+      described = session.described.emplace(name, description).first;
     }
     ServiceEntry entry;
     entry.name = name;
     entry.interface_name = info.interface();
     entry.origin = "camus";
     entry.deadline_ms = info.deadline_ms();
-    entry.descriptor_set = described->second;
+    // The description stays in `described` only (filled in when announced): copies in `desired`
+    // and `announced` took two descriptor sets per service (docs/performance.md).
     desired[name] = entry;
     served[name] = false;
   }
@@ -937,7 +946,14 @@ void Bridge::sync_dds_exports(Session& session) {
                       known->second.origin == entry.origin && known->second.deadline_ms == entry.deadline_ms;
     if (same && !refresh) continue;
     if (!same) spdlog::info("bridge: offering {} to the other spaces", name);
-    session.dds->announce(entry);
+    const auto described = entry.descriptor_set.empty() ? session.described.find(name) : session.described.end();
+    if (described != session.described.end()) {
+      ServiceEntry full = entry;
+      full.descriptor_set = *described->second;
+      session.dds->announce(full);
+    } else {
+      session.dds->announce(entry);
+    }
     session.announced[name] = entry;
   }
   if (refresh) session.announced_at = Clock::now();

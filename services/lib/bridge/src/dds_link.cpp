@@ -165,7 +165,10 @@ struct DdsLink::Impl : public fdds::DataReaderListener {
   }
   static fdds::DataWriterQos rpc_writer_qos() {
     fdds::DataWriterQos qos = rpc_qos(fdds::DATAWRITER_QOS_DEFAULT);
-    qos.publish_mode().kind = fdds::ASYNCHRONOUS_PUBLISH_MODE;  // large payloads are fragmented
+    // Sent from the calling thread: the asynchronous publisher's thread cost a wake-up per message
+    // and spun on the writer's lock (docs/performance.md). Fast DDS 2.9 fragments large payloads
+    // in this mode too.
+    qos.publish_mode().kind = fdds::SYNCHRONOUS_PUBLISH_MODE;
     return qos;
   }
   static fdds::DataReaderQos rpc_reader_qos() { return rpc_qos(fdds::DATAREADER_QOS_DEFAULT); }
