@@ -7,7 +7,7 @@
 //
 // Rows: raw TCP echo (the floor) and a Planet call client → urs-camus-server → urs-sam → agent;
 // a direct omniORB call (static stubs) and the bridged paths both ways through urs-bridge;
-// a direct Fast DDS request/reply (two DdsLinks) and the cross-space paths both ways through two
+// a direct Fast DDS request/reply (a DdsLink here, urs-dds-echo in its own process) and the cross-space paths both ways through two
 // bridges linked by DDS over UDP; each for a 64-byte and a 921,600-byte payload. Also throughput
 // with 1 and 4 clients, a sustained image stream, discovery across spaces, recovery after a server
 // kill -9, and resident memory of the server, SAM and bridges idle and with 1,000 services.
@@ -33,6 +33,7 @@
 #include "Diagnostic.pb.h"
 #include "bench_stats.hpp"
 #include "corba_stub.hpp"
+#include "dds_domain.hpp"
 #include "naming_service.hpp"
 #include "urs/bridge/dds_link.hpp"
 #include "urs/bridge/provider_port.hpp"
@@ -349,7 +350,8 @@ int main(int argc, char** argv) {
     }
 
     // ---- the RT side, a bridge in the space, and two spaces linked over DDS -------------------
-    const int domain = 150 + static_cast<int>(getpid() % 60);
+    const urs::test::DdsDomains domains(2);  // the spaces' link; the direct DDS row's
+    const int domain = static_cast<int>(domains[0]);
     urs::test::NamingService naming(dir + "/naming");
     auto manager = start_with_config(dir, "rtc", "components:\n  - type: Diagnostic\n",
                                      {URS_RTC_MANAGER_BIN, "--space", "bench", "--naming", naming.address(),
@@ -393,25 +395,20 @@ int main(int argc, char** argv) {
     CORBA::Object_var remote_object = provider(orb, names, "jphost.host_cxt/kr_diag.rtc", "diagnostic");
     urs::bench::DiagnosticStub remote(remote_object);
 
-    // Direct Fast DDS request/reply: two DdsLinks, the second answering at once (UDP only).
-    const std::string big_reply = [] {
-      URS::Diagnostic_blob_Reply reply;
-      reply.set_result(std::string(921600, 'x'));
-      return reply.SerializeAsString();
-    }();
-    auto answer = [&](urs::bridge::IncomingCall call, std::function<void(urs::planet::CallResult)> reply) {
-      reply(urs::planet::CallResult::success(call.operation == "blob" ? big_reply : call.payload));
-    };
+    // Direct Fast DDS request/reply: a DdsLink here and one in urs-dds-echo answering at once (UDP
+    // only, between processes as the bridges are).
+    auto dds_echo = std::make_unique<urs::test::Process>(
+        std::vector<std::string>{URS_DDS_ECHO_BIN, std::to_string(domains[1]), dir + "/dds-echo.ready"},
+        dir + "/dds-echo.log");
+    if (!urs::test::wait_until([&] { return std::filesystem::exists(dir + "/dds-echo.ready"); }, 30s)) {
+      throw std::runtime_error("urs-dds-echo did not start: " + dds_echo->log());
+    }
     urs::bridge::DdsOptions a_options;
-    a_options.domain = static_cast<uint32_t>(domain + 1);
+    a_options.domain = domains[1];
     a_options.space = "dds-a";
     a_options.bridge = "a";
     a_options.udp_only = true;
-    urs::bridge::DdsOptions b_options = a_options;
-    b_options.space = "dds-b";
-    b_options.bridge = "b";
-    urs::bridge::DdsLink dds_a(a_options, [] {}, answer);
-    urs::bridge::DdsLink dds_b(b_options, [] {}, answer);
+    urs::bridge::DdsLink dds_a(a_options, [] {}, [](urs::bridge::IncomingCall, auto) {});
     expect_ok(dds_a.call("dds-b", "echo", "echo", echo_payload, 5s), "direct DDS");
 
     const std::string text(64, 'x');

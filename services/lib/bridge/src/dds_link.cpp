@@ -21,6 +21,7 @@
 #include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
 #include <fastdds/rtps/transport/shared_mem/SharedMemTransportDescriptor.h>
 #include <fastrtps/utils/IPLocator.h>
+#include <cstdio>
 #include <future>
 #include <map>
 #include <mutex>
@@ -39,6 +40,20 @@ using Clock = std::chrono::steady_clock;
 namespace {
 
 constexpr const char* kCatalogTopic = "urs/catalog";
+constexpr const char* kInterfaceTopic = "urs/interface";
+
+// The key of a description on urs/interface: FNV-1a 64 of its bytes and their size, the same in
+// every process (std::hash is not).
+std::string digest_of(const std::string& bytes) {
+  uint64_t hash = 14695981039346656037ull;
+  for (unsigned char c : bytes) {
+    hash ^= c;
+    hash *= 1099511628211ull;
+  }
+  char text[40];
+  std::snprintf(text, sizeof text, "%016llx-%zu", static_cast<unsigned long long>(hash), bytes.size());
+  return text;
+}
 
 std::string request_topic(const std::string& space) { return "urs/rpc/" + space + "/request"; }
 std::string reply_topic(const std::string& space) { return "urs/rpc/" + space + "/reply"; }
@@ -124,11 +139,14 @@ struct DdsLink::Impl : public fdds::DataReaderListener {
   fdds::Publisher* publisher = nullptr;
   fdds::Subscriber* subscriber = nullptr;
   fdds::TypeSupport entry_type{new dds::ServiceEntryPubSubType()};
+  fdds::TypeSupport interface_type{new dds::InterfaceDescriptionPubSubType()};
   fdds::TypeSupport request_type{new dds::CallRequestPubSubType()};
   fdds::TypeSupport reply_type{new dds::CallReplyPubSubType()};
   fdds::Topic* catalog_topic = nullptr;
   fdds::DataWriter* catalog_writer = nullptr;
   fdds::DataReader* catalog_reader = nullptr;
+  fdds::DataWriter* interface_writer = nullptr;
+  fdds::DataReader* interface_reader = nullptr;
   fdds::DataReader* request_reader = nullptr;
   fdds::DataReader* reply_reader = nullptr;
 
@@ -139,6 +157,9 @@ struct DdsLink::Impl : public fdds::DataReaderListener {
   std::vector<std::unique_ptr<RequestWriterListener>> writer_listeners;
   std::map<std::string, std::shared_ptr<Pending>> pending;  // by request id
   std::atomic<uint64_t> next_id{1};
+
+  std::mutex interfaces_mutex;
+  std::set<std::string> interfaces_written;  // digests this link has announced
 
   mutable std::mutex catalog_mutex;  // guards dead_writers
   std::set<fdds::InstanceHandle_t> dead_writers;  // catalog writers whose liveliness is lost
@@ -226,8 +247,8 @@ struct DdsLink::Impl : public fdds::DataReaderListener {
   // ---- reading ----
 
   void on_data_available(fdds::DataReader* reader) override {
-    if (reader == catalog_reader) {
-      on_catalog();  // the entries stay in the reader's cache: catalog() reads them
+    if (reader == catalog_reader || reader == interface_reader) {
+      on_catalog();  // the entries stay in the readers' caches: catalog() reads them
     } else if (reader == request_reader) {
       read_requests(reader);
     } else if (reader == reply_reader) {
@@ -391,7 +412,7 @@ DdsLink::DdsLink(DdsOptions options, CatalogHandler on_catalog, CallHandler on_c
     d.publisher = d.participant->create_publisher(fdds::PUBLISHER_QOS_DEFAULT);
     d.subscriber = d.participant->create_subscriber(fdds::SUBSCRIBER_QOS_DEFAULT);
     if (d.publisher == nullptr || d.subscriber == nullptr) throw std::runtime_error("DDS: cannot create a publisher");
-    for (auto* type : {&d.entry_type, &d.request_type, &d.reply_type}) {
+    for (auto* type : {&d.entry_type, &d.interface_type, &d.request_type, &d.reply_type}) {
       if (type->register_type(d.participant) != ReturnCode_t::RETCODE_OK) {
         throw std::runtime_error("DDS: cannot register type " + type->get_type_name());
       }
@@ -408,10 +429,14 @@ DdsLink::DdsLink(DdsOptions options, CatalogHandler on_catalog, CallHandler on_c
     catalog_writer.liveliness().announcement_period = duration(options_.lease / 4);
     catalog_writer.publish_mode().kind = fdds::ASYNCHRONOUS_PUBLISH_MODE;  // descriptor sets exceed one datagram
     catalog_writer.resource_limits() = catalog_limits();
-    // Each entry takes what its description needs: a preallocated pool would give every sample the
-    // type's maximum size (tens of kB for its unbounded sequence), 1,000 entries ~ 60 MiB.
+    // Each sample takes what it needs: a preallocated pool would give every sample the type's
+    // maximum size (tens of kB for a description's unbounded sequence).
     catalog_writer.endpoint().history_memory_policy = eprosima::fastrtps::rtps::DYNAMIC_REUSABLE_MEMORY_MODE;
     d.catalog_writer = d.publisher->create_datawriter(d.catalog_topic, catalog_writer);
+    // Descriptions: the same QoS, one instance per description. Fast DDS keeps two copies of each
+    // sample a writer holds, so a description per service cost ~30 KiB per service.
+    d.interface_writer =
+        d.publisher->create_datawriter(d.topic(kInterfaceTopic, d.interface_type), catalog_writer);
 
     fdds::DataReaderQos catalog_reader = fdds::DATAREADER_QOS_DEFAULT;
     catalog_reader.reliability().kind = fdds::RELIABLE_RELIABILITY_QOS;
@@ -423,12 +448,15 @@ DdsLink::DdsLink(DdsOptions options, CatalogHandler on_catalog, CallHandler on_c
     catalog_reader.resource_limits() = catalog_limits();
     catalog_reader.endpoint().history_memory_policy = eprosima::fastrtps::rtps::DYNAMIC_REUSABLE_MEMORY_MODE;
     d.catalog_reader = d.subscriber->create_datareader(d.catalog_topic, catalog_reader, &d);
+    d.interface_reader =
+        d.subscriber->create_datareader(d.topic(kInterfaceTopic, d.interface_type), catalog_reader, &d);
 
     d.request_reader = d.subscriber->create_datareader(d.topic(request_topic(options_.space), d.request_type),
                                                        d.rpc_reader_qos(), &d);
     d.reply_reader = d.subscriber->create_datareader(d.topic(reply_topic(options_.space), d.reply_type),
                                                      d.rpc_reader_qos(), &d);
-    if (!d.catalog_writer || !d.catalog_reader || !d.request_reader || !d.reply_reader) {
+    if (!d.catalog_writer || !d.catalog_reader || !d.interface_writer || !d.interface_reader || !d.request_reader ||
+        !d.reply_reader) {
       throw std::runtime_error("DDS: cannot create the catalog and call endpoints");
     }
   } catch (...) {
@@ -462,6 +490,18 @@ std::vector<ServiceEntry> DdsLink::catalog() const {
     dead = d.dead_writers;
   }
   std::vector<ServiceEntry> entries;
+  // The descriptions known now (an entry whose description has not arrived yet is left out until
+  // it has: its arrival wakes the bridge again).
+  std::map<std::string, std::string> descriptions;
+  fdds::LoanableSequence<dds::InterfaceDescription> described;
+  fdds::SampleInfoSeq described_infos;
+  if (d.interface_reader->read(described, described_infos, fdds::LENGTH_UNLIMITED, fdds::ANY_SAMPLE_STATE,
+                               fdds::ANY_VIEW_STATE, fdds::ALIVE_INSTANCE_STATE) == ReturnCode_t::RETCODE_OK) {
+    for (fdds::LoanableCollection::size_type i = 0; i < described.length(); ++i) {
+      if (described_infos[i].valid_data) descriptions[described[i].digest()] = text_of(described[i].descriptor_set());
+    }
+    d.interface_reader->return_loan(described, described_infos);
+  }
   fdds::LoanableSequence<dds::ServiceEntry> samples;
   fdds::SampleInfoSeq infos;
   if (d.catalog_reader->read(samples, infos, fdds::LENGTH_UNLIMITED, fdds::ANY_SAMPLE_STATE, fdds::ANY_VIEW_STATE,
@@ -472,8 +512,10 @@ std::vector<ServiceEntry> DdsLink::catalog() const {
     if (!infos[i].valid_data || dead.count(infos[i].publication_handle)) continue;
     const dds::ServiceEntry& sample = samples[i];
     if (sample.space() == options_.space) continue;  // our own entries
+    const auto description = descriptions.find(sample.interface_digest());
+    if (description == descriptions.end()) continue;
     entries.push_back({sample.space(), sample.name(), sample.interface_name(), sample.repository_id(), sample.origin(),
-                       sample.bridge(), sample.deadline_ms(), text_of(sample.descriptor_set())});
+                       sample.bridge(), sample.deadline_ms(), description->second});
   }
   d.catalog_reader->return_loan(samples, infos);
   return entries;
@@ -488,7 +530,21 @@ void DdsLink::announce(const ServiceEntry& entry) {
   sample.origin(entry.origin);
   sample.bridge(options_.bridge);
   sample.deadline_ms(entry.deadline_ms);
-  sample.descriptor_set(bytes_of(entry.descriptor_set));
+  sample.interface_digest(digest_of(entry.descriptor_set));
+  {
+    // Each description once, before the first entry naming it (readers skip entries whose
+    // description they lack, so the order only saves a wake-up).
+    std::lock_guard lock(impl_->interfaces_mutex);
+    if (impl_->interfaces_written.insert(sample.interface_digest()).second) {
+      dds::InterfaceDescription description;
+      description.digest(sample.interface_digest());
+      description.descriptor_set(bytes_of(entry.descriptor_set));
+      if (!impl_->interface_writer->write(&description)) {
+        spdlog::warn("dds: the description of {} could not be written", entry.interface_name);
+        impl_->interfaces_written.erase(sample.interface_digest());
+      }
+    }
+  }
   if (!impl_->catalog_writer->write(&sample)) spdlog::warn("dds: announcing {} failed", entry.name);
 }
 
