@@ -325,6 +325,8 @@ t=$SECONDS
 eventually 60 jp_listed robot1.navigation || fail "jp's services did not come back after reconnecting: $(kr ls)"
 kr call jp/robot1.navigation getPosition >/dev/null || fail "after reconnecting: $(cat "$tmp/cli.err")"
 say "calls across spaces work again $((SECONDS - t)) s after reconnecting"
+eventually 30 robot_state || fail "jp's component states did not come back to kr's context: $(cat "$tmp/components.json")"
+say "jp's shared state back in kr $((SECONDS - t)) s after reconnecting"
 
 failed_step=""
 say "e2e_containers: every step passed in $((SECONDS - t_start)) s"

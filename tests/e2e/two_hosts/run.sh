@@ -137,8 +137,10 @@ eventually 15 gone || fail "jp's services stayed in kr without bridge-kr"
 # it, so jp's bridge too goes back to the simple protocol with kr's host as its initial peer.
 sed -i 's/discovery: {listen: "10.77.0.1:11811"}/initial_peers: [10.77.0.2]/' "$work/jp-bridge.yaml"
 pkill -f -- "--config $work/jp-bridge.yaml"
+old_gone() { ! pgrep -f -- "--config $work/jp-bridge.yaml" >/dev/null; }
+eventually 15 old_gone || fail "bridge-jp did not stop on SIGTERM"
 rm -f "$work/jp.ready"
-in_jp "$bin/bridge/urs-bridge" --space jp --naming 10.77.0.1:2809 --listen 10.77.0.1:2811 --host jp-bridge \
+in_jp "$bin/bridge/urs-bridge" --space jp --naming 10.77.0.1:2809 --listen 10.77.0.1:2812 --host jp-bridge \
   --config "$work/jp-bridge.yaml" --ready-file "$work/jp.ready" >"$work/bridge-jp.log" 2>&1 &
 eventually 20 test -e "$work/jp.ready" || fail "bridge-jp did not come back"
 start_kr_bridge 'initial_peers: [10.77.0.1]'

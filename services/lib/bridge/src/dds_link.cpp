@@ -159,7 +159,7 @@ struct DdsLink::Impl : public fdds::DataReaderListener {
   std::atomic<uint64_t> next_id{1};
 
   std::mutex interfaces_mutex;
-  std::set<std::string> interfaces_written;  // digests this link has announced
+  std::map<std::string, Clock::time_point> interfaces_written;  // digest -> when last written
 
   mutable std::mutex catalog_mutex;  // guards dead_writers
   std::set<fdds::InstanceHandle_t> dead_writers;  // catalog writers whose liveliness is lost
@@ -495,8 +495,10 @@ std::vector<ServiceEntry> DdsLink::catalog() const {
   std::map<std::string, std::string> descriptions;
   fdds::LoanableSequence<dds::InterfaceDescription> described;
   fdds::SampleInfoSeq described_infos;
+  // Any instance state: a description is its digest's content whoever wrote it and whether or
+  // not its writer is alive (the entries' liveliness is the catalog's).
   if (d.interface_reader->read(described, described_infos, fdds::LENGTH_UNLIMITED, fdds::ANY_SAMPLE_STATE,
-                               fdds::ANY_VIEW_STATE, fdds::ALIVE_INSTANCE_STATE) == ReturnCode_t::RETCODE_OK) {
+                               fdds::ANY_VIEW_STATE, fdds::ANY_INSTANCE_STATE) == ReturnCode_t::RETCODE_OK) {
     for (fdds::LoanableCollection::size_type i = 0; i < described.length(); ++i) {
       if (described_infos[i].valid_data) descriptions[described[i].digest()] = text_of(described[i].descriptor_set());
     }
@@ -532,10 +534,15 @@ void DdsLink::announce(const ServiceEntry& entry) {
   sample.deadline_ms(entry.deadline_ms);
   sample.interface_digest(digest_of(entry.descriptor_set));
   {
-    // Each description once, before the first entry naming it (readers skip entries whose
-    // description they lack, so the order only saves a wake-up).
+    // Each description before the first entry naming it (readers skip entries whose description
+    // they lack, so the order only saves a wake-up), and again once a lease with the entries'
+    // re-announcement: a reader that lost this writer (a cut network) and matches it again would
+    // drop the samples it had already seen, so only new ones reach it.
     std::lock_guard lock(impl_->interfaces_mutex);
-    if (impl_->interfaces_written.insert(sample.interface_digest()).second) {
+    const auto now = Clock::now();
+    auto [written, first] = impl_->interfaces_written.try_emplace(sample.interface_digest(), now);
+    if (first || now - written->second >= options_.lease) {
+      written->second = now;
       dds::InterfaceDescription description;
       description.digest(sample.interface_digest());
       description.descriptor_set(bytes_of(entry.descriptor_set));

@@ -211,6 +211,7 @@ struct StateLink::Impl : public fdds::DataReaderListener {
 
   mutable std::mutex mutex;  // guards what is written below
   std::map<std::string, ComponentState> components_out;
+  std::map<std::string, ContextState> context_out;  // by key
   std::map<std::string, std::chrono::steady_clock::time_point> pose_sent;  // by robot
 
   std::optional<PoseRelay> relay;
@@ -256,7 +257,8 @@ struct StateLink::Impl : public fdds::DataReaderListener {
     }
     components_in.attach(component_reader, space);
     context_in.attach(context_reader, space);
-    reader_thread = std::thread([this, lease] { read_state(std::max(std::chrono::milliseconds(50), lease / 4)); });
+    reader_thread =
+        std::thread([this, lease] { read_state(std::max(std::chrono::milliseconds(50), lease / 4), lease); });
   }
 
   void destroy() {
@@ -335,8 +337,9 @@ struct StateLink::Impl : public fdds::DataReaderListener {
     wake.notify_one();
   }
   // Reconciles when DDS reports a change, and every `period` anyway (an end DDS tells without a
-  // listener call is seen then).
-  void read_state(std::chrono::milliseconds period) {
+  // listener call is seen then); writes this space's state again every `lease`.
+  void read_state(std::chrono::milliseconds period, std::chrono::milliseconds lease) {
+    auto rewritten = std::chrono::steady_clock::now();
     std::unique_lock lock(wake_mutex);
     while (!stopping) {
       wake.wait_for(lock, period, [&] { return dirty || stopping; });
@@ -345,8 +348,41 @@ struct StateLink::Impl : public fdds::DataReaderListener {
       lock.unlock();
       components_in.reconcile();
       context_in.reconcile();
+      if (std::chrono::steady_clock::now() - rewritten >= lease) {
+        rewrite();
+        rewritten = std::chrono::steady_clock::now();
+      }
       lock.lock();
     }
+  }
+
+  // Every component and context entry written again: a bridge that lost this one (a cut network)
+  // and matches it again drops the samples it had seen already and takes only new ones.
+  void rewrite() {
+    std::lock_guard lock(mutex);
+    for (const auto& [name, state] : components_out) write_component(state);
+    for (const auto& [key, entry] : context_out) write_context(entry);
+  }
+  bool write_component(const ComponentState& state) {
+    dds::ComponentState sample;
+    sample.space(space);
+    sample.name(state.name);
+    sample.kind(state.kind);
+    sample.state(state.state);
+    sample.type_name(state.type_name);
+    sample.host(state.host);
+    stamp_into(sample, state.stamp);
+    return component_writer->write(&sample);
+  }
+  bool write_context(const ContextState& entry) {
+    dds::ContextEntry sample;
+    sample.space(space);
+    sample.key(entry.key);
+    sample.value_json(entry.value_json);
+    sample.source(entry.source);
+    sample.version(entry.version);
+    stamp_into(sample, entry.stamp);
+    return context_writer->write(&sample);
   }
   void stop_reader() {
     {
@@ -416,18 +452,11 @@ StateLink::~StateLink() { impl_->destroy(); }
 void StateLink::set_component(ComponentState state) {
   Impl& d = *impl_;
   state.space = d.space;
+  if (state.stamp == SystemClock::time_point{}) state.stamp = SystemClock::now();
   std::lock_guard lock(d.mutex);
   auto it = d.components_out.find(state.name);
   if (it != d.components_out.end() && it->second == state) return;
-  dds::ComponentState sample;
-  sample.space(d.space);
-  sample.name(state.name);
-  sample.kind(state.kind);
-  sample.state(state.state);
-  sample.type_name(state.type_name);
-  sample.host(state.host);
-  stamp_into(sample, state.stamp == SystemClock::time_point{} ? SystemClock::now() : state.stamp);
-  if (!d.component_writer->write(&sample)) {
+  if (!d.write_component(state)) {
     spdlog::warn("dds: the state of {} could not be written", state.name);
     return;
   }
@@ -453,14 +482,14 @@ void StateLink::drop_component(const std::string& name) {
 
 void StateLink::set_context(ContextState entry) {
   Impl& d = *impl_;
-  dds::ContextEntry sample;
-  sample.space(d.space);
-  sample.key(entry.key);
-  sample.value_json(entry.value_json);
-  sample.source(entry.source);
-  sample.version(entry.version);
-  stamp_into(sample, entry.stamp == SystemClock::time_point{} ? SystemClock::now() : entry.stamp);
-  if (!d.context_writer->write(&sample)) spdlog::warn("dds: context entry {} could not be written", entry.key);
+  if (entry.stamp == SystemClock::time_point{}) entry.stamp = SystemClock::now();
+  std::lock_guard lock(d.mutex);
+  if (!d.write_context(entry)) spdlog::warn("dds: context entry {} could not be written", entry.key);
+  if (entry.value_json.empty()) {
+    d.context_out.erase(entry.key);
+  } else {
+    d.context_out[entry.key] = std::move(entry);
+  }
 }
 
 // A removed key is written with an empty value (a tombstone), as drop_component does.
