@@ -83,7 +83,7 @@ rtc ls
 
 step "both directions: an RT consumer calls the SAM's agent; the localizer's data port feeds CAMUS context"
 rtc call labpc.host_cxt/camus_diag.rtc:diagnostic echo '{"text":"hello CAMUS, from an RT consumer"}'
-wait_for 20 "a localizer pose in the context" bash -c "'$bin/cli/urs' --server $server context get robot1.pose"
+wait_for 60 "a localizer pose in the context" bash -c "'$bin/cli/urs' --server $server context get robot1.pose"
 urs context get robot1.pose
 
 step "1a. square path at 500 mm/s, an RT consumer calling the robot RTC directly (time scale $scale)"

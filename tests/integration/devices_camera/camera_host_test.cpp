@@ -13,6 +13,7 @@
 
 #include <unistd.h>
 
+#include "dds_domain.hpp"
 #include "ImageRecognition.pb.h"
 #include "urs/agent/agent.hpp"
 #include "urs/camera/camera_agent.hpp"
@@ -210,7 +211,8 @@ TEST(CameraDevice, ScanningPublishesMarkersWhileOpen) {
 
 // The robot's pose arrives over DDS from another participant; the camera follows it.
 TEST(CameraDevice, FollowsTheRobotPoseFromTheWorldState) {
-  const uint32_t domain = 150 + static_cast<uint32_t>(getpid() % 80);  // away from other tests' domains
+  const urs::test::DdsDomains domains(1);  // away from other tests' domains
+  const uint32_t domain = domains[0];
   const std::string robot = "cam-robot-" + std::to_string(getpid());
   urs::world::World simulator(domain, "simulator");
   CameraHost camera("world: {domain: " + std::to_string(domain) + ", robot: " + robot + "}");

@@ -11,6 +11,7 @@
 #include <cmath>
 #include <cstdlib>
 
+#include "dds_domain.hpp"
 #include "ImageRecognition.hh"
 #include "Localization.hh"
 #include "Navigation.hh"
@@ -25,8 +26,12 @@ namespace {
 
 using namespace std::chrono_literals;
 
-// A DDS domain of its own, so that tests running at the same time do not see each other's robot.
-int test_domain() { return 20 + static_cast<int>(getpid() % 200); }
+// A DDS domain of its own for the process, so that tests running at the same time do not see each
+// other's robot.
+int test_domain() {
+  static const urs::test::DdsDomains domains(1);
+  return static_cast<int>(domains[0]);
+}
 
 std::string device_params(const std::string& device) {
   const std::string domain = std::to_string(test_domain());

@@ -19,6 +19,7 @@
 #include <thread>
 #include <vector>
 
+#include "dds_domain.hpp"
 #include "Localization.pb.h"
 #include "Navigation.pb.h"
 #include "urs/devices/localizer.hpp"
@@ -133,7 +134,8 @@ class RobotLocalizerTest : public ::testing::Test {
  protected:
   // Tests of this file may run at once (ctest -j): each uses its own robot name and domain.
   const std::string robot_name_ = "p3dx-" + std::to_string(::getpid());
-  const uint32_t domain_ = 100 + static_cast<uint32_t>(::getpid() % 100);
+  const urs::test::DdsDomains domains_{1};
+  const uint32_t domain_ = domains_[0];
 
   // Each *_yaml adds ", key: value" pairs to the device's params.
   void start(const std::string& robot_yaml, const std::string& localizer_yaml) {
