@@ -30,6 +30,7 @@
 
 #include "Federation.h"
 #include "FederationPubSubTypes.h"
+#include "dds_qos.hpp"
 
 namespace urs::bridge {
 
@@ -58,22 +59,8 @@ std::string digest_of(const std::string& bytes) {
 std::string request_topic(const std::string& space) { return "urs/rpc/" + space + "/request"; }
 std::string reply_topic(const std::string& space) { return "urs/rpc/" + space + "/reply"; }
 
-eprosima::fastrtps::Duration_t duration(std::chrono::milliseconds ms) {
-  return eprosima::fastrtps::Duration_t(static_cast<double>(ms.count()) / 1000.0);
-}
-
 std::vector<uint8_t> bytes_of(const std::string& text) { return {text.begin(), text.end()}; }
 
-// One sample per instance, and room for every service of every space: Fast DDS's default of 10
-// instances would silently refuse the eleventh service.
-fdds::ResourceLimitsQosPolicy catalog_limits() {
-  fdds::ResourceLimitsQosPolicy limits;
-  limits.max_instances = 100000;
-  limits.max_samples_per_instance = 1;
-  limits.max_samples = 100000;
-  limits.allocated_samples = 64;
-  return limits;
-}
 std::string text_of(const std::vector<uint8_t>& bytes) { return {bytes.begin(), bytes.end()}; }
 
 // "HOST" or "HOST:PORT" -> the IPv4 address and port(s) of an initial peer.
@@ -383,8 +370,9 @@ DdsLink::DdsLink(DdsOptions options, CatalogHandler on_catalog, CallHandler on_c
   qos.name("urs-bridge/" + options_.space + "/" + options_.bridge);
   // A participant that stops announcing itself (dead process, cut network) is dropped after the
   // lease, which ends its writers' matches and so this space's entries at the others.
-  qos.wire_protocol().builtin.discovery_config.leaseDuration = duration(options_.lease);
-  qos.wire_protocol().builtin.discovery_config.leaseDuration_announcementperiod = duration(options_.lease / 4);
+  qos.wire_protocol().builtin.discovery_config.leaseDuration = link_qos::duration(options_.lease);
+  qos.wire_protocol().builtin.discovery_config.leaseDuration_announcementperiod =
+      link_qos::duration(options_.lease / 4);
   qos.transport().use_builtin_transports = false;
   auto udp = std::make_shared<eprosima::fastdds::rtps::UDPv4TransportDescriptor>();
   udp->sendBufferSize = options_.socket_buffer_bytes;
@@ -419,34 +407,14 @@ DdsLink::DdsLink(DdsOptions options, CatalogHandler on_catalog, CallHandler on_c
     }
     d.catalog_topic = d.topic(kCatalogTopic, d.entry_type);
 
-    fdds::DataWriterQos catalog_writer = fdds::DATAWRITER_QOS_DEFAULT;
-    catalog_writer.reliability().kind = fdds::RELIABLE_RELIABILITY_QOS;
-    catalog_writer.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
-    catalog_writer.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
-    catalog_writer.history().depth = 1;
-    catalog_writer.liveliness().kind = fdds::AUTOMATIC_LIVELINESS_QOS;
-    catalog_writer.liveliness().lease_duration = duration(options_.lease);
-    catalog_writer.liveliness().announcement_period = duration(options_.lease / 4);
-    catalog_writer.publish_mode().kind = fdds::ASYNCHRONOUS_PUBLISH_MODE;  // descriptor sets exceed one datagram
-    catalog_writer.resource_limits() = catalog_limits();
-    // Each sample takes what it needs: a preallocated pool would give every sample the type's
-    // maximum size (tens of kB for a description's unbounded sequence).
-    catalog_writer.endpoint().history_memory_policy = eprosima::fastrtps::rtps::DYNAMIC_REUSABLE_MEMORY_MODE;
+    const fdds::DataWriterQos catalog_writer = link_qos::keyed_state_writer(options_.lease);
     d.catalog_writer = d.publisher->create_datawriter(d.catalog_topic, catalog_writer);
     // Descriptions: the same QoS, one instance per description. Fast DDS keeps two copies of each
     // sample a writer holds, so a description per service cost ~30 KiB per service.
     d.interface_writer =
         d.publisher->create_datawriter(d.topic(kInterfaceTopic, d.interface_type), catalog_writer);
 
-    fdds::DataReaderQos catalog_reader = fdds::DATAREADER_QOS_DEFAULT;
-    catalog_reader.reliability().kind = fdds::RELIABLE_RELIABILITY_QOS;
-    catalog_reader.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
-    catalog_reader.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
-    catalog_reader.history().depth = 1;
-    catalog_reader.liveliness().kind = fdds::AUTOMATIC_LIVELINESS_QOS;
-    catalog_reader.liveliness().lease_duration = duration(options_.lease);
-    catalog_reader.resource_limits() = catalog_limits();
-    catalog_reader.endpoint().history_memory_policy = eprosima::fastrtps::rtps::DYNAMIC_REUSABLE_MEMORY_MODE;
+    const fdds::DataReaderQos catalog_reader = link_qos::keyed_state_reader(options_.lease);
     d.catalog_reader = d.subscriber->create_datareader(d.catalog_topic, catalog_reader, &d);
     d.interface_reader =
         d.subscriber->create_datareader(d.topic(kInterfaceTopic, d.interface_type), catalog_reader, &d);

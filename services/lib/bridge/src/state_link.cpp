@@ -21,6 +21,7 @@
 
 #include "SpaceState.h"
 #include "SpaceStatePubSubTypes.h"
+#include "dds_qos.hpp"
 #include "urs/world/world.hpp"
 
 namespace urs::bridge {
@@ -36,10 +37,6 @@ constexpr const char* kContextTopic = "urs/state/context";
 constexpr const char* kEventTopic = "urs/state/event";
 constexpr const char* kGone = "Gone";  // ComponentState.state of a component that left its space
 
-eprosima::fastrtps::Duration_t duration(std::chrono::milliseconds ms) {
-  return eprosima::fastrtps::Duration_t(static_cast<double>(ms.count()) / 1000.0);
-}
-
 template <class Sample>
 void stamp_into(Sample& sample, SystemClock::time_point stamp) {
   const auto ns = std::chrono::duration_cast<std::chrono::nanoseconds>(stamp.time_since_epoch()).count();
@@ -50,24 +47,6 @@ template <class Sample>
 SystemClock::time_point stamp_of(const Sample& sample) {
   return SystemClock::time_point(std::chrono::duration_cast<SystemClock::duration>(
       std::chrono::seconds(sample.sec()) + std::chrono::nanoseconds(sample.nsec())));
-}
-
-// Keyed state (components, context): reliable, transient-local, keep-last 1 per instance, with
-// the link's lease, and room for every entry of every space (Fast DDS's default is 10 instances).
-template <class Qos>
-Qos state_qos(Qos qos, std::chrono::milliseconds lease) {
-  qos.reliability().kind = fdds::RELIABLE_RELIABILITY_QOS;
-  qos.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
-  qos.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
-  qos.history().depth = 1;
-  qos.liveliness().kind = fdds::AUTOMATIC_LIVELINESS_QOS;
-  qos.liveliness().lease_duration = duration(lease);
-  qos.resource_limits().max_instances = 100000;
-  qos.resource_limits().max_samples_per_instance = 1;
-  qos.resource_limits().max_samples = 100000;
-  qos.resource_limits().allocated_samples = 64;
-  qos.endpoint().history_memory_policy = eprosima::fastrtps::rtps::DYNAMIC_REUSABLE_MEMORY_MODE;
-  return qos;
 }
 
 // Poses: a stream where the newest sample is all that matters.
@@ -89,7 +68,7 @@ constexpr int32_t kEventHistory = 4096;
 template <class Qos>
 Qos event_qos(Qos qos) {
   qos.reliability().kind = fdds::RELIABLE_RELIABILITY_QOS;
-  qos.reliability().max_blocking_time = duration(std::chrono::milliseconds(100));
+  qos.reliability().max_blocking_time = link_qos::duration(std::chrono::milliseconds(100));
   qos.durability().kind = fdds::VOLATILE_DURABILITY_QOS;
   qos.history().kind = fdds::KEEP_ALL_HISTORY_QOS;
   qos.resource_limits().max_instances = 1;
@@ -236,9 +215,7 @@ struct StateLink::Impl : public fdds::DataReaderListener {
     fdds::Topic* context = topic(kContextTopic, context_type);
     fdds::Topic* events = topic(kEventTopic, event_type);
 
-    fdds::DataWriterQos keyed = state_qos(fdds::DATAWRITER_QOS_DEFAULT, lease);
-    keyed.liveliness().announcement_period = duration(lease / 4);
-    keyed.publish_mode().kind = fdds::ASYNCHRONOUS_PUBLISH_MODE;  // a context value may exceed a datagram
+    const fdds::DataWriterQos keyed = link_qos::keyed_state_writer(lease);
     component_writer = publisher->create_datawriter(components, keyed);
     context_writer = publisher->create_datawriter(context, keyed);
     pose_writer = publisher->create_datawriter(poses, pose_qos(fdds::DATAWRITER_QOS_DEFAULT));
@@ -246,7 +223,7 @@ struct StateLink::Impl : public fdds::DataReaderListener {
     streamed.publish_mode().kind = fdds::ASYNCHRONOUS_PUBLISH_MODE;  // payloads up to images
     event_writer = publisher->create_datawriter(events, streamed);
 
-    const fdds::DataReaderQos keyed_in = state_qos(fdds::DATAREADER_QOS_DEFAULT, lease);
+    const fdds::DataReaderQos keyed_in = link_qos::keyed_state_reader(lease);
     component_reader = subscriber->create_datareader(components, keyed_in, this);
     context_reader = subscriber->create_datareader(context, keyed_in, this);
     pose_reader = subscriber->create_datareader(poses, pose_qos(fdds::DATAREADER_QOS_DEFAULT), this);
