@@ -24,13 +24,12 @@ int64_t unix_ns(SystemClock::time_point t) {
   return std::chrono::duration_cast<std::chrono::nanoseconds>(t.time_since_epoch()).count();
 }
 
-// A JSON object of string fields, for the component entries written into CAMUS.
-std::string json_object(const std::vector<std::pair<std::string, std::string>>& fields) {
-  gp::Struct object;
-  for (const auto& [name, value] : fields) (*object.mutable_fields())[name].set_string_value(value);
-  std::string json;
-  schema::message_to_json(object, json);
-  return json;
+// An object of string fields, for the component entries written into CAMUS.
+gp::Value string_object(const std::vector<std::pair<std::string, std::string>>& fields) {
+  gp::Value object;
+  auto& members = *object.mutable_struct_value()->mutable_fields();
+  for (const auto& [name, value] : fields) members[name].set_string_value(value);
+  return object;
 }
 
 }  // namespace
@@ -45,12 +44,17 @@ SpaceState::SpaceState(const BridgeConfig& config, DdsLink& link, planet::Client
       const std::string key = c.space + "/component/" + c.name;
       if (!alive) return import_delete(key);
       import_set(key, c.space,
-                 json_object({{"kind", c.kind}, {"state", c.state}, {"type_name", c.type_name}, {"host", c.host}}));
+                 string_object({{"kind", c.kind}, {"state", c.state}, {"type_name", c.type_name}, {"host", c.host}}));
     };
     handlers.context = [this](const ContextState& e, bool alive) {
       const std::string key = e.space + "/" + e.key;
       if (!alive) return import_delete(key);
-      import_set(key, e.space, e.value_json);
+      gp::Value value;
+      if (const std::string error = schema::json_to_message(e.value_json, value); !error.empty()) {
+        spdlog::warn("bridge: the value of {} from another space is not JSON: {}", key, error);
+        return;
+      }
+      import_set(key, e.space, std::move(value));
     };
     handlers.pose = [this](const SpacePose& pose) { import_pose(pose); };
     handlers.event = [this](const SpaceEvent& event) { import_event(event); };
@@ -174,17 +178,19 @@ void SpaceState::export_context(const planet::Event& event) {
 
 // ---- in: the other spaces' state into this space's CAMUS ----
 
-void SpaceState::import_set(const std::string& key, const std::string& space, const std::string& json) {
-  importer_.post([this, key, space, json](bool cancelled) {
+// On the importer thread: `key` set in this space's context, as coming from `space`.
+planet::CallResult SpaceState::set_imported(const std::string& key, const std::string& space, const gp::Value& value) {
+  camus::ContextSetRequest request;
+  request.set_key(key);
+  request.set_source(kImportedSource + space);
+  *request.mutable_value() = value;
+  return client_->call("camus.context", "Set", request.SerializeAsString(), kCamusTimeout);
+}
+
+void SpaceState::import_set(const std::string& key, const std::string& space, gp::Value value) {
+  importer_.post([this, key, space, value = std::move(value)](bool cancelled) {
     if (cancelled) return;
-    camus::ContextSetRequest request;
-    request.set_key(key);
-    request.set_source(kImportedSource + space);
-    if (const std::string error = schema::json_to_message(json, *request.mutable_value()); !error.empty()) {
-      spdlog::warn("bridge: the value of {} from another space is not JSON: {}", key, error);
-      return;
-    }
-    const auto result = client_->call("camus.context", "Set", request.SerializeAsString(), kCamusTimeout);
+    const auto result = set_imported(key, space, value);
     if (!result.ok()) {
       spdlog::warn("bridge: context {} from another space not set: {} {}", key, planet::status_name(result.status),
                    result.message);
@@ -208,33 +214,27 @@ void SpaceState::import_delete(const std::string& key) {
 // Poses come faster than context writes may be worth: only the newest of each robot waits.
 void SpaceState::import_pose(const SpacePose& pose) {
   const std::string key = pose.space + "/pose/" + pose.robot;
-  gp::Struct value;
-  auto& fields = *value.mutable_fields();
+  gp::Value value;
+  auto& fields = *value.mutable_struct_value()->mutable_fields();
   fields["x"].set_number_value(pose.x);
   fields["y"].set_number_value(pose.y);
   fields["theta"].set_number_value(pose.theta);
   fields["stamp_unix_ns"].set_number_value(static_cast<double>(unix_ns(pose.stamp)));
-  std::string json;
-  schema::message_to_json(value, json);
   {
     std::lock_guard lock(poses_mutex_);
     const bool waiting = poses_.count(key) != 0;
-    poses_[key] = json;
+    poses_[key] = std::move(value);
     if (waiting) return;
   }
-  importer_.post([this, key, source = kImportedSource + pose.space](bool cancelled) {
-    std::string newest;
+  importer_.post([this, key, space = pose.space](bool cancelled) {
+    gp::Value newest;
     {
       std::lock_guard lock(poses_mutex_);
-      newest = poses_[key];
+      newest = std::move(poses_[key]);
       poses_.erase(key);
     }
     if (cancelled) return;
-    camus::ContextSetRequest request;
-    request.set_key(key);
-    request.set_source(source);
-    schema::json_to_message(newest, *request.mutable_value());
-    const auto result = client_->call("camus.context", "Set", request.SerializeAsString(), kCamusTimeout);
+    const auto result = set_imported(key, space, newest);
     if (!result.ok()) spdlog::debug("bridge: pose {} not set: {}", key, result.message);
   });
 }

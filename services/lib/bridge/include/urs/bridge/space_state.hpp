@@ -19,6 +19,8 @@
 // context changes onto DDS by one exporter thread, each in arrival order (never on the Planet
 // client's I/O thread nor on a DDS listener).
 
+#include <google/protobuf/struct.pb.h>
+
 #include <chrono>
 #include <map>
 #include <memory>
@@ -53,7 +55,9 @@ class SpaceState {
   void sync(std::set<std::string>& shared, const std::vector<ComponentState>& now);
   void export_event(const planet::Event& event);
   void export_context(const planet::Event& event);
-  void import_set(const std::string& key, const std::string& space, const std::string& json);
+  planet::CallResult set_imported(const std::string& key, const std::string& space,
+                                  const google::protobuf::Value& value);
+  void import_set(const std::string& key, const std::string& space, google::protobuf::Value value);
   void import_delete(const std::string& key);
   void import_pose(const SpacePose& pose);
   void import_event(const SpaceEvent& event);
@@ -69,7 +73,7 @@ class SpaceState {
   std::mutex spaces_mutex_;
   std::set<std::string> imported_spaces_;  // spaces whose events this bridge publishes here
   std::mutex poses_mutex_;  // the newest pose per "<space>/pose/<robot>" not yet written into CAMUS
-  std::map<std::string, std::string> poses_;
+  std::map<std::string, google::protobuf::Value> poses_;
   agent::WorkerPool importer_{1};
   agent::WorkerPool exporter_{1};  // this space's events and context changes, in order, onto DDS
   std::unique_ptr<StateLink> link_;  // last: destroyed first, so nothing arrives into the rest
