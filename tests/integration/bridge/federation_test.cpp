@@ -86,6 +86,17 @@ class Federation : public BridgeSpaceTest {
                         {"--naming", naming_->address(), "--host", "jphost"}, "jp");
   }
 
+  // `text` echoed by `service` from kr's Planet client.
+  void expect_echo(const std::string& service, const std::string& text) {
+    URS::Diagnostic_echo_Request echo;
+    echo.set_text(text);
+    const Observed echoed = call(service, "echo", echo);
+    ASSERT_EQ(echoed.status, planet::OK) << echoed.message;
+    URS::Diagnostic_echo_Reply reply;
+    ASSERT_TRUE(reply.ParseFromString(echoed.payload));
+    EXPECT_EQ(reply.result(), text);
+  }
+
   // kr's CAMUS server killed and started again on its port, with its data.
   void restart_server() {
     const std::string port = server_address_.substr(server_address_.rfind(':') + 1);
@@ -146,13 +157,7 @@ TEST_F(Federation, EachSpacesServicesAreCallableFromTheOther) {
   EXPECT_NE(listed("jp/rt.Diagnostic0").find("dds:jp/rt.Diagnostic0"), std::string::npos);
 
   // kr's CAMUS client -> kr server -> bridge-kr -DDS-> bridge-jp -CORBA-> jp's RTC.
-  URS::Diagnostic_echo_Request echo;
-  echo.set_text("こんにちは from kr");
-  const Observed echoed = call("jp/rt.Diagnostic0", "echo", echo);
-  ASSERT_EQ(echoed.status, planet::OK) << echoed.message;
-  URS::Diagnostic_echo_Reply echo_reply;
-  ASSERT_TRUE(echo_reply.ParseFromString(echoed.payload));
-  EXPECT_EQ(echo_reply.result(), echo.text());
+  ASSERT_NO_FATAL_FAILURE(expect_echo("jp/rt.Diagnostic0", "こんにちは from kr"));
 
   URS::Diagnostic_blob_Request blob;  // an image-sized reply crosses whole
   blob.set_size(921600);
@@ -252,13 +257,7 @@ TEST_F(Federation, SpacesLinkThroughADiscoveryServer) {
   start_jp("  discovery: {listen: \"" + server + "\"}\n");
   start_kr("  discovery: {servers: [\"" + server + "\"]}\n");
   ASSERT_TRUE(wait_for_service("jp/rt.Diagnostic0", 20s)) << jp_->log() << kr_->log();
-  URS::Diagnostic_echo_Request echo;
-  echo.set_text("through the discovery server");
-  const Observed echoed = call("jp/rt.Diagnostic0", "echo", echo);
-  ASSERT_EQ(echoed.status, planet::OK) << echoed.message;
-  URS::Diagnostic_echo_Reply reply;
-  ASSERT_TRUE(reply.ParseFromString(echoed.payload));
-  EXPECT_EQ(reply.result(), echo.text());
+  ASSERT_NO_FATAL_FAILURE(expect_echo("jp/rt.Diagnostic0", "through the discovery server"));
   EXPECT_NE(kr_->log().find("discovery server"), std::string::npos) << kr_->log();
 }
 
