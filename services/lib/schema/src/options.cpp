@@ -49,6 +49,10 @@ std::string scoped(const std::string& protobuf_name) {
 std::string idl_type_of(const gp::FieldDescriptor& field) {
   std::string type = field.options().GetExtension(urs::options::idl_type);
   if (!type.empty()) {
+    // "::URC::Pose2D", "sequence<::URC::Marker,8>": scoped names as a person writes them.
+    for (const char* absolute : {"<::", ",::"}) {
+      for (auto at = type.find(absolute); at != std::string::npos; at = type.find(absolute, at)) type.erase(at + 1, 2);
+    }
     if (type.rfind("::", 0) == 0) type.erase(0, 2);
     for (int i = 0; i < field.options().ExtensionSize(urs::options::array_dims); ++i) {
       type += "[" + std::to_string(field.options().GetExtension(urs::options::array_dims, i)) + "]";
