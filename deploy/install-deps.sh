@@ -20,6 +20,7 @@ PACKAGES=(
   libqrencode-dev libzbar-dev libpng-dev  # camera device: QR markers, their recognition, PNG frames
   # tools used by tests and scripts
   python3 procps iproute2 nftables  # nftables: the two-hosts test's sites pass no multicast
+  python3-venv  # the rtshell test installs rtshell from PyPI into a venv under the build folder
   # containers: the engine, compose, and debootstrap for the base image made from Debian packages
   docker.io docker-compose debootstrap
 )

@@ -39,7 +39,9 @@ int main(int argc, char** argv) {
   app.add_option("--server", server, "CAMUS server HOST:PORT (none: a space without CAMUS)");
   app.add_option("--naming", naming, "Naming service HOST:PORT, omniNames (none: a space without RT side)");
   app.add_option("--config", config_path, "YAML file saying what to bridge")->required();
-  app.add_option("--host", host, "Naming context <host>.host_cxt (default: this machine's host name)");
+  app.add_option("--host,--host-context", host,
+                 "Naming context <host>.host_cxt (env URS_HOST_CONTEXT; default: this machine's host name)")
+      ->envname("URS_HOST_CONTEXT");
   app.add_option("--listen", listen, "HOST:PORT for the bridge's object references (default: any, ephemeral)");
   app.add_option("--token-file", token_file, "File holding the space's Planet token");
   app.add_option("--call-timeout-ms", call_timeout_ms, "Bound on CORBA calls other than bridged ones")

@@ -127,55 +127,55 @@ CallResult DynamicCaller::describe(const std::string& service, std::string& out)
   if (!loaded.ok()) return loaded;
   const gp::ServiceDescriptor* iface = pool_.find_service(interface_name);
   if (iface == nullptr) return CallResult::error(planet::INTERNAL, "no description of " + interface_name);
-  out = service + " implements " + interface_name + "\n";
+  const std::string repository = schema::repository_id(*iface);
+  out = service + " implements " + interface_name + (repository.empty() ? "" : " (" + repository + ")") + "\n";
   for (int i = 0; i < iface->method_count(); ++i) {
     const auto* m = iface->method(i);
-    out += "  " + m->name() + "(" + m->input_type()->full_name() + ") -> " + m->output_type()->full_name();
-    if (schema::is_oneway(*m)) out += "  [oneway]";
-    auto raised = schema::raises(*m);
-    if (!raised.empty()) {
-      out += "  raises";
-      for (const auto& r : raised) out += " " + r;
+    const std::string signature = schema::idl_signature(*m);
+    if (signature.empty()) continue;  // an attribute's _set_: its attribute line covers it
+    out += "  " + signature + ";";
+    // An attribute is called through its accessors.
+    if (signature.find("attribute ") != std::string::npos) {
+      const std::string name = m->name().substr(5);
+      out += "  // " + m->name() + (iface->FindMethodByName("_set_" + name) ? ", _set_" + name : "");
     }
     out += "\n";
   }
   return CallResult::success({});
 }
 
-void DynamicCaller::load_all_interfaces() {
-  if (loaded_all_) return;
-  loaded_all_ = true;
-  auto result = client_.call("camus.registry", "List", camus::ListRequest().SerializeAsString(), timeout_);
-  camus::ListReply list;
-  if (!result.ok() || !list.ParseFromString(result.payload)) return;
-  for (const auto& service : list.services()) {
-    std::string ignored;
-    load_interface_of(service.name(), ignored);
+const gp::Descriptor* DynamicCaller::find_type(const std::string& full_name) {
+  if (full_name.empty()) return nullptr;
+  if (const auto* compiled = gp::DescriptorPool::generated_pool()->FindMessageTypeByName(full_name)) return compiled;
+  if (const auto* loaded = pool_.find_message(full_name)) return loaded;
+  const auto now = std::chrono::steady_clock::now();
+  if (auto unknown = unknown_types_.find(full_name); unknown != unknown_types_.end() && now < unknown->second) {
+    return nullptr;
   }
+  camus::DescribeRequest request;
+  request.set_type(full_name);
+  auto result = client_.call("camus.registry", "Describe", request.SerializeAsString(), timeout_);
+  camus::DescribeReply reply;
+  if (result.ok() && reply.ParseFromString(result.payload) && pool_.add_descriptor_set(reply.descriptor_set()).empty()) {
+    if (const auto* described = pool_.find_message(full_name)) return described;
+  }
+  unknown_types_[full_name] = now + std::chrono::seconds(5);
+  return nullptr;
+}
+
+std::unique_ptr<gp::Message> DynamicCaller::new_message(const gp::Descriptor& type) const {
+  if (type.file()->pool() == gp::DescriptorPool::generated_pool()) {
+    return std::unique_ptr<gp::Message>(gp::MessageFactory::generated_factory()->GetPrototype(&type)->New());
+  }
+  return pool_.new_message(type);
 }
 
 std::string DynamicCaller::event_payload_json(const std::string& content_type, const std::string& payload) {
   if (content_type == "application/json") return payload.empty() ? "null" : payload;
-  auto decode = [&](const gp::Descriptor* type, const gp::Message* prototype) -> std::string {
-    std::unique_ptr<gp::Message> message(prototype != nullptr ? prototype->New() : pool_.new_message(*type).release());
+  if (const auto* type = find_type(content_type)) {
+    auto message = new_message(*type);
     std::string json;
     if (message->ParseFromString(payload) && schema::message_to_json(*message, json).empty()) return json;
-    return {};
-  };
-  if (!content_type.empty()) {
-    if (const auto* compiled = gp::DescriptorPool::generated_pool()->FindMessageTypeByName(content_type)) {
-      auto json = decode(compiled, gp::MessageFactory::generated_factory()->GetPrototype(compiled));
-      if (!json.empty()) return json;
-    }
-    const auto* described = pool_.find_message(content_type);
-    if (described == nullptr) {
-      load_all_interfaces();
-      described = pool_.find_message(content_type);
-    }
-    if (described != nullptr) {
-      auto json = decode(described, nullptr);
-      if (!json.empty()) return json;
-    }
   }
   return "{\"base64\":" + quoted(base64(payload)) + "}";
 }

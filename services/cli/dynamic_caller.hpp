@@ -4,7 +4,9 @@
 
 #include <google/protobuf/descriptor.h>
 
+#include <chrono>
 #include <map>
+#include <memory>
 #include <string>
 
 #include "urs/planet/client.hpp"
@@ -28,11 +30,19 @@ class DynamicCaller {
   CallOutput call(const std::string& service, const std::string& operation, const std::string& json_args,
                   std::chrono::milliseconds deadline);
 
-  // "OPERATION(REQUEST) -> REPLY" lines of the service's interface, or an error result.
+  // "<service> implements <interface> (<repository id>)", then one line per operation as IDL
+  // declares it (schema::idl_signature), or an error result.
   planet::CallResult describe(const std::string& service, std::string& out);
 
-  // The payload of an event as JSON if its content type is known (compiled in, or described by
-  // some registered interface), else a JSON string holding base64.
+  // The message type `full_name` as the space knows it: compiled in (urs.camus.*, google.protobuf.*),
+  // already loaded, or described by a registered interface (camus.registry Describe by type; a
+  // type the registry does not know is asked again after 5 s at the earliest). nullptr if unknown.
+  const google::protobuf::Descriptor* find_type(const std::string& full_name);
+  // A new message of a type find_type() returned.
+  std::unique_ptr<google::protobuf::Message> new_message(const google::protobuf::Descriptor& type) const;
+
+  // The payload of an event as JSON if its content type is known (find_type; application/json as
+  // it is), else {"base64": ...}.
   std::string event_payload_json(const std::string& content_type, const std::string& payload);
 
   // One event as a JSON object: seq, topic, source, time_unix_ns, content_type, payload.
@@ -40,13 +50,12 @@ class DynamicCaller {
 
  private:
   planet::CallResult load_interface_of(const std::string& service, std::string& interface_name);
-  void load_all_interfaces();
 
   planet::Client& client_;
   std::chrono::milliseconds timeout_;
   schema::SchemaPool pool_;
   std::map<std::string, std::string> interface_of_;
-  bool loaded_all_ = false;
+  std::map<std::string, std::chrono::steady_clock::time_point> unknown_types_;  // type -> ask again after
 };
 
 }  // namespace urs::cli

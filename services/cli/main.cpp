@@ -118,6 +118,13 @@ int main(int argc, char** argv) {
   watch->add_option("--for-ms", for_ms, "Exit after this long");
   watch->add_option("--resume-after", resume_after, "Replay retained events with a larger sequence first");
 
+  auto* pub = app.add_subcommand("pub", "Publish an event on TOPIC: JSON as message TYPE (or as application/json)");
+  std::string topic;
+  std::string type;
+  pub->add_option("topic", topic)->required();
+  pub->add_option("json", args, "The event as JSON (Protobuf JSON mapping of TYPE)")->required();
+  pub->add_option("--type", type, "Full Protobuf name of a message type the space knows (e.g. URC.Pose2D)");
+
   auto* context = app.add_subcommand("context", "Read and write context entries");
   context->require_subcommand(1);
   std::string key;
@@ -250,6 +257,39 @@ int main(int argc, char** argv) {
         ++seen;
       }
       return count > 0 && seen < count ? kFailed : kOk;
+    }
+    if (*pub) {
+      // A typed event is encoded with the type's description (compiled in, or asked from the
+      // registry); without a type the JSON text itself is the payload.
+      std::string payload;
+      std::string content_type = "application/json";
+      if (type.empty()) {
+        google::protobuf::Value parsed;
+        auto error = urs::schema::json_to_message(args, parsed);
+        if (!error.empty()) {
+          std::cerr << "urs: pub " << topic << ": '" << args << "' is not JSON: " << error << "\n";
+          return kUsage;
+        }
+        payload = args;
+      } else {
+        const auto* descriptor = caller.find_type(type);
+        if (descriptor == nullptr) {
+          std::cerr << "urs: pub " << topic << ": the space knows no message type " << type
+                    << " (no registered interface describes it)\n";
+          return kFailed;
+        }
+        auto message = caller.new_message(*descriptor);
+        auto error = urs::schema::json_to_message(args, *message);
+        if (!error.empty()) {
+          std::cerr << "urs: pub " << topic << ": " << error << "\n";
+          return kUsage;
+        }
+        payload = message->SerializeAsString();
+        content_type = type;
+      }
+      auto result = client.publish_and_wait(topic, std::move(payload), content_type, timeout);
+      if (!result.ok()) return report("pub " + topic, result);
+      return kOk;
     }
     if (*context) {
       if (*cget) {

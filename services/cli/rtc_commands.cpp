@@ -5,6 +5,9 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "rtc_conf.hpp"
+#include "rtc_session.hpp"
+
 #include "urs/agent/agent.hpp"
 #include "urs/bridge/interfaces.hpp"
 #include "urs/bridge/provider_port.hpp"
@@ -19,74 +22,10 @@
 namespace urs::cli {
 namespace {
 
-constexpr int kOk = 0;
-constexpr int kFailed = 1;
-constexpr int kUsage = 2;
-constexpr int kUnreachable = 3;
-
-// Ends one command (or, for act/deact/reset, one of its paths) with an exit code and a reason.
-class Failure : public std::runtime_error {
- public:
-  Failure(int code, const std::string& what) : std::runtime_error(what), code_(code) {}
-  int code() const { return code_; }
-
- private:
-  int code_;
-};
-
-// Naming paths are written relative to the root; a leading or trailing '/' is tolerated.
-std::string normalize_path(const std::string& text) {
-  const auto first = text.find_first_not_of('/');
-  if (first == std::string::npos) return "";
-  const auto last = text.find_last_not_of('/');
-  return text.substr(first, last - first + 1);
-}
-
-struct PortAddress {
-  std::string path;
-  std::string port;
-};
-
-// "PATH:PORT". Naming paths hold no ':' in practice, host names included, so the last one splits.
-PortAddress parse_port_address(const std::string& text) {
-  const auto colon = text.rfind(':');
-  PortAddress address;
-  if (colon != std::string::npos) {
-    address.path = normalize_path(text.substr(0, colon));
-    address.port = text.substr(colon + 1);
-  }
-  if (address.path.empty() || address.port.empty()) {
-    throw Failure(kUsage, "'" + text + "' is not PATH:PORT (e.g. myhost.host_cxt/Diagnostic0.rtc:diagnostic)");
-  }
-  return address;
-}
-
-// Why a call on a component failed. A dead process behind a stale binding gives TRANSIENT or
-// OBJECT_NOT_EXIST, a hung one TIMEOUT: all of them mean the component cannot be reached.
-std::string reason(const CORBA::SystemException& e) {
-  const bool unreachable = CORBA::TRANSIENT::_downcast(&e) || CORBA::COMM_FAILURE::_downcast(&e) ||
-                           CORBA::OBJECT_NOT_EXIST::_downcast(&e) || CORBA::TIMEOUT::_downcast(&e);
-  return unreachable ? "unreachable (" + rtc::describe(e) + ")" : rtc::describe(e);
-}
-
-// Runs calls on the component or port at `what`, naming it in the failure.
-template <class Body>
-auto calling(const std::string& what, Body&& body) -> decltype(body()) {
-  try {
-    return body();
-  } catch (const CORBA::SystemException& e) {
-    throw Failure(kFailed, what + ": " + reason(e));
-  }
-}
+using namespace rtc_cli;
 
 std::string leaf_name(const rtc::NamingClient::Entry& entry) {
   return entry.kind.empty() ? entry.id : entry.id + "." + entry.kind;
-}
-
-// "<instance>.<port>" without the instance, as ports are named within their component.
-std::string short_port_name(const std::string& name) {
-  const auto dot = name.find('.');
-  return dot == std::string::npos ? name : name.substr(dot + 1);
 }
 
 std::string port_type(const RTC::PortProfile& port) {
@@ -111,94 +50,57 @@ const char* kind_name(RTC::ExecutionKind kind) {
   }
 }
 
-class Session {
- public:
-  Session(const std::string& naming, std::chrono::milliseconds call_timeout)
-      : orb_(options(call_timeout)), naming_(orb_, naming) {}
-
-  rtc::NamingClient& naming() { return naming_; }
-  rtc::Orb& orb() { return orb_; }
-
-  CORBA::Object_ptr resolve(const std::string& path) {
-    try {
-      return naming_.resolve(path);
-    } catch (const rtc::NamingUnreachable&) {
-      throw;
-    } catch (const rtc::NamingError& e) {
-      throw Failure(kFailed, e.what());
-    }
-  }
-
-  RTC::RTObject_ptr component(const std::string& path) {
-    CORBA::Object_var object = resolve(path);
-    RTC::RTObject_var target = calling(path, [&] { return RTC::RTObject::_narrow(object); });
-    if (CORBA::is_nil(target)) throw Failure(kFailed, path + ": not an RT-Component");
-    return target._retn();
-  }
-
-  RTC::PortService_ptr port(const PortAddress& address) {
-    RTC::RTObject_var target = component(address.path);
-    RTC::PortService_var port = calling(address.path, [&] { return rtc::find_port(target, address.port); });
-    if (CORBA::is_nil(port)) {
-      std::string names;
-      calling(address.path, [&] {
-        RTC::PortServiceList_var ports = target->get_ports();
-        for (CORBA::ULong i = 0; i < ports->length(); ++i) {
-          RTC::PortProfile_var profile = ports[i]->get_port_profile();
-          names += (names.empty() ? "" : ", ") + short_port_name(profile->name.in());
-        }
-      });
-      throw Failure(kFailed, address.path + ": no port '" + address.port + "' (ports: " +
-                                 (names.empty() ? "none" : names) + ")");
-    }
-    return port._retn();
-  }
-
- private:
-  static rtc::OrbOptions options(std::chrono::milliseconds call_timeout) {
-    rtc::OrbOptions options;
-    options.call_timeout = call_timeout;
-    options.connect_timeout = std::min(call_timeout, options.connect_timeout);
-    return options;
-  }
-
-  rtc::Orb orb_;
-  rtc::NamingClient naming_;
-};
-
 // ---- ls ----------------------------------------------------------------------------------
 
 // The state of the component bound at `path` and, if asked, one line per port. Whatever goes
 // wrong with this one object is shown in place of its state; the listing goes on.
 std::string component_summary(Session& session, const std::string& path, bool with_ports,
                               std::vector<std::string>& port_lines) {
+  RTC::RTObject_var component;
+  std::string state;
   try {
     CORBA::Object_var object = session.naming().resolve(path);
-    RTC::RTObject_var component = RTC::RTObject::_narrow(object);
+    component = RTC::RTObject::_narrow(object);
     if (CORBA::is_nil(component)) return "not an RT-Component";
-    const std::string state = rtc::state_name(rtc::component_state(component));
-    if (!with_ports) return state;
-    std::vector<RTC::PortProfile_var> profiles;
-    RTC::PortServiceList_var ports = component->get_ports();
-    std::size_t name_width = 0;
-    std::size_t type_width = 0;
-    for (CORBA::ULong i = 0; i < ports->length(); ++i) {
-      profiles.emplace_back(ports[i]->get_port_profile());
-      name_width = std::max(name_width, short_port_name(profiles.back()->name.in()).size());
-      type_width = std::max(type_width, port_type(profiles.back().in()).size());
-    }
-    for (const auto& profile : profiles) {
-      port_lines.push_back(padded(short_port_name(profile->name.in()), name_width) + "  " +
-                           padded(port_type(profile.in()), type_width) + "  " +
-                           plural(profile->connector_profiles.length(), "connection"));
-    }
-    return state;
-  } catch (const CORBA::SystemException&) {
-    port_lines.clear();
-    return "unreachable";
+    state = rtc::state_name(rtc::component_state(component));
+  } catch (const CORBA::SystemException& e) {
+    // "unreachable", or "reported an error (...)" for a component that answers.
+    const std::string why = reason(e, component);
+    return why.compare(0, 11, "unreachable") == 0 ? "unreachable" : why;
   } catch (const rtc::NamingError&) {
     return "no longer bound";
   }
+  if (!with_ports) return state;
+  // The component answers: whatever fails now is one port's failure (e.g. a foreign port that
+  // cannot reach a dead peer), shown on that port's line.
+  RTC::PortServiceList_var ports;
+  try {
+    ports = component->get_ports();
+  } catch (const CORBA::SystemException& e) {
+    port_lines.push_back("ports: " + reason(e, component));
+    return state;
+  }
+  struct Line {
+    std::string name, type, tail;
+  };
+  std::vector<Line> lines;
+  std::size_t name_width = 0;
+  std::size_t type_width = 0;
+  for (CORBA::ULong i = 0; i < ports->length(); ++i) {
+    try {
+      RTC::PortProfile_var profile = ports[i]->get_port_profile();
+      lines.push_back({short_port_name(profile->name.in()), port_type(profile.in()),
+                       plural(profile->connector_profiles.length(), "connection")});
+    } catch (const CORBA::SystemException& e) {
+      lines.push_back({"port " + std::to_string(i), "-", "no profile: " + reason(e, ports[i])});
+    }
+    name_width = std::max(name_width, lines.back().name.size());
+    type_width = std::max(type_width, lines.back().type.size());
+  }
+  for (const Line& line : lines) {
+    port_lines.push_back(padded(line.name, name_width) + "  " + padded(line.type, type_width) + "  " + line.tail);
+  }
+  return state;
 }
 
 void print_object(Session& session, const rtc::NamingClient::Entry& entry, const std::string& label,
@@ -347,8 +249,16 @@ int cat_component(Session& session, const std::string& path) {
     RTC::ExecutionContextList_var owned = target->get_owned_contexts();
     RTC::ExecutionContextList_var participating = target->get_participating_contexts();
     RTC::PortServiceList_var ports = target->get_ports();
+    // A port that fails (e.g. a foreign port that cannot reach a dead peer) is shown as such.
     std::vector<RTC::PortProfile_var> port_profiles;
-    for (CORBA::ULong i = 0; i < ports->length(); ++i) port_profiles.emplace_back(ports[i]->get_port_profile());
+    std::vector<std::string> port_failures;
+    for (CORBA::ULong i = 0; i < ports->length(); ++i) {
+      try {
+        port_profiles.emplace_back(ports[i]->get_port_profile());
+      } catch (const CORBA::SystemException& e) {
+        port_failures.push_back("port " + std::to_string(i) + ": no profile: " + reason(e, ports[i]));
+      }
+    }
     const std::string state = rtc::state_name(rtc::component_state(target));
 
     std::cout << path << "  " << state << "\n";
@@ -363,9 +273,11 @@ int cat_component(Session& session, const std::string& path) {
     print_contexts(target, participating.in(), "participating", "    ");
     print_properties(profile->properties, "  ");
     print_configuration(target);
-    std::cout << "  " << plural(port_profiles.size(), "port") << (port_profiles.empty() ? "" : ":") << "\n";
+    const std::size_t port_count = port_profiles.size() + port_failures.size();
+    std::cout << "  " << plural(port_count, "port") << (port_count == 0 ? "" : ":") << "\n";
     for (const auto& port : port_profiles) print_port(port.in(), "    ");
-  });
+    for (const auto& failure : port_failures) std::cout << "    " << failure << "\n";
+  }, target);
   return kOk;
 }
 
@@ -429,13 +341,21 @@ SDOPackage::NVList parse_properties(const std::vector<std::string>& pairs) {
 }
 
 int connect(Session& session, const std::string& first, const std::string& second,
-            const std::vector<std::string>& properties, std::string name, const std::string& id) {
+            const std::vector<std::string>& properties, std::string name, const std::string& id, bool force) {
   const PortAddress first_address = parse_port_address(first);
   const PortAddress second_address = parse_port_address(second);
   const SDOPackage::NVList extra = parse_properties(properties);
   RTC::PortService_var a = session.port(first_address);
   RTC::PortService_var b = session.port(second_address);
   const std::string what = first + " " + second;
+  // Ports that cannot work together (another interface or data type) are refused before any
+  // call that would change them, unless the user insists.
+  if (!force) {
+    RTC::PortProfile_var a_profile = calling(first, [&] { return a->get_port_profile(); }, a);
+    RTC::PortProfile_var b_profile = calling(second, [&] { return b->get_port_profile(); }, b);
+    const std::string mismatch = rtc::connection_mismatch(a_profile.in(), b_profile.in());
+    if (!mismatch.empty()) throw Failure(kFailed, mismatch + " (--force connects them anyway)");
+  }
   // Without --name the connector is named after the ports it joins.
   if (name.empty()) name = port_name_of(a) + "_" + port_name_of(b);
   const rtc::Connection connection = calling(what, [&] { return rtc::connect_ports({a.in(), b.in()}, name, extra, id); });
@@ -579,6 +499,7 @@ RtcCommands::RtcCommands(CLI::App& app) {
   con_->add_option("properties", properties_, "Connector properties key=value");
   con_->add_option("--name", connector_name_, "Connector name (default: <port>_<peer>)");
   con_->add_option("--id", connector_id_, "Connector id (default: the port assigns a UUID)");
+  con_->add_flag("--force", force_, "Connect even ports whose interfaces or data types differ");
 
   dis_ = rtc_->add_subcommand("dis", "Disconnect two ports, or every connection of one port with --all");
   dis_->add_option("port", first_port_, "PATH:PORT")->required();
@@ -592,13 +513,31 @@ RtcCommands::RtcCommands(CLI::App& app) {
   call_->add_option("--interface", interface_, "The provided interface's type_name, if the port has several");
   call_->add_option("--idl", idl_files_, "IDL file of an interface not built in (repeatable)");
   call_->add_option("--deadline-ms", deadline_ms_, "Bound on the call")->check(CLI::Range(1, 3600000))->capture_default_str();
+
+  conf_ = rtc_->add_subcommand("conf", "Read and change a component's configuration sets (rtconf-like)");
+  conf_->require_subcommand(1);
+  conf_ls_ = conf_->add_subcommand("ls", "Every configuration set of PATH with its parameters; the active one marked");
+  conf_ls_->add_option("path", path_, "Naming path of a component")->required();
+  conf_get_ = conf_->add_subcommand("get", "The value of parameter NAME (in the active set or --set)");
+  conf_get_->add_option("path", path_, "Naming path of a component")->required();
+  conf_get_->add_option("name", parameter_, "Parameter")->required();
+  conf_get_->add_option("--set", set_, "Configuration set (default: the active one)");
+  conf_set_ = conf_->add_subcommand("set", "Set parameter NAME to VALUE (in the active set or --set); it takes effect at once in the active set");
+  conf_set_->add_option("path", path_, "Naming path of a component")->required();
+  conf_set_->add_option("name", parameter_, "Parameter")->required();
+  conf_set_->add_option("value", value_, "New value")->required();
+  conf_set_->add_option("--set", set_, "Configuration set (default: the active one)");
+  conf_act_ = conf_->add_subcommand("act", "Make SET the active configuration set");
+  conf_act_->add_option("path", path_, "Naming path of a component")->required();
+  conf_act_->add_option("set", set_, "Configuration set")->required();
 }
 
 bool RtcCommands::selected() const { return rtc_->parsed(); }
 
 int RtcCommands::run(const std::string& log_level) {
   const CLI::App* chosen = rtc_->get_subcommands().front();
-  const std::string command = chosen->get_name();
+  if (chosen == conf_) chosen = conf_->get_subcommands().front();
+  const std::string command = (chosen->get_parent() == conf_ ? "conf " : "") + chosen->get_name();
   try {
     urs::util::init_logging("urs", log_level);
     urs::util::parse_endpoint(naming_, "--naming");
@@ -611,8 +550,14 @@ int RtcCommands::run(const std::string& log_level) {
     if (chosen == ls_) return list(session, normalize_path(path_), long_);
     if (chosen == cat_) return cat(session, path_);
     if (chosen == act_ || chosen == deact_ || chosen == reset_) return change_state(session, command, paths_);
-    if (chosen == con_) return connect(session, first_port_, second_port_, properties_, connector_name_, connector_id_);
+    if (chosen == con_) {
+      return connect(session, first_port_, second_port_, properties_, connector_name_, connector_id_, force_);
+    }
     if (chosen == dis_) return disconnect(session, first_port_, second_port_, all_);
+    if (chosen == conf_ls_) return conf_list(session, normalize_path(path_));
+    if (chosen == conf_get_) return conf_get(session, normalize_path(path_), parameter_, set_);
+    if (chosen == conf_set_) return conf_set(session, normalize_path(path_), parameter_, value_, set_);
+    if (chosen == conf_act_) return conf_activate(session, normalize_path(path_), set_);
     if (chosen == call_) {
       return call(session, {first_port_, operation_, arguments_, interface_, idl_files_,
                             std::chrono::milliseconds(deadline_ms_)});

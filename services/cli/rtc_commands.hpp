@@ -33,6 +33,11 @@ class RtcCommands {
   CLI::App* con_ = nullptr;
   CLI::App* dis_ = nullptr;
   CLI::App* call_ = nullptr;
+  CLI::App* conf_ = nullptr;
+  CLI::App* conf_ls_ = nullptr;
+  CLI::App* conf_get_ = nullptr;
+  CLI::App* conf_set_ = nullptr;
+  CLI::App* conf_act_ = nullptr;
 
   std::string naming_;
   int call_timeout_ms_ = 2000;
@@ -45,11 +50,15 @@ class RtcCommands {
   std::string connector_name_;
   std::string connector_id_;
   bool all_ = false;
+  bool force_ = false;
   std::string operation_;
   std::string arguments_;
   std::string interface_;
   std::vector<std::string> idl_files_;
   int deadline_ms_ = 10000;
+  std::string parameter_;
+  std::string value_;
+  std::string set_;
 };
 
 }  // namespace urs::cli

@@ -3,6 +3,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include <atomic>
 #include <chrono>
 #include <cmath>
 
@@ -11,6 +12,7 @@
 #include "components.hpp"
 #include "urs/rtc/data_port.hpp"
 #include "urs/util/cli.hpp"
+#include "urs/util/number.hpp"
 #include "urs/util/yaml_config.hpp"
 
 namespace urs::rtc_manager {
@@ -33,7 +35,8 @@ struct CounterSettings {
 };
 
 // While active, writes start, start+1, ... on "count" and a point going round a circle (heading along it)
-// on "pose" once per execution.
+// on "pose" once per execution. Configuration: `radius` (m) and `period` (s per turn) may change
+// at any time, and the next execution uses them; `start` is read-only.
 class CounterComponent : public rtc::Component {
  public:
   explicit CounterComponent(const CounterSettings& settings)
@@ -41,13 +44,17 @@ class CounterComponent : public rtc::Component {
         settings_(settings),
         count_port_("count"),
         pose_port_("pose"),
+        radius_m_(settings.radius_m),
+        period_s_(settings.period_s),
         count_(settings.start) {}
 
  protected:
   RTC::ReturnCode_t handle_initialize() override {
     declare_parameter("start", std::to_string(settings_.start));
-    declare_parameter("radius", std::to_string(settings_.radius_m));
-    declare_parameter("period", std::to_string(settings_.period_s));
+    declare_parameter({"radius", util::format_number(settings_.radius_m), rtc::number_between(0, 1e6),
+                       [this](const std::string& value) { radius_m_ = *util::parse_number(value); }});
+    declare_parameter({"period", util::format_number(settings_.period_s), rtc::number_between(1e-3, 1e6),
+                       [this](const std::string& value) { period_s_ = *util::parse_number(value); }});
     add_port(count_port_);
     add_port(pose_port_);
     return RTC::RTC_OK;
@@ -68,11 +75,12 @@ class CounterComponent : public rtc::Component {
 
     constexpr double kTurn = 2 * M_PI;
     const std::chrono::duration<double> elapsed = std::chrono::steady_clock::now() - activated_at_;
-    const double angle = std::fmod(elapsed.count() / settings_.period_s, 1.0) * kTurn;
+    const double radius = radius_m_;
+    const double angle = std::fmod(elapsed.count() / period_s_, 1.0) * kTurn;
     RTC::TimedPose2D pose;
     pose.tm = count.tm;
-    pose.data.position.x = settings_.radius_m * std::cos(angle);
-    pose.data.position.y = settings_.radius_m * std::sin(angle);
+    pose.data.position.x = radius * std::cos(angle);
+    pose.data.position.y = radius * std::sin(angle);
     pose.data.heading = std::remainder(angle + kTurn / 4, kTurn);
     pose_port_.write(pose);
     return RTC::RTC_OK;
@@ -87,6 +95,8 @@ class CounterComponent : public rtc::Component {
   const CounterSettings settings_;
   rtc::OutPort<RTC::TimedLong> count_port_;
   rtc::OutPort<RTC::TimedPose2D> pose_port_;
+  std::atomic<double> radius_m_;  // set by tools in ORB threads, read by the execution context
+  std::atomic<double> period_s_;
   CORBA::Long count_;  // touched by the execution context's thread only
   std::chrono::steady_clock::time_point activated_at_;
 };

@@ -5,6 +5,7 @@
 #include <spdlog/spdlog.h>
 
 #include <atomic>
+#include <mutex>
 
 #include "Diagnostic.hh"
 #include "components.hpp"
@@ -21,7 +22,9 @@ namespace {
 constexpr const char* kInterface = "URS::Diagnostic";
 
 // While active, calls echo on the connected provider once per execution and counts the replies;
-// the counts appear in the log at deactivation.
+// the counts appear in the log at deactivation. Configuration, changeable at any time: `text`
+// (what it echoes) and `strict` (true: an execution without a provider, or whose echo fails or
+// comes back different, is an error: the component goes to the Error state until reset).
 class DiagnosticCallerComponent : public rtc::Component {
  public:
   explicit DiagnosticCallerComponent(std::string text)
@@ -33,25 +36,42 @@ class DiagnosticCallerComponent : public rtc::Component {
 
  protected:
   RTC::ReturnCode_t handle_initialize() override {
-    declare_parameter("text", text_);
+    declare_parameter({"text", text_, {}, [this](const std::string& value) {
+                         std::lock_guard lock(text_mutex_);
+                         text_ = value;
+                       }});
+    declare_parameter({"strict", strict_ ? "true" : "false",
+                       [](const std::string& value) {
+                         return value == "true" || value == "false" ? "" : "'" + value + "' is not true or false";
+                       },
+                       [this](const std::string& value) { strict_ = value == "true"; }});
     add_port(port_);
     return RTC::RTC_OK;
   }
 
   RTC::ReturnCode_t handle_execute(RTC::ExecutionContextHandle_t) override {
     URS::Diagnostic_var provider = consumer_.get<URS::Diagnostic>();
-    if (CORBA::is_nil(provider)) return RTC::RTC_OK;  // not connected yet
+    if (CORBA::is_nil(provider)) {
+      if (!strict_) return RTC::RTC_OK;  // not connected yet
+      spdlog::warn("{}: strict, and no provider is connected", instance_name());
+      return RTC::RTC_ERROR;
+    }
+    std::string text;
+    {
+      std::lock_guard lock(text_mutex_);
+      text = text_;
+    }
     try {
-      CORBA::String_var reply = provider->echo(text_.c_str());
-      if (text_ == reply.in()) {
+      CORBA::String_var reply = provider->echo(text.c_str());
+      if (text == reply.in()) {
         ++replies_;
-      } else {
-        ++failures_;
+        return RTC::RTC_OK;
       }
+      ++failures_;
     } catch (const CORBA::Exception& e) {
       if (failures_++ == 0) spdlog::warn("{}: echo failed: {}", instance_name(), rtc::describe(e));
     }
-    return RTC::RTC_OK;
+    return strict_ ? RTC::RTC_ERROR : RTC::RTC_OK;
   }
 
   RTC::ReturnCode_t handle_deactivated(RTC::ExecutionContextHandle_t) override {
@@ -60,7 +80,9 @@ class DiagnosticCallerComponent : public rtc::Component {
   }
 
  private:
-  const std::string text_;
+  std::mutex text_mutex_;
+  std::string text_;  // guarded by text_mutex_ (tools change it from ORB threads)
+  std::atomic<bool> strict_{false};
   rtc::CorbaPort port_;
   rtc::Consumer& consumer_;
   std::atomic<std::uint64_t> replies_{0};

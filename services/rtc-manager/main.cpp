@@ -50,7 +50,9 @@ int main(int argc, char** argv) {
   app.add_option("--space", space, "Name of the space the components belong to")->required();
   app.add_option("--naming", naming, "Naming service HOST:PORT (omniNames)")->capture_default_str();
   app.add_option("--config", config_path, "YAML file listing the components to create")->required();
-  app.add_option("--host", host, "Naming context <host>.host_cxt (default: this machine's host name)");
+  app.add_option("--host,--host-context", host,
+                 "Naming context <host>.host_cxt (env URS_HOST_CONTEXT; default: this machine's host name)")
+      ->envname("URS_HOST_CONTEXT");
   app.add_option("--listen", listen, "HOST:PORT for the components' object references (default: any, ephemeral)");
   app.add_option("--call-timeout-ms", call_timeout_ms, "Bound on every outgoing CORBA call")->capture_default_str();
   app.add_option("--ready-file", ready_file, "Written with the bound naming paths once all components are up");

@@ -1,8 +1,10 @@
 #include "urs/devices/localizer.hpp"
 
 #include <cmath>
+#include <stdexcept>
 
 #include "urs/devices/robot_motion.hpp"
+#include "urs/util/number.hpp"
 #include "urs/world/params.hpp"
 #include "urs/world/sim_loop.hpp"
 #include "urs/world/world.hpp"
@@ -34,6 +36,8 @@ LocalizerConfig parse_localizer_config(const YAML::Node& params) {
 LocalizerAgent::LocalizerAgent(LocalizerConfig config)
     : TypedAgent(*URC::Localization_getPose_Request::descriptor()->file(), "Localization"),
       config_(std::move(config)),
+      noise_xy_(config_.noise_xy),
+      noise_theta_(config_.noise_theta),
       random_(config_.seed != 0 ? config_.seed : std::random_device{}()),
       loop_(std::make_unique<world::SimLoop>()) {
   on<URC::Localization_getPose_Request, URC::Localization_getPose_Reply>(
@@ -81,14 +85,14 @@ void LocalizerAgent::measure() {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     if (!truth_) return;  // no tag in view yet: the robot has not published
-    std::normal_distribution<double> xy(0, config_.noise_xy);
-    std::normal_distribution<double> theta(0, config_.noise_theta);
+    std::normal_distribution<double> xy(0, noise_xy_);
+    std::normal_distribution<double> theta(0, noise_theta_);
     fix.robot = config_.robot;
     fix.x = truth_->x + xy(random_);
     fix.y = truth_->y + xy(random_);
     fix.theta = wrap_angle(truth_->theta + theta(random_));
-    fix.covariance[0] = fix.covariance[4] = config_.noise_xy * config_.noise_xy;
-    fix.covariance[8] = config_.noise_theta * config_.noise_theta;
+    fix.covariance[0] = fix.covariance[4] = noise_xy_ * noise_xy_;
+    fix.covariance[8] = noise_theta_ * noise_theta_;
     fix.stamp = std::chrono::system_clock::now();
 
     pose.set_x(fix.x);
@@ -105,6 +109,27 @@ void LocalizerAgent::measure() {
   world_->publish(world::Channel::localizer, fix);
   // A full event queue drops this pose; the next one follows within 1/rate.
   events_->publish(config_.prefix + "/pose", pose);
+}
+
+// ---- agent::Tunable: the ranges are those of parse_localizer_config ----
+
+std::vector<agent::Tunable::Parameter> LocalizerAgent::tunable_parameters() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return {{"noise_xy", util::format_number(noise_xy_)}, {"noise_theta", util::format_number(noise_theta_)}};
+}
+
+std::string LocalizerAgent::check_parameter(const std::string& name, const std::string& value) const {
+  double ignored = 0;
+  if (name == "noise_xy") return util::read_number(value, 0, 10, ignored);
+  if (name == "noise_theta") return util::read_number(value, 0, 3, ignored);
+  return "the localizer has no tunable parameter '" + name + "'";
+}
+
+void LocalizerAgent::set_parameter(const std::string& name, const std::string& value) {
+  const std::string why = check_parameter(name, value);
+  if (!why.empty()) throw std::invalid_argument(name + ": " + why);
+  std::lock_guard<std::mutex> lock(mutex_);
+  (name == "noise_xy" ? noise_xy_ : noise_theta_) = *util::parse_number(value);
 }
 
 std::shared_ptr<agent::ServiceAgent> make_localizer_agent(const YAML::Node& params) {

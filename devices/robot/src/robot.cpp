@@ -1,9 +1,12 @@
 #include "urs/devices/robot.hpp"
 
 #include <cmath>
+#include <map>
 #include <sstream>
+#include <stdexcept>
 
 #include "Navigation.pb.h"
+#include "urs/util/number.hpp"
 #include "urs/world/params.hpp"
 #include "urs/world/sim_loop.hpp"
 #include "urs/world/world.hpp"
@@ -62,6 +65,8 @@ RobotAgent::RobotAgent(RobotConfig config)
     : TypedAgent(*URC::Navigation_moveTo_Request::descriptor()->file(), "Navigation"),
       config_(std::move(config)),
       cruise_(config_.speed),
+      tolerance_(config_.tolerance),
+      fusion_gain_(config_.fusion_gain),
       state_(URC::NAVIGATION_STATE_IDLE),
       loop_(std::make_unique<world::SimLoop>()) {
   truth_.pose = config_.start;
@@ -167,7 +172,7 @@ void RobotAgent::tick() {
     Velocity command;
     if (target_ && state_ == URC::NAVIGATION_STATE_MOVING) {
       const Pose2& at = estimate_.pose();
-      if (std::hypot(target_->x - at.x, target_->y - at.y) <= config_.tolerance) {
+      if (std::hypot(target_->x - at.x, target_->y - at.y) <= tolerance_) {
         pending.arrived = target_;
         target_.reset();
         set_state(URC::NAVIGATION_STATE_ARRIVED, pending);
@@ -197,7 +202,51 @@ void RobotAgent::tick() {
 
 void RobotAgent::on_fix(const Pose2& fix) {
   std::lock_guard<std::mutex> lock(mutex_);
-  estimate_.correct(fix, config_.fusion_gain);
+  estimate_.correct(fix, fusion_gain_);
+}
+
+// ---- agent::Tunable: the ranges are those of parse_robot_config ----
+
+namespace {
+
+struct Range {
+  double min;
+  double max;
+};
+
+}  // namespace
+
+std::vector<agent::Tunable::Parameter> RobotAgent::tunable_parameters() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return {{"speed", util::format_number(cruise_ * 1000)},
+          {"tolerance", util::format_number(tolerance_)},
+          {"fusion_gain", util::format_number(fusion_gain_)}};
+}
+
+std::string RobotAgent::check_parameter(const std::string& name, const std::string& value) const {
+  const std::map<std::string, Range> ranges = {
+      {"speed", {0, config_.limits.max_speed * 1000}}, {"tolerance", {0.005, 1}}, {"fusion_gain", {0, 1}}};
+  const auto range = ranges.find(name);
+  if (range == ranges.end()) return "the robot has no tunable parameter '" + name + "'";
+  double ignored = 0;
+  return util::read_number(value, range->second.min, range->second.max, ignored);
+}
+
+void RobotAgent::set_parameter(const std::string& name, const std::string& value) {
+  const std::string why = check_parameter(name, value);
+  if (!why.empty()) throw std::invalid_argument(name + ": " + why);
+  const double number = *util::parse_number(value);
+  change([&](Pending& pending) {
+    if (name == "speed") {
+      cruise_ = number / 1000;  // as setSpeed: the state follows
+      if (target_) set_state(driving_state(), pending);
+    } else if (name == "tolerance") {
+      tolerance_ = number;
+    } else {
+      fusion_gain_ = number;
+    }
+    return Outcome::ok();
+  });
 }
 
 Outcome RobotAgent::change(const std::function<Outcome(Pending&)>& fn) {

@@ -162,7 +162,16 @@ Result<camus::DescribeReply> Registry::describe(const camus::DescribeRequest& re
     reply.set_descriptor_set(it->second->descriptor_set());
     return reply;
   }
-  return make_error(planet::BAD_ARGUMENTS, "Describe needs a service or an interface name");
+  if (!request.type().empty()) {
+    for (const auto& [name, schema] : interfaces_) {
+      if (schema->find_message(request.type()) == nullptr) continue;
+      reply.set_interface(name);
+      reply.set_descriptor_set(schema->descriptor_set());
+      return reply;
+    }
+    return make_error(planet::NOT_FOUND, "no registered interface describes the type " + request.type());
+  }
+  return make_error(planet::BAD_ARGUMENTS, "Describe needs a service, an interface or a type name");
 }
 
 std::optional<Route> Registry::route(const std::string& name) const {

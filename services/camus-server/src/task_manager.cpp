@@ -1,5 +1,7 @@
 #include "urs/camus_server/task_manager.hpp"
 
+#include <google/protobuf/dynamic_message.h>
+
 #include <google/protobuf/struct.pb.h>
 #include <google/protobuf/util/json_util.h>
 #include <google/protobuf/util/message_differencer.h>
@@ -576,7 +578,33 @@ TaskManager::StepEnd TaskManager::run_step(const std::shared_ptr<Run>& run, cons
   if (const auto* call = std::get_if<CallStep>(&step.action)) return run_call(run, *call, failure);
   if (const auto* wait = std::get_if<WaitEventStep>(&step.action)) return run_wait_event(run, *wait, failure);
   if (const auto* ctx = std::get_if<WaitContextStep>(&step.action)) return run_wait_context(run, *ctx, failure);
+  if (const auto* publish = std::get_if<PublishStep>(&step.action)) return run_publish(run, *publish, failure);
   return run_sleep(run, std::get<SleepStep>(step.action));
+}
+
+TaskManager::StepEnd TaskManager::run_publish(const std::shared_ptr<Run>&, const PublishStep& step,
+                                              std::string& failure) {
+  // The type as the space knows it now: interfaces come and go with their providers.
+  auto schema = schemas_.schema_with_message(step.type);
+  const gp::Descriptor* type = schema ? schema->find_message(step.type) : nullptr;
+  if (type == nullptr) {
+    failure = status_text(planet::NOT_FOUND) + ": no registered interface describes the type " + step.type;
+    return StepEnd::Failed;
+  }
+  auto encoded = schema->json_to_payload(*type, step.payload_json);
+  if (!encoded.ok()) {
+    failure = status_text(encoded.status()) + ": payload " + step.payload_json + " does not fit: " + encoded.message();
+    return StepEnd::Failed;
+  }
+  gp::DynamicMessageFactory factory;
+  std::unique_ptr<gp::Message> event(factory.GetPrototype(type)->New());
+  event->ParseFromString(encoded.value());
+  const planet::CallResult published = sink_.publish(step.topic, *event);
+  if (!published.ok()) {
+    failure = status_text(published.status) + ": " + published.message;
+    return StepEnd::Failed;
+  }
+  return StepEnd::Next;
 }
 
 TaskManager::StepEnd TaskManager::run_call(const std::shared_ptr<Run>& run, const CallStep& step,

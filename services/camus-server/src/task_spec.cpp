@@ -203,20 +203,25 @@ bool to_value(const YAML::Node& node, const std::string& path, gp::Value& out, P
   return true;
 }
 
+// An optional map under `key` as JSON text into `out` (left as it is when absent or null).
+void read_json_map(const YAML::Node& body, const std::string& key, const std::string& path, const std::string& what,
+                   std::string& out, Problems& problems) {
+  const YAML::Node node = body[key];
+  if (!node.IsDefined() || node.IsNull()) return;
+  if (node.IsMap()) {
+    out = to_json(node);
+  } else {
+    problems.add(path + "." + key, node, "expected a map of " + what + ", got " + quoted(node));
+  }
+}
+
 void parse_call(const YAML::Node& body, const std::string& path, TaskStep& step, Problems& problems) {
   CallStep call;
   if (!is_map(body, path, problems)) return;
   check_keys(body, path, {"service", "operation", "args", "deadline_ms"}, problems);
   read_string(body, "service", path, true, call.service, problems);
   read_string(body, "operation", path, true, call.operation, problems);
-  YAML::Node args = body["args"];
-  if (args.IsDefined() && !args.IsNull()) {
-    if (args.IsMap()) {
-      call.args_json = to_json(args);
-    } else {
-      problems.add(path + ".args", args, "expected a map of request fields, got " + quoted(args));
-    }
-  }
+  read_json_map(body, "args", path, "request fields", call.args_json, problems);
   read_uint(body, "deadline_ms", path, false, 1, kMaxMs, "a number of milliseconds", call.deadline_ms, problems);
   step.action = std::move(call);
 }
@@ -289,6 +294,20 @@ void parse_sleep(const YAML::Node& body, const std::string& path, TaskStep& step
   step.action = sleep;
 }
 
+void parse_publish(const YAML::Node& body, const std::string& path, TaskStep& step, Problems& problems) {
+  PublishStep publish;
+  if (!is_map(body, path, problems)) return;
+  check_keys(body, path, {"topic", "type", "payload"}, problems);
+  if (read_string(body, "topic", path, true, publish.topic, problems)) {
+    if (auto why = topic_problem(publish.topic); !why.empty()) {
+      problems.add(path + ".topic", body["topic"], "topic '" + publish.topic + "' is not valid: " + why);
+    }
+  }
+  read_string(body, "type", path, true, publish.type, problems);
+  read_json_map(body, "payload", path, "the event's fields", publish.payload_json, problems);
+  step.action = std::move(publish);
+}
+
 }  // namespace
 
 std::string TaskStep::summary() const {
@@ -297,6 +316,7 @@ std::string TaskStep::summary() const {
     std::string operator()(const WaitEventStep& s) const { return "wait_event " + s.pattern.text(); }
     std::string operator()(const WaitContextStep& s) const { return "wait_context " + s.key; }
     std::string operator()(const SleepStep& s) const { return "sleep " + std::to_string(s.ms) + " ms"; }
+    std::string operator()(const PublishStep& s) const { return "publish " + s.topic + " (" + s.type + ")"; }
   };
   return std::visit(Visitor{}, action);
 }
@@ -370,7 +390,7 @@ Result<TaskSpec> parse_task(const std::string& yaml, const std::string& default_
       TaskStep step;
       step.line = item.Mark().line + 1;
       if (!item.IsMap() || item.size() != 1) {
-        problems.add(path, item, "a step is a map with exactly one of call, wait_event, wait_context, sleep");
+        problems.add(path, item, "a step is a map with exactly one of call, wait_event, wait_context, sleep, publish");
         continue;
       }
       auto action = item.begin();
@@ -384,8 +404,11 @@ Result<TaskSpec> parse_task(const std::string& yaml, const std::string& default_
         parse_wait_context(body, path + ".wait_context", step, problems);
       } else if (kind == "sleep") {
         parse_sleep(body, path + ".sleep", step, problems);
+      } else if (kind == "publish") {
+        parse_publish(body, path + ".publish", step, problems);
       } else {
-        problems.add(path, item, "unknown step '" + kind + "' (expected call, wait_event, wait_context or sleep)");
+        problems.add(path, item,
+                     "unknown step '" + kind + "' (expected call, wait_event, wait_context, sleep or publish)");
         continue;
       }
       spec.steps.push_back(std::move(step));

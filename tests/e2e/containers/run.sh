@@ -6,8 +6,9 @@
 #       "go forward" is recognised as "go forward" by the voice agent;
 #   jp: `urs rtc ls -l` shows robot, localizer, camera and diagnostic RTCs, and `urs rtc act` of a
 #       component in another container works (object references carry a reachable address);
-#   scaling: --scale sam-host=2 rtc-manager=2 gives two distinct diag services and two naming
-#       contexts, nothing overwritten;
+#   scaling: --scale sam-host=2 rtc-manager=2 gives two distinct diag services, and the two
+#       managers' components side by side in rtc-manager.host_cxt (Diagnostic0, Diagnostic1),
+#       nothing overwritten;
 #   restarts: a recreated naming service keeps its bindings; after the CAMUS server restarts both
 #       SAMs and the bridge re-register.
 #   between the spaces (only DDS crosses the `link` network): jp's RT providers are CAMUS services
@@ -250,11 +251,12 @@ for d in $(awk '{print $1}' <<<"$diags"); do
 done
 out=$(jp rtc ls) || fail "urs rtc ls: $(cat "$tmp/cli.err")"
 echo "$out"
-contexts=$(awk '/^[^ ].*\.host_cxt\/$/' <<<"$out" | wc -l)
-diag_rtcs=$(grep -c "Diagnostic0.rtc" <<<"$out")
-[[ $contexts -eq 4 && $diag_rtcs -eq 2 ]] || fail "expected 4 host contexts (robot, 2 managers, bridge-jp) and 2 Diagnostic0.rtc, got $contexts and $diag_rtcs"
+contexts=$(awk '/^[^ ].*\.host_cxt\/$/' <<<"$out" | tr '\n' ' ')
+diag_rtcs=$(awk '/^[^ ]/{c=$1} c == "rtc-manager.host_cxt/" && /^  Diagnostic[01]\.rtc/' <<<"$out" | wc -l)
+[[ $contexts == "bridge-jp.host_cxt/ rtc-manager.host_cxt/ rtc-robot.host_cxt/ " && $diag_rtcs -eq 2 ]] \
+  || fail "expected the contexts bridge-jp, rtc-manager and rtc-robot, and Diagnostic0 and Diagnostic1 in rtc-manager, got $contexts and $diag_rtcs"
 grep -q unreachable <<<"$out" && fail "a binding is unreachable"
-cameras() { kr ls 'jp/Camera0.*' | awk '$1 ~ /^jp\/Camera0\.imagerecognition@/ && $4 == "available"' | wc -l; }
+cameras() { kr ls 'jp/Camera*' | awk '$1 ~ /^jp\/Camera[01]\.imagerecognition@rtc-manager$/ && $4 == "available"' | wc -l; }
 two_cameras() { [[ $(cameras) -eq 2 ]]; }
 eventually 30 two_cameras || fail "scaled jp managers: expected 2 cameras in kr, got: $(kr ls 'jp/*')"
 
@@ -265,7 +267,7 @@ dc up -d --force-recreate --no-deps rtc-naming >"$tmp/up.log" 2>&1 || { cat "$tm
 wait_healthy 60
 out=$(jp rtc ls) || fail "urs rtc ls: $(cat "$tmp/cli.err")"
 echo "$out"
-[[ $(grep -c "Diagnostic0.rtc" <<<"$out") -eq 2 && $(grep -c "Robot0.rtc *Active" <<<"$out") -eq 1 ]] \
+[[ $(grep -cE "Diagnostic[01].rtc" <<<"$out") -eq 2 && $(grep -c "Robot0.rtc *Active" <<<"$out") -eq 1 ]] \
   || fail "bindings lost after the naming service was recreated"
 grep -q unreachable <<<"$out" && fail "a binding is unreachable after the naming service was recreated"
 say "naming service back with its bindings in $((SECONDS - t)) s"

@@ -200,7 +200,7 @@ TEST_F(Lifecycle, SdoOperationsAnswerWithoutCrashing) {
   EXPECT_TRUE(configuration->activate_configuration_set("default"));
   EXPECT_THROW(configuration->activate_configuration_set("other"), SDOPackage::InvalidParameter);
   EXPECT_THROW(configuration->get_configuration_set("other"), SDOPackage::NotAvailable);
-  EXPECT_FALSE(configuration->add_configuration_set(active.in()));  // read-only from outside
+  EXPECT_THROW(configuration->add_configuration_set(active.in()), SDOPackage::InvalidParameter);  // exists
   ASSERT_EQ(active->configuration_data.length(), 1u);
   CORBA::Any_var gain = configuration->get_configuration_parameter_value("gain");
   const char* text = nullptr;

@@ -17,6 +17,7 @@
 
 #include "naming_service.hpp"
 #include "process.hpp"
+#include "rt_space.hpp"
 
 namespace urs::test {
 namespace {
@@ -235,7 +236,12 @@ TEST_F(RtcCliTest, DataPortsConnectWithTheDefaultPropertiesAndDisAllRemovesThem)
   ASSERT_EQ(r.exit_code, 0) << r.err;
   r = urs({"con", path("Counter0") + ":count", path("Sink0") + ":pose"});
   EXPECT_EQ(r.exit_code, 1) << "a TimedLong out port connected to a TimedPose2D in port";
-  EXPECT_THAT(r.err, ContainsRegex(": [A-Z_]+\n$"));
+  EXPECT_THAT(r.err, HasSubstr(": Counter0.count carries IDL:RTC/TimedLong:1.0 but Sink0.pose carries "
+                               "IDL:RTC/TimedPose2D:1.0 (--force connects them anyway)\n"));
+  // Forced, the call is made, and the in port itself refuses the data type.
+  r = urs({"con", path("Counter0") + ":count", path("Sink0") + ":pose", "--force"});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, HasSubstr(": BAD_PARAMETER\n"));
 
   r = urs({"cat", path("Sink0") + ":count"});
   ASSERT_EQ(r.exit_code, 0) << r.err;
@@ -250,6 +256,134 @@ TEST_F(RtcCliTest, DataPortsConnectWithTheDefaultPropertiesAndDisAllRemovesThem)
     r = urs({"cat", port});
     EXPECT_THAT(r.out, HasSubstr("  0 connections\n"));
   }
+}
+
+TEST_F(RtcCliTest, ConRefusesPortsThatCannotWorkTogetherUnlessForced) {
+  auto other = start_manager("otherhost", {"DiagnosticCaller"});
+  const std::string caller = path("DiagnosticCaller0") + ":diagnostic";
+  const std::string second_caller = "otherhost.host_cxt/DiagnosticCaller0.rtc:diagnostic";
+  CommandResult r = urs({"con", caller, second_caller});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.err, "urs: rtc con: DiagnosticCaller0.diagnostic requires URS::Diagnostic but "
+                   "DiagnosticCaller0.diagnostic provides nothing (--force connects them anyway)\n");
+  r = urs({"con", caller, path("Counter0") + ":count"});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, HasSubstr("DiagnosticCaller0.diagnostic is a CorbaPort and Counter0.count a DataOutPort"));
+  r = urs({"con", path("Counter0") + ":count", path("Counter0") + ":pose"});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, HasSubstr("are both DataOutPorts"));
+  for (const std::string& port : {caller, path("Counter0") + ":count"}) {
+    r = urs({"cat", port});
+    EXPECT_THAT(r.out, HasSubstr("  0 connections\n")) << "a refused connection leaves nothing behind";
+  }
+  // --force connects what the ports themselves accept.
+  r = urs({"con", caller, second_caller, "--force"});
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  r = urs({"cat", caller});
+  EXPECT_THAT(r.out, HasSubstr("  1 connection:\n"));
+  other->signal(SIGTERM);
+  other->wait(5s);
+}
+
+TEST_F(RtcCliTest, ConfListsGetsSetsAndActivatesConfigurationSets) {
+  CommandResult r = urs({"conf", "ls", path("Counter0")});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.out, "default (active)  the component's parameters\n  start=0\n  radius=1\n  period=10\n");
+  r = urs({"conf", "set", path("Counter0"), "radius", "2.5"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.out, "");
+  r = urs({"conf", "get", path("Counter0"), "radius"});
+  EXPECT_EQ(r.out, "2.5\n");
+  EXPECT_THAT(manager_->log(), HasSubstr("Counter0: configuration parameter radius = 2.5"));
+
+  r = urs({"conf", "set", path("Counter0"), "radius", "wide"});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.err, "urs: rtc conf set: " + path("Counter0") + ": radius: 'wide' is not a number (set default unchanged)\n");
+  r = urs({"conf", "set", path("Counter0"), "start", "5"});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, HasSubstr("start is read-only (its value stays '0')"));
+  r = urs({"conf", "get", path("Counter0"), "gain"});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, HasSubstr("configuration set default has no parameter 'gain' (parameters: start, radius, period)"));
+  r = urs({"conf", "set", path("Counter0"), "radius", "3", "--set", "fast"});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, HasSubstr("no configuration set fast"));
+  r = urs({"conf", "act", path("Counter0"), "fast"});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, HasSubstr("no configuration set 'fast'"));
+  r = urs({"conf", "act", path("Counter0"), "default"});
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+
+  // A component's behaviour follows: a strict caller with no provider goes to Error when run.
+  r = urs({"conf", "set", path("DiagnosticCaller0"), "strict", "true"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  r = urs({"act", path("DiagnosticCaller0")});
+  EXPECT_TRUE(wait_until([&] { return state("DiagnosticCaller0") == "Error"; }, 5s));
+  r = urs({"conf", "set", path("DiagnosticCaller0"), "strict", "maybe"});
+  EXPECT_THAT(r.err, HasSubstr("strict: 'maybe' is not true or false"));
+}
+
+TEST_F(RtcCliTest, LsLongShowsAComponentWhosePeerIsPausedAsAlive) {
+  // A component's port asks its peers whether they still exist when its profile is read; a peer
+  // that does not answer (paused) must not make the component itself look unreachable.
+  auto paused = start_manager("pausedhost", {"Sink"});
+  CommandResult r = urs({"con", path("Counter0") + ":count", "pausedhost.host_cxt/Sink0.rtc:count"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  paused->signal(SIGSTOP);
+  r = urs({"ls", "-l", "testhost.host_cxt"});
+  const CommandResult cat = urs({"cat", path("Counter0") + ":count"});
+  paused->signal(SIGCONT);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, ContainsRegex("^Counter0\\.rtc +Inactive\n    count +DataOutPort [^\n]* 1 connection\n"));
+  EXPECT_THAT(r.out, Not(HasSubstr("unreachable")));
+  EXPECT_EQ(cat.exit_code, 0) << cat.err;
+  EXPECT_THAT(cat.out, HasSubstr("  1 connection:\n"));  // slowness is not death: the connection stays
+  paused->signal(SIGTERM);
+  paused->wait(5s);
+}
+
+// A port that cannot give its profile, as an OpenRTM-aist port does when the check of a dead
+// peer fails inside it: the system exception of its own call reaches its caller.
+class BrokenPort : public rtc::CorbaPort {
+ public:
+  BrokenPort() : CorbaPort("broken") {}
+  RTC::PortProfile* get_port_profile() override { throw CORBA::TRANSIENT(0, CORBA::COMPLETED_NO); }
+};
+
+class ForeignComponent : public rtc::Component {
+ public:
+  ForeignComponent() : Component({"Foreign", "a component one of whose ports fails", "1.0", "Other", "Test"}) {}
+
+ protected:
+  RTC::ReturnCode_t handle_initialize() override {
+    add_port(port_);
+    return RTC::RTC_OK;
+  }
+
+ private:
+  BrokenPort port_;
+};
+
+TEST_F(RtcCliTest, AComponentWhosePortFailsIsShownAliveWithThePortsError) {
+  ForeignComponent foreign;
+  foreign.setup(test_orb(), "Foreign0", 10);
+  ASSERT_EQ(foreign.initialize(), RTC::RTC_OK);
+  rtc::NamingClient naming(test_orb(), naming_->address());
+  RTC::RTObject_var reference = foreign.reference();
+  naming.bind("foreignhost.host_cxt/Foreign0.rtc", reference);
+
+  CommandResult r = urs({"ls", "-l", "foreignhost.host_cxt"});
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.out, "Foreign0.rtc  Inactive\n    port 0  -  no profile: reported an error (TRANSIENT)\n");
+  r = urs({"ls", "foreignhost.host_cxt"});
+  EXPECT_EQ(r.out, "Foreign0.rtc  Inactive\n");
+  // The profile holds the ports' profiles: the component answers, with an error.
+  r = urs({"cat", "foreignhost.host_cxt/Foreign0.rtc"});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.err, "urs: rtc cat: foreignhost.host_cxt/Foreign0.rtc: reported an error (TRANSIENT)\n");
+
+  naming.unbind("foreignhost.host_cxt/Foreign0.rtc");
+  foreign.exit();
 }
 
 TEST_F(RtcCliTest, StaleBindingIsShownUnreachableWithoutFailingTheListing) {
@@ -344,6 +478,29 @@ TEST_F(RtcCliTest, UnreachableNamingServiceExitsWithThreeAndOneLine) {
     EXPECT_EQ(r.exit_code, 3) << r.err;
     EXPECT_THAT(r.err, HasSubstr("naming service " + nowhere + " unreachable"));
     EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  }
+}
+
+TEST_F(RtcCliTest, TheManagersNamingContextComesFromTheEnvironment) {
+  // As compose names each service's context for people instead of by container id; replicas of
+  // one service share the context and still get names of their own.
+  std::vector<std::unique_ptr<Process>> replicas;
+  for (const std::string replica : {"a", "b"}) {
+    const std::string ready = dir_ + "/" + replica + ".ready";
+    replicas.push_back(std::make_unique<Process>(
+        std::vector<std::string>{"/usr/bin/env", "URS_HOST_CONTEXT=jp-devices", URS_RTC_MANAGER_BIN, "--space", "lab",
+                                 "--naming", naming_->address(), "--config", dir_ + "/testhost.yaml", "--ready-file",
+                                 ready},
+        dir_ + "/" + replica + ".log"));
+    ASSERT_TRUE(wait_until([&] { return std::filesystem::exists(ready) || !replicas.back()->running(); }, 20s))
+        << replicas.back()->log();
+  }
+  const CommandResult r = urs({"ls", "jp-devices.host_cxt"});
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, ContainsRegex("^Counter0\\.rtc +Inactive\nCounter1\\.rtc +Inactive\n"));
+  for (auto& replica : replicas) {
+    replica->signal(SIGTERM);
+    replica->wait(5s);
   }
 }
 

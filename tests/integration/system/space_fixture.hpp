@@ -72,6 +72,14 @@ class SpaceTest : public ::testing::Test {
         timeout);
   }
 
+  // `urs watch PATTERN`, exiting after `count` events (0: no limit) or `for_ms`; its output in watch.log.
+  std::unique_ptr<Process> watch(const std::string& pattern, int count, int for_ms) {
+    return std::make_unique<Process>(std::vector<std::string>{URS_CLI_BIN, "--server", server_address(), "--token-file",
+                                                              dir_ + "/token", "watch", pattern, "--count",
+                                                              std::to_string(count), "--for-ms", std::to_string(for_ms)},
+                                     dir_ + "/watch.log");
+  }
+
   static void write(const std::string& path, const std::string& text) { std::ofstream(path) << text; }
 
   std::string dir_;

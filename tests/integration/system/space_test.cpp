@@ -12,6 +12,7 @@ namespace urs::test {
 namespace {
 
 using ::testing::HasSubstr;
+using ::testing::Not;
 using namespace std::chrono_literals;
 
 TEST_F(SpaceTest, CallThroughServerAndSamReturnsTheAgentsReply) {
@@ -75,9 +76,8 @@ TEST_F(SpaceTest, WrongTokenIsRefusedWithTheReason) {
 }
 
 TEST_F(SpaceTest, EventsPublishedByAnAgentReachAWatcher) {
-  Process watcher({URS_CLI_BIN, "--server", server_address(), "--token-file", dir_ + "/token", "watch",
-                   "lab/#", "--count", "1", "--for-ms", "10000"},
-                  dir_ + "/watch.log");
+  auto watcher_process = watch("lab/#", 1, 10000);
+  Process& watcher = *watcher_process;
   // The watch subscription is in place once a probe event reaches it; publish until one does.
   ASSERT_TRUE(wait_until(
       [&] {
@@ -88,6 +88,88 @@ TEST_F(SpaceTest, EventsPublishedByAnAgentReachAWatcher) {
   EXPECT_EQ(watcher.wait(1s), 0);
   EXPECT_THAT(watcher.log(), HasSubstr("\"topic\":\"lab/door\""));
   EXPECT_THAT(watcher.log(), HasSubstr("\"text\":\"opened\""));
+}
+
+TEST_F(SpaceTest, DescribeShowsEachOperationAsIdlDeclaresIt) {
+  const auto r = urs({"describe", "diag"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.out,
+            "diag implements URS.Diagnostic (IDL:URS/Diagnostic:1.0)\n"
+            "  string echo(in string text);\n"
+            "  double add(in double a, in double b);\n"
+            "  void sleep(in unsigned long ms);\n"
+            "  sequence<octet> blob(in unsigned long size);\n"
+            "  unsigned long long checksum(in sequence<octet> data);\n"
+            "  void fail(in string reason, in long code) raises (URS::Failure);\n"
+            "  oneway void notify(in string topic, in string text);\n");
+}
+
+TEST_F(SpaceTest, PubSendsTypedEventsAndWatchDecodesEveryTypeTheSpaceKnows) {
+  auto watcher_process = watch("lab/#", 0, 30000);  // until stopped: probes may be several
+  Process& watcher = *watcher_process;
+  // The watch subscription is in place once a probe event reaches it.
+  ASSERT_TRUE(wait_until(
+      [&] {
+        urs({"pub", "lab/probe", R"({"reason":"jammed","code":3})", "--type", "URS.Failure"});
+        return watcher.log().find("lab/probe") != std::string::npos;
+      },
+      10s));
+  EXPECT_THAT(watcher.log(), HasSubstr(R"("content_type":"URS.Failure","payload":{"reason":"jammed","code":3})"));
+
+  // A type that only a service registered after the watcher started describes: a TTS agent's.
+  write(dir_ + "/tts.yaml", "agents:\n  - name: tts\n    type: tts\n");
+  Process tts({URS_SAM_BIN, "--space", "lab", "--server", server_address(), "--config", dir_ + "/tts.yaml",
+               "--token-file", dir_ + "/token"},
+              dir_ + "/tts.log");
+  ASSERT_TRUE(wait_for_service("tts")) << tts.log();
+  auto r = urs({"pub", "lab/voice", R"({"name":"en","language":"en-GB"})", "--type", "URC.Voice"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  // Untyped JSON travels as application/json.
+  r = urs({"pub", "lab/raw", R"({"on":true})"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_TRUE(wait_until([&] { return watcher.log().find("lab/raw") != std::string::npos; }, 10s)) << watcher.log();
+  EXPECT_THAT(watcher.log(), HasSubstr(R"("content_type":"URC.Voice","payload":{"name":"en","language":"en-GB")"));
+  EXPECT_THAT(watcher.log(), HasSubstr(R"("content_type":"application/json","payload":{"on":true})"));
+  EXPECT_THAT(watcher.log(), Not(HasSubstr("base64")));
+
+  r = urs({"pub", "lab/x", "{}", "--type", "URC.NoSuchType"});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, HasSubstr("the space knows no message type URC.NoSuchType"));
+  r = urs({"pub", "lab/x", R"({"code":"many"})", "--type", "URS.Failure"});
+  EXPECT_EQ(r.exit_code, 2);
+  r = urs({"pub", "lab/*", "{}"});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, HasSubstr("BAD_ARGUMENTS"));
+}
+
+TEST_F(SpaceTest, TaskPublishStepSendsATypedEvent) {
+  auto watcher_process = watch("door/#", 1, 20000);
+  Process& watcher = *watcher_process;
+  write(dir_ + "/task.yaml",
+        "name: announce\n"
+        "steps:\n"
+        "  - publish: {topic: door/front, type: URS.Failure, payload: {reason: open, code: 1}}\n");
+  // Until the watcher's subscription is in place, runs publish into the void; run until one lands.
+  ASSERT_TRUE(wait_until(
+      [&] {
+        auto r = urs({"task", "run", "--file", dir_ + "/task.yaml", "--wait"});
+        EXPECT_THAT(r.out, HasSubstr("succeeded")) << r.err;
+        return !watcher.running();
+      },
+      10s));
+  EXPECT_THAT(watcher.log(), HasSubstr(R"("content_type":"URS.Failure","payload":{"reason":"open","code":1})"));
+  EXPECT_THAT(watcher.log(), HasSubstr(R"("source":"camus-server")"));
+
+  write(dir_ + "/bad.yaml",
+        "name: bad\nsteps:\n  - publish: {topic: door/front, type: URS.Nothing}\n");
+  auto r = urs({"task", "run", "--file", dir_ + "/bad.yaml", "--wait"});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.out, HasSubstr("no registered interface describes the type URS.Nothing"));
+  write(dir_ + "/worse.yaml", "name: worse\nsteps:\n  - publish: {topic: \"door/*\"}\n");
+  r = urs({"task", "run", "--file", dir_ + "/worse.yaml"});
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_THAT(r.err, HasSubstr("steps[0].publish.topic"));
+  EXPECT_THAT(r.err, HasSubstr("missing 'type'"));
 }
 
 TEST_F(SpaceTest, ContextSetGetAndTaskRun) {

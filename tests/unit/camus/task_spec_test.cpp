@@ -47,6 +47,7 @@ steps:
   - wait_context: {key: door/open, equals: yes}
   - wait_context: {key: door/open, exists: false, timeout_ms: 10}
   - sleep: {ms: 250}
+  - publish: {topic: kr/door, type: URS.Failure, payload: {reason: open, code: 2}}
 )",
                          "");
   ASSERT_TRUE(spec.ok()) << spec.message();
@@ -68,6 +69,11 @@ steps:
   EXPECT_FALSE(absent.exists);
   EXPECT_EQ(std::get<SleepStep>(spec->steps[4].action).ms, 250u);
   EXPECT_EQ(spec->steps[4].line, 11);
+  const auto& publish = std::get<PublishStep>(spec->steps[5].action);
+  EXPECT_EQ(publish.topic, "kr/door");
+  EXPECT_EQ(publish.type, "URS.Failure");
+  EXPECT_EQ(publish.payload_json, R"({"reason":"open","code":2})");
+  EXPECT_EQ(spec->steps[5].summary(), "publish kr/door (URS.Failure)");
 }
 
 TEST(TaskSpec, NameComesFromTheCallerWhenAbsent) {
@@ -110,10 +116,15 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"steps:\n  - call: {service: s, operation: o, args: [1, 2]}\n",
                 "task 't': steps[0].call.args (line 2): expected a map of request fields, got a list"},
         BadCase{"steps:\n  - sleep: {ms: 1}\n  - fly: {to: moon}\n",
-                "task 't': steps[1] (line 3): unknown step 'fly' (expected call, wait_event, wait_context or sleep)"},
+                "task 't': steps[1] (line 3): unknown step 'fly' (expected call, wait_event, wait_context, sleep or "
+                "publish)"},
+        BadCase{"steps:\n  - publish: {topic: \"a/*\", payload: [1]}\n",
+                "task 't': steps[0].publish.topic (line 2): topic 'a/*' is not valid: level 2 ('*') holds a wildcard; "
+                "steps[0].publish (line 2): missing 'type'; steps[0].publish.payload (line 2): expected a map of the "
+                "event's fields, got a list"},
         BadCase{"steps:\n  - {sleep: {ms: 1}, call: {service: s, operation: o}}\n",
                 "task 't': steps[0] (line 2): a step is a map with exactly one of call, wait_event, wait_context, "
-                "sleep"},
+                "sleep, publish"},
         BadCase{"steps:\n  - wait_event: {pattern: \"a/#/b\"}\n",
                 "task 't': steps[0].wait_event.pattern (line 2): invalid pattern 'a/#/b': '#' is only allowed as the "
                 "last level"},

@@ -5,8 +5,10 @@
 
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <regex>
 
+#include "urs/rtc/configuration.hpp"
 #include "urs/rtc/manager.hpp"
 #include "urs/rtc/naming.hpp"
 #include "urs/rtc/nvlist.hpp"
@@ -107,6 +109,148 @@ TEST_F(RtcUnit, ConnectorPropertiesFillDataPortDefaultsFromTheOutPort) {
   EXPECT_EQ(nv_string(props, "dataport.subscription_type"), "new");
   EXPECT_EQ(nv_string(props, "dataport.serializer.cdr.endian"), "little");
   EXPECT_EQ(nv_string(props, "dataport.data_type"), "IDL:RTC/TimedLong:1.0");
+}
+
+TEST_F(RtcUnit, TypeNamesMatchAcrossScopedNamesRepositoryIdsAndBareNames) {
+  EXPECT_TRUE(same_type_name("URC::Navigation", "IDL:URC/Navigation:1.0"));
+  EXPECT_TRUE(same_type_name("Navigation", "URC::Navigation"));
+  EXPECT_TRUE(same_type_name("TimedLong", "IDL:RTC/TimedLong:1.0"));
+  EXPECT_FALSE(same_type_name("SimpleService::MyService", "URS::Diagnostic"));
+  EXPECT_FALSE(same_type_name("IDL:RTC/TimedLong:1.0", "IDL:RTC/TimedPose2D:1.0"));
+  EXPECT_FALSE(same_type_name("A::Navigation", "B::Navigation"));
+}
+
+TEST_F(RtcUnit, ConnectionMismatchNamesBothSides) {
+  const auto my_service = port_profile("MyServiceConsumer0.MyService", "CorbaPort",
+                                       {{"myservice0", "SimpleService::MyService", RTC::REQUIRED}});
+  const auto diagnostic = port_profile("Diagnostic0.diagnostic", "CorbaPort",
+                                       {{"diagnostic", "URS::Diagnostic", RTC::PROVIDED}});
+  EXPECT_EQ(connection_mismatch(my_service, diagnostic),
+            "MyServiceConsumer0.MyService requires SimpleService::MyService but Diagnostic0.diagnostic provides "
+            "URS::Diagnostic");
+  EXPECT_EQ(connection_mismatch(diagnostic, my_service), connection_mismatch(my_service, diagnostic));
+  const auto caller = port_profile("Caller0.diagnostic", "CorbaPort", {{"mine", "URS::Diagnostic", RTC::REQUIRED}});
+  EXPECT_EQ(connection_mismatch(caller, diagnostic), "");
+  EXPECT_EQ(connection_mismatch(diagnostic, caller), "");
+  EXPECT_NE(connection_mismatch(diagnostic, diagnostic).find("neither"), std::string::npos);
+  // A port without interfaces (the bridge's generic `providers`) is compatible with any.
+  EXPECT_EQ(connection_mismatch(port_profile("Bridge0.providers", "CorbaPort", {}), diagnostic), "");
+
+  const auto count = port_profile("Counter0.count", "DataOutPort", {}, "IDL:RTC/TimedLong:1.0");
+  const auto pose_in = port_profile("Sink0.pose", "DataInPort", {}, "IDL:RTC/TimedPose2D:1.0");
+  const auto count_in = port_profile("ConsoleOut0.in", "DataInPort", {}, "TimedLong");  // OpenRTM-aist 1.x style
+  EXPECT_EQ(connection_mismatch(count, pose_in),
+            "Counter0.count carries IDL:RTC/TimedLong:1.0 but Sink0.pose carries IDL:RTC/TimedPose2D:1.0");
+  EXPECT_EQ(connection_mismatch(count, count_in), "");
+  EXPECT_NE(connection_mismatch(count, count).find("are both DataOutPorts"), std::string::npos);
+  EXPECT_NE(connection_mismatch(count, diagnostic).find("a data port connects to a data port"), std::string::npos);
+  // Ports of an unknown kind: nothing can be said.
+  EXPECT_EQ(connection_mismatch(port_profile("X0.x", "Other", {}), diagnostic), "");
+}
+
+// The configuration sets as tools drive them, called on the servant directly.
+class ConfigurationUnit : public RtcUnit {
+ protected:
+  void SetUp() override {
+    RtcUnit::SetUp();
+    config_.declare({"radius", "1", number_between(0, 10), [this](const std::string& v) { applied_.push_back("radius=" + v); }});
+    config_.declare({"label", "a", {}, [this](const std::string& v) { applied_.push_back("label=" + v); }});
+    config_.declare({"start", "0", {}, {}});  // read-only
+  }
+
+  static SDOPackage::ConfigurationSet set(const std::string& id,
+                                          const std::vector<std::pair<std::string, std::string>>& values) {
+    SDOPackage::ConfigurationSet out;
+    out.id = CORBA::string_dup(id.c_str());
+    out.description = CORBA::string_dup("");
+    out.configuration_data = nv_from(values);
+    return out;
+  }
+
+  std::string value(const std::string& set_id, const std::string& name) {
+    SDOPackage::ConfigurationSet_var found = config_.get_configuration_set(set_id.c_str());
+    return nv_string(found->configuration_data, name).value_or("<absent>");
+  }
+
+  static std::string refusal(const std::function<void()>& call) {
+    try {
+      call();
+    } catch (const SDOPackage::InvalidParameter& e) {
+      return e.description.in();
+    }
+    return "<accepted>";
+  }
+
+  ComponentConfiguration config_;
+  std::vector<std::string> applied_;
+};
+
+TEST_F(ConfigurationUnit, ChangingTheActiveSetTellsTheComponentAtOnce) {
+  EXPECT_TRUE(config_.set_configuration_set_values(set("default", {{"radius", "2.5"}})));
+  EXPECT_EQ(applied_, (std::vector<std::string>{"radius=2.5"}));
+  EXPECT_EQ(value("default", "radius"), "2.5");
+  EXPECT_EQ(value("default", "label"), "a");  // the others are kept
+  EXPECT_EQ(config_.active_value("radius"), "2.5");
+  // The whole set sent back unchanged (as rtctree does) applies nothing more.
+  EXPECT_TRUE(config_.set_configuration_set_values(set("default", {{"radius", "2.5"}, {"label", "a"}, {"start", "0"}})));
+  EXPECT_TRUE(config_.activate_configuration_set("default"));
+  EXPECT_EQ(applied_.size(), 1u);
+  // Numbers and booleans in Anys are kept as text.
+  SDOPackage::NVList change;
+  change.length(1);
+  change[0].name = CORBA::string_dup("radius");
+  change[0].value <<= CORBA::Double(3);
+  EXPECT_TRUE(config_.set_configuration_parameter("radius", change[0].value));
+  EXPECT_EQ(value("default", "radius"), "3");
+  EXPECT_EQ(applied_.back(), "radius=3");
+}
+
+TEST_F(ConfigurationUnit, SetsAreAddedActivatedAndRemoved) {
+  EXPECT_TRUE(config_.add_configuration_set(set("fast", {{"radius", "9"}})));
+  EXPECT_EQ(value("fast", "radius"), "9");
+  EXPECT_EQ(value("fast", "label"), "a");  // a new set starts from the default values
+  EXPECT_TRUE(applied_.empty());           // not active: nothing takes effect
+  EXPECT_TRUE(config_.set_configuration_set_values(set("fast", {{"label", "b"}})));
+  EXPECT_TRUE(applied_.empty());
+  EXPECT_TRUE(config_.activate_configuration_set("fast"));
+  EXPECT_EQ(applied_, (std::vector<std::string>{"radius=9", "label=b"}));
+  SDOPackage::ConfigurationSet_var active = config_.get_active_configuration_set();
+  EXPECT_STREQ(active->id.in(), "fast");
+  EXPECT_EQ(refusal([&] { config_.remove_configuration_set("fast"); }),
+            "configuration set 'fast' is active (activate another one first)");
+  EXPECT_TRUE(config_.activate_configuration_set("default"));
+  EXPECT_EQ(applied_.back(), "label=a");
+  EXPECT_TRUE(config_.remove_configuration_set("fast"));
+  SDOPackage::ConfigurationSetList_var sets = config_.get_configuration_sets();
+  EXPECT_EQ(sets->length(), 1u);
+  EXPECT_THROW(config_.get_configuration_set("fast"), SDOPackage::NotAvailable);
+}
+
+TEST_F(ConfigurationUnit, RefusalsSayWhatAndWhyAndChangeNothing) {
+  EXPECT_EQ(refusal([&] { config_.set_configuration_set_values(set("default", {{"label", "b"}, {"radius", "wide"}})); }),
+            "radius: 'wide' is not a number (set default unchanged)");
+  EXPECT_EQ(value("default", "label"), "a");  // all or nothing
+  EXPECT_EQ(refusal([&] { config_.set_configuration_set_values(set("default", {{"radius", "11"}})); }),
+            "radius: '11' is outside 0 .. 10 (set default unchanged)");
+  EXPECT_EQ(refusal([&] { config_.set_configuration_set_values(set("default", {{"start", "5"}})); }),
+            "start is read-only (its value stays '0')");
+  EXPECT_EQ(refusal([&] { config_.set_configuration_set_values(set("default", {{"gain", "5"}})); }),
+            "no configuration parameter 'gain' (parameters: radius, label, start)");
+  EXPECT_EQ(refusal([&] { config_.set_configuration_set_values(set("other", {{"radius", "5"}})); }),
+            "no configuration set 'other' (add it first)");
+  EXPECT_EQ(refusal([&] { config_.add_configuration_set(set("default", {})); }),
+            "configuration set 'default' already exists");
+  EXPECT_EQ(refusal([&] { config_.add_configuration_set(set("", {})); }), "the configuration set has no id");
+  EXPECT_EQ(refusal([&] { config_.remove_configuration_set("default"); }),
+            "the default configuration set cannot be removed");
+  EXPECT_EQ(refusal([&] { config_.activate_configuration_set("other"); }), "no configuration set 'other'");
+  SDOPackage::NVList change = nv_from({{"x", "y"}});
+  CORBA::Object_var nothing = CORBA::Object::_nil();
+  change[0].value <<= nothing.in();
+  EXPECT_EQ(refusal([&] { config_.set_configuration_parameter("label", change[0].value); }),
+            "label: the value must be a string, a number or a boolean");
+  EXPECT_TRUE(applied_.empty());
+  EXPECT_THROW(config_.declare({"bad", "x", number_between(0, 1), {}}), std::invalid_argument);
 }
 
 TEST_F(RtcUnit, ReturnCodeAndStateNames) {

@@ -424,5 +424,23 @@ TEST(Translator, UrcInterfacesHaveTheServicesOfThePapers) {
   EXPECT_EQ(URC::NAVIGATION_STATE_ARRIVED, 2);
 }
 
+TEST(Signature, OperationsAndAttributesReadAsIdlDeclaresThem) {
+  const gp::ServiceDescriptor* derived = all_types().FindServiceByName("Derived");
+  const gp::ServiceDescriptor* base = all_types().FindServiceByName("Base");
+  ASSERT_NE(derived, nullptr);
+  ASSERT_NE(base, nullptr);
+  auto signature = [&](const gp::ServiceDescriptor* s, const char* name) {
+    const gp::MethodDescriptor* m = s->FindMethodByName(name);
+    return m == nullptr ? std::string("<no ") + name + ">" : idl_signature(*m);
+  };
+  EXPECT_EQ(signature(derived, "op"), "long op(in long a, out string b, inout double c) raises (UrsTest::Oops, UrsTest::SharedError)");
+  EXPECT_EQ(signature(derived, "fire"), "oneway void fire(in string what)");
+  EXPECT_EQ(signature(derived, "walk"), "UrsTest::Derived::Step walk(in sequence<UrsTest::Point> route, in UrsTest::Value how)");
+  EXPECT_EQ(signature(derived, "_get_shade"), "attribute UrsTest::Color shade");
+  EXPECT_EQ(signature(derived, "_set_shade"), "");  // the attribute line covers it
+  EXPECT_EQ(signature(base, "_get_count"), "readonly attribute long count");
+  EXPECT_EQ(signature(base, "ping"), "void ping()");
+}
+
 }  // namespace
 }  // namespace urs::schema

@@ -6,6 +6,7 @@
 #include <map>
 #include <set>
 
+#include "urs/agent/tunable.hpp"
 #include "urs/rtc/orb.hpp"
 #include "urs_options.pb.h"
 #include "urs/util/cli.hpp"
@@ -136,6 +137,18 @@ RTC::ReturnCode_t AgentComponent::handle_initialize() {
   port_.provide(config_.interface_instance, servant_->interface_name(), *servant_);
   add_port(port_);
   for (auto& port : out_ports_) add_port(*port);
+  // The agent's tunable parameters become configuration parameters that tools may change.
+  if (auto* tunable = dynamic_cast<agent::Tunable*>(agent_.get())) {
+    for (const auto& parameter : tunable->tunable_parameters()) {
+      declare_parameter({parameter.name, parameter.value,
+                         [tunable, name = parameter.name](const std::string& value) {
+                           return tunable->check_parameter(name, value);
+                         },
+                         [tunable, name = parameter.name](const std::string& value) {
+                           tunable->set_parameter(name, value);
+                         }});
+    }
+  }
   return RTC::RTC_OK;
 }
 

@@ -133,6 +133,9 @@ struct ClientCore {
                   milliseconds deadline, ReplyHandler handler, bool oneway, bool* accepted);
   CallResult publish(const std::string& topic, std::string payload,
                      const std::string& content_type);
+  // The same with the lock held; `id` receives the publish id.
+  CallResult publish_locked(const std::string& topic, std::string payload, const std::string& content_type,
+                            uint64_t& id);
   uint64_t subscribe(const std::string& pattern, EventHandler handler, uint64_t resume_after_seq);
   void unsubscribe(uint64_t subscription_id);
   void register_service(const camus::RegisterRequest& registration, ReplyHandler handler);
@@ -227,6 +230,7 @@ struct ClientCore {
   std::deque<uint64_t> queue;             // call ids not yet sent, in order
   uint64_t next_publish_id = 1;
   std::map<uint64_t, Publish> unacked;    // by publish_id: resent in order after a reconnect
+  std::map<uint64_t, PublishAck> awaited; // acks of publishes a publish_and_wait() waits for
   uint64_t next_subscription_id = 1;
   std::map<uint64_t, Subscription> subscriptions;
   std::vector<Registration> registrations;
@@ -667,6 +671,10 @@ void ClientCore::on_link_frame(const std::shared_ptr<ClientLink>& from, Frame&& 
                      it->second.topic(), status_name(ack.status()), ack.message());
       }
       unacked.erase(it);
+      if (auto waiter = awaited.find(ack.publish_id()); waiter != awaited.end()) {
+        waiter->second = ack;
+        changed.notify_all();
+      }
       break;
     }
     case Frame::kSubscribeAck: {
@@ -907,6 +915,12 @@ void ClientCore::send_subscribe_locked(uint64_t id, const Subscription& subscrip
 CallResult ClientCore::publish(const std::string& topic, std::string payload,
                                  const std::string& content_type) {
   std::lock_guard<std::mutex> lock(mutex);
+  uint64_t id = 0;
+  return publish_locked(topic, std::move(payload), content_type, id);
+}
+
+CallResult ClientCore::publish_locked(const std::string& topic, std::string payload, const std::string& content_type,
+                                      uint64_t& id) {
   if (stopping) return CallResult::error(Status::UNAVAILABLE, "client stopped");
   if (queued_locked() >= options.max_queued) {
     return CallResult::error(Status::UNAVAILABLE, queue_full_message_locked());
@@ -926,6 +940,7 @@ CallResult ClientCore::publish(const std::string& topic, std::string payload,
     }
     send_publish_locked(publish);
   }
+  id = publish.publish_id();
   unacked.emplace(publish.publish_id(), std::move(publish));
   return CallResult::success({});
 }
@@ -1084,6 +1099,29 @@ bool Client::oneway(const std::string& service, const std::string& operation,
 CallResult Client::publish(const std::string& topic, std::string payload,
                            const std::string& content_type) {
   return impl_->publish(topic, std::move(payload), content_type);
+}
+
+CallResult Client::publish_and_wait(const std::string& topic, std::string payload, const std::string& content_type,
+                                    std::chrono::milliseconds timeout) {
+  std::unique_lock<std::mutex> lock(impl_->mutex);
+  uint64_t id = 0;
+  CallResult queued = impl_->publish_locked(topic, std::move(payload), content_type, id);
+  if (!queued.ok()) return queued;
+  // Registered under the same lock as the publish: the ack, handled on the I/O thread under it
+  // too, cannot come before.
+  impl_->awaited.emplace(id, PublishAck());
+  const bool acked = impl_->changed.wait_for(lock, timeout, [&] {
+    return impl_->awaited.at(id).publish_id() == id || impl_->stopped;
+  });
+  const PublishAck ack = impl_->awaited.at(id);
+  impl_->awaited.erase(id);
+  if (!acked || ack.publish_id() != id) {
+    return CallResult::error(impl_->stopped ? Status::UNAVAILABLE : Status::DEADLINE_EXCEEDED,
+                             "no acknowledgement of the event on '" + topic + "' within " +
+                                 std::to_string(timeout.count()) + " ms");
+  }
+  if (ack.status() != Status::OK) return CallResult::error(ack.status(), ack.message());
+  return CallResult::success({});
 }
 
 uint64_t Client::subscribe(const std::string& pattern, EventHandler handler,

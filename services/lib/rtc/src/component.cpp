@@ -2,7 +2,6 @@
 
 #include <spdlog/spdlog.h>
 
-#include "urs/rtc/configuration.hpp"
 #include "urs/rtc/execution_context.hpp"
 #include "urs/rtc/nvlist.hpp"
 #include "urs/rtc/orb.hpp"
@@ -30,12 +29,19 @@ void Component::setup(Orb& orb, const std::string& instance_name, double rate_hz
   self_ = RTC::RTObject::_narrow(object);
   context_ = std::make_unique<PeriodicExecutionContext>(orb, rate_hz);
   context_->bind_owner(self_.in());
+  configuration_->set_owner(instance_name);
   CORBA::Object_var configuration = orb.activate(configuration_.get());
   configuration_ref_ = SDOPackage::Configuration::_narrow(configuration);
 }
 
+void Component::declare_parameter(ParameterSpec spec) { configuration_->declare(std::move(spec)); }
+
 void Component::declare_parameter(const std::string& name, const std::string& value) {
-  configuration_->declare(name, value);
+  configuration_->declare({name, value, {}, {}});
+}
+
+std::string Component::parameter(const std::string& name) const {
+  return configuration_->active_value(name).value_or("");
 }
 
 void Component::on_exit(std::function<void()> callback) {

@@ -494,9 +494,7 @@ void Connector::connect_slot(const Slot& slot, const ConnectorRule& rule, const 
 
 CORBA::Object_ptr Connector::make_probe(CORBA::Object_ptr object) const {
   // A reference of the connector's own, so that the short timeout does not bound other calls.
-  CORBA::Object_var probe = orb_.string_to_object(orb_.object_to_string(object));
-  omniORB::setClientCallTimeout(probe, static_cast<CORBA::ULong>(options_.probe_timeout.count()));
-  return probe._retn();
+  return orb_.bounded(object, options_.probe_timeout);
 }
 
 bool Connector::probe_gone(CORBA::Object_ptr probe, PollReport& report) const {

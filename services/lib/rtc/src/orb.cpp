@@ -85,6 +85,14 @@ std::string Orb::object_to_string(CORBA::Object_ptr object) const {
   return text.in();
 }
 
+CORBA::Object_ptr Orb::bounded(CORBA::Object_ptr object, std::chrono::milliseconds timeout) const {
+  if (CORBA::is_nil(object)) return CORBA::Object::_nil();
+  // A fresh proxy from the stringified reference: the timeout set on it binds no other holder.
+  CORBA::Object_var own = orb_->string_to_object(object_to_string(object).c_str());
+  omniORB::setClientCallTimeout(own, static_cast<CORBA::ULong>(timeout.count()));
+  return own._retn();
+}
+
 CORBA::Object_ptr Orb::string_to_object(const std::string& text) const {
   try {
     return orb_->string_to_object(text.c_str());
@@ -105,6 +113,20 @@ bool is_gone(CORBA::Object_ptr object) {
     return object->_non_existent();
   } catch (const CORBA::SystemException&) {
     return true;
+  }
+}
+
+Liveness liveness(CORBA::Object_ptr object) {
+  if (CORBA::is_nil(object)) return Liveness::kGone;
+  try {
+    return object->_non_existent() ? Liveness::kGone : Liveness::kAlive;
+  } catch (const CORBA::TIMEOUT&) {
+    return Liveness::kNoAnswer;
+  } catch (const CORBA::TRANSIENT& e) {
+    // A call that had to open a connection and timed out: something accepted it and kept quiet.
+    return e.minor() == omni::TRANSIENT_CallTimedout ? Liveness::kNoAnswer : Liveness::kGone;
+  } catch (const CORBA::SystemException&) {
+    return Liveness::kGone;
   }
 }
 

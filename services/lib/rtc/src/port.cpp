@@ -3,6 +3,7 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <random>
 
@@ -12,6 +13,11 @@
 
 namespace urs::rtc {
 namespace {
+
+// Bound on asking one peer port whether it still exists, when a profile is read or a connection made.
+constexpr std::chrono::milliseconds kPeerProbeTimeout{500};
+// How long a peer that did not answer is not asked again.
+constexpr std::chrono::seconds kQuietPeerRetry{10};
 
 const RTC::ConnectorProfile* find_connection(const std::vector<RTC::ConnectorProfile>& list, const std::string& id) {
   for (const auto& profile : list) {
@@ -348,19 +354,50 @@ bool PortBase::drop_connection(const std::string& connector_id) {
   return true;
 }
 
+bool PortBase::peer_gone(Orb& orb, RTC::PortService_ptr peer) {
+  const std::string key = orb.object_to_string(peer);
+  const auto now = std::chrono::steady_clock::now();
+  {
+    std::lock_guard lock(mutex_);
+    const auto quiet = quiet_peers_.find(key);
+    if (quiet != quiet_peers_.end() && now < quiet->second) return false;
+  }
+  // Bounded, so that a paused or slow peer cannot hold up the reading of this profile; a peer
+  // that does not answer in time is kept (slowness is not death) and left alone for a while,
+  // since the next probe would have to open a new connection, which takes omniORB's connect
+  // timeout instead of this bound.
+  CORBA::Object_var probe = orb.bounded(peer, kPeerProbeTimeout);
+  const Liveness answer = liveness(probe);
+  std::lock_guard lock(mutex_);
+  if (answer == Liveness::kNoAnswer) {
+    quiet_peers_[key] = now + kQuietPeerRetry;
+    spdlog::info("port {}: a peer port does not answer within {} ms; its connection is kept", short_name_,
+                 kPeerProbeTimeout.count());
+  } else {
+    quiet_peers_.erase(key);
+  }
+  return answer == Liveness::kGone;
+}
+
 int PortBase::drop_dead_connections() {
   std::vector<RTC::ConnectorProfile> snapshot;
   {
     std::lock_guard lock(mutex_);
     snapshot = connections_;
   }
+  Orb* orb = nullptr;
+  {
+    std::lock_guard lock(mutex_);
+    orb = orb_;
+  }
+  if (orb == nullptr) return 0;
   int dropped = 0;
   for (const auto& profile : snapshot) {
     const int self = index_in(profile);
     bool dead = false;
     for (CORBA::ULong i = 0; i < profile.ports.length() && !dead; ++i) {
       if (static_cast<int>(i) == self) continue;
-      dead = is_gone(profile.ports[i]);
+      dead = peer_gone(*orb, profile.ports[i]);
     }
     if (dead) {
       spdlog::info("port {}: dropping connection {}: a peer port no longer exists", name(),

@@ -1,5 +1,7 @@
 #include "urs/rtc/tools.hpp"
 
+#include <algorithm>
+
 #include "urs/rtc/nvlist.hpp"
 
 namespace urs::rtc {
@@ -105,6 +107,101 @@ SDOPackage::NVList connector_properties(const std::vector<RTC::PortProfile>& por
     if (!nv_has(properties, name) && !value.empty()) nv_set(properties, name, value);
   }
   return properties;
+}
+
+namespace {
+
+// "URC::Navigation", "IDL:URC/Navigation:1.0", "Navigation" -> their name components.
+std::vector<std::string> type_path(std::string name) {
+  if (name.rfind("IDL:", 0) == 0) {
+    name = name.substr(4);
+    const auto version = name.rfind(':');
+    if (version != std::string::npos) name.resize(version);
+  }
+  std::vector<std::string> parts;
+  std::size_t start = 0;
+  while (start <= name.size()) {
+    const auto slash = name.find('/', start);
+    const auto colons = name.find("::", start);
+    const auto end = std::min(slash, colons);
+    parts.push_back(name.substr(start, end - start));
+    if (end == std::string::npos) break;
+    start = end + (end == colons ? 2 : 1);
+  }
+  return parts;
+}
+
+std::string interfaces_of(const RTC::PortProfile& port, RTC::PortInterfacePolarity polarity) {
+  std::string out;
+  for (CORBA::ULong i = 0; i < port.interfaces.length(); ++i) {
+    if (port.interfaces[i].polarity == polarity) out += (out.empty() ? "" : ", ") + std::string(port.interfaces[i].type_name.in());
+  }
+  return out.empty() ? "nothing" : out;
+}
+
+// Whether some interface `consumer` requires is provided, by type, by `provider`.
+bool meets(const RTC::PortProfile& consumer, const RTC::PortProfile& provider) {
+  for (CORBA::ULong i = 0; i < consumer.interfaces.length(); ++i) {
+    if (consumer.interfaces[i].polarity != RTC::REQUIRED) continue;
+    for (CORBA::ULong j = 0; j < provider.interfaces.length(); ++j) {
+      if (provider.interfaces[j].polarity == RTC::PROVIDED &&
+          same_type_name(consumer.interfaces[i].type_name.in(), provider.interfaces[j].type_name.in())) {
+        return true;
+      }
+    }
+  }
+  return false;
+}
+
+bool requires_any(const RTC::PortProfile& port) {
+  for (CORBA::ULong i = 0; i < port.interfaces.length(); ++i) {
+    if (port.interfaces[i].polarity == RTC::REQUIRED) return true;
+  }
+  return false;
+}
+
+}  // namespace
+
+bool same_type_name(const std::string& a, const std::string& b) {
+  const std::vector<std::string> x = type_path(a);
+  const std::vector<std::string> y = type_path(b);
+  const auto& shorter = x.size() <= y.size() ? x : y;
+  const auto& longer = x.size() <= y.size() ? y : x;
+  return !shorter.empty() && std::equal(shorter.rbegin(), shorter.rend(), longer.rbegin());
+}
+
+std::string connection_mismatch(const RTC::PortProfile& a, const RTC::PortProfile& b) {
+  const std::string a_name = a.name.in();
+  const std::string b_name = b.name.in();
+  const std::string a_kind = nv_string(a.properties, "port.port_type").value_or("");
+  const std::string b_kind = nv_string(b.properties, "port.port_type").value_or("");
+  const auto is_data = [](const std::string& kind) { return kind == "DataInPort" || kind == "DataOutPort"; };
+  const auto known = [&](const std::string& kind) { return kind == "CorbaPort" || is_data(kind); };
+  if (!known(a_kind) || !known(b_kind)) return {};
+  if (is_data(a_kind) != is_data(b_kind)) {
+    return a_name + " is a " + a_kind + " and " + b_name + " a " + b_kind + ": a data port connects to a data port, a service port to a service port";
+  }
+  if (is_data(a_kind)) {
+    if (a_kind == b_kind) return a_name + " and " + b_name + " are both " + a_kind + "s: one must be an out port, the other an in port";
+    const auto a_type = nv_string(a.properties, "dataport.data_type");
+    const auto b_type = nv_string(b.properties, "dataport.data_type");
+    if (a_type && b_type && !same_type_name(*a_type, *b_type)) {
+      return a_name + " carries " + *a_type + " but " + b_name + " carries " + *b_type;
+    }
+    return {};
+  }
+  // A port that declares no interface (e.g. the bridge's `providers`, which takes any provider)
+  // leaves nothing to compare.
+  if (a.interfaces.length() == 0 || b.interfaces.length() == 0) return {};
+  if (!requires_any(a) && !requires_any(b)) {
+    return "neither " + a_name + " nor " + b_name + " requires an interface (" + a_name + " provides " +
+           interfaces_of(a, RTC::PROVIDED) + ", " + b_name + " provides " + interfaces_of(b, RTC::PROVIDED) + ")";
+  }
+  if (meets(a, b) || meets(b, a)) return {};
+  const RTC::PortProfile& consumer = requires_any(a) ? a : b;
+  const RTC::PortProfile& other = requires_any(a) ? b : a;
+  return std::string(consumer.name.in()) + " requires " + interfaces_of(consumer, RTC::REQUIRED) + " but " +
+         other.name.in() + " provides " + interfaces_of(other, RTC::PROVIDED);
 }
 
 Connection connect_ports(const std::vector<RTC::PortService_ptr>& ports, const std::string& name,

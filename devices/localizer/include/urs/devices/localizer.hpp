@@ -6,6 +6,8 @@
 // "urs/world/pose", and `rate` times per simulated second adds Gaussian noise to the latest pose
 // and publishes the measurement on "urs/localizer/pose" (the robot closes its loop on it) and as
 // the event "<prefix>/pose" (URC::PoseWithCovariance).
+// Tunable while it runs (agent::Tunable; as an RTC, its configuration parameters): `noise_xy`
+// (m) and `noise_theta` (rad), with the ranges of their params; the next measurement uses them.
 
 #include <yaml-cpp/yaml.h>
 
@@ -16,6 +18,7 @@
 #include <string>
 
 #include "Localization.pb.h"
+#include "urs/agent/tunable.hpp"
 #include "urs/agent/typed_agent.hpp"
 
 namespace urs::world {
@@ -42,7 +45,7 @@ struct LocalizerConfig {
 // Throws urs::util::ConfigError naming every bad key.
 LocalizerConfig parse_localizer_config(const YAML::Node& params);
 
-class LocalizerAgent : public agent::TypedAgent {
+class LocalizerAgent : public agent::TypedAgent, public agent::Tunable {
  public:
   explicit LocalizerAgent(LocalizerConfig config);
   ~LocalizerAgent() override;
@@ -50,12 +53,19 @@ class LocalizerAgent : public agent::TypedAgent {
   void start(agent::EventSink& events) override;  // throws std::runtime_error if DDS fails
   void stop() override;
 
+  // agent::Tunable
+  std::vector<Parameter> tunable_parameters() const override;
+  std::string check_parameter(const std::string& name, const std::string& value) const override;
+  void set_parameter(const std::string& name, const std::string& value) override;
+
  private:
   void on_truth(const world::PoseSample& truth);
   void measure();
 
   const LocalizerConfig config_;
-  std::mutex mutex_;
+  mutable std::mutex mutex_;
+  double noise_xy_;     // m; tunable
+  double noise_theta_;  // rad; tunable
   std::unique_ptr<world::PoseSample> truth_;  // the latest ground truth, null until one arrived
   std::optional<URC::PoseWithCovariance> latest_;
   std::mt19937 random_;

@@ -8,6 +8,8 @@
 // localizer's measurements of it from "urs/localizer/pose", fused with wheel odometry.
 // Events: "<prefix>/arrived" (URC::Navigation_moveTo_Request: the target reached) and
 // "<prefix>/state" (URC::Navigation__get_state_Reply: the new state).
+// Tunable while it runs (agent::Tunable; as an RTC, its configuration parameters): `speed`
+// (mm/s, as setSpeed), `tolerance` (m) and `fusion_gain`, with the ranges of their params.
 
 #include <yaml-cpp/yaml.h>
 
@@ -17,6 +19,7 @@
 #include <optional>
 #include <string>
 
+#include "urs/agent/tunable.hpp"
 #include "urs/agent/typed_agent.hpp"
 #include "urs/devices/robot_motion.hpp"
 
@@ -48,7 +51,7 @@ struct RobotConfig {
 // Throws urs::util::ConfigError naming every bad key.
 RobotConfig parse_robot_config(const YAML::Node& params);
 
-class RobotAgent : public agent::TypedAgent {
+class RobotAgent : public agent::TypedAgent, public agent::Tunable {
  public:
   static constexpr double kControlPeriod = 0.02;  // s of simulated time (50 Hz)
 
@@ -66,6 +69,11 @@ class RobotAgent : public agent::TypedAgent {
   };
   Truth truth() const;
 
+  // agent::Tunable
+  std::vector<Parameter> tunable_parameters() const override;
+  std::string check_parameter(const std::string& name, const std::string& value) const override;
+  void set_parameter(const std::string& name, const std::string& value) override;
+
  private:
   struct Pending;  // events produced under the lock, published after it
   void tick();
@@ -82,6 +90,8 @@ class RobotAgent : public agent::TypedAgent {
   PoseEstimate estimate_;
   std::optional<Pose2> target_;
   double cruise_;  // m/s
+  double tolerance_;    // m; tunable
+  double fusion_gain_;  // tunable
   int state_;      // URC::NavigationState
   agent::EventSink* events_ = nullptr;
   std::unique_ptr<world::World> world_;

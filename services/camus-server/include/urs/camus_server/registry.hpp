@@ -72,7 +72,8 @@ class Registry final : public SchemaLookup {
   // Glob on names ("*" any run of characters); empty = all. Sorted by name.
   std::vector<camus::ServiceInfo> list(const std::string& pattern) const;
   // By service name (UNKNOWN_SERVICE if none), else by interface name (NOT_FOUND if no service
-  // implements it); BAD_ARGUMENTS if neither is given.
+  // implements it), else by message type (the first registered interface whose description
+  // holds it; NOT_FOUND if none); BAD_ARGUMENTS if none is given.
   Result<camus::DescribeReply> describe(const camus::DescribeRequest& request) const;
 
   std::optional<Route> route(const std::string& name) const;

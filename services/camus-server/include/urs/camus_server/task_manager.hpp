@@ -93,6 +93,7 @@ class TaskManager {
   StepEnd run_wait_event(const std::shared_ptr<Run>& run, const WaitEventStep& step, std::string& failure);
   StepEnd run_wait_context(const std::shared_ptr<Run>& run, const WaitContextStep& step, std::string& failure);
   StepEnd run_sleep(const std::shared_ptr<Run>& run, const SleepStep& step);
+  StepEnd run_publish(const std::shared_ptr<Run>& run, const PublishStep& step, std::string& failure);
   void finish(const std::shared_ptr<Run>& run, const std::string& state, const std::string& message);
   void save_locked(const Run& run);  // run mutex held; takes the db mutex; logs failures
   void publish(const camus::TaskRun& snapshot);

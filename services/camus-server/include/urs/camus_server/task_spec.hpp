@@ -10,6 +10,7 @@
 //     - wait_event: {pattern: P, timeout_ms: N, match: {field: value}}
 //     - wait_context: {key: K, equals: V | exists: true|false, timeout_ms: N}
 //     - sleep: {ms: N}
+//     - publish: {topic: T, type: TYPE, payload: {...}}
 //
 // `args` is any YAML map; it is converted to JSON and then, through Protobuf's JSON mapping, to
 // the operation's request message. A timeout of 0 (or none) waits until the run is cancelled.
@@ -56,10 +57,19 @@ struct SleepStep {
   uint32_t ms = 0;
 };
 
+// An event the task publishes (source: the server), typed: `type` is the full Protobuf name of a
+// message some registered interface describes, `payload_json` its value in Protobuf's JSON form.
+struct PublishStep {
+  std::string topic;
+  std::string type;
+  std::string payload_json = "{}";
+};
+
 struct TaskStep {
-  std::variant<CallStep, WaitEventStep, WaitContextStep, SleepStep> action;
+  std::variant<CallStep, WaitEventStep, WaitContextStep, SleepStep, PublishStep> action;
   int line = 0;  // 1-based line in the YAML text
-  // "call robot1.navigation.moveTo", "wait_event robot1.navigation/arrived", "sleep 500 ms", ...
+  // "call robot1.navigation.moveTo", "wait_event robot1.navigation/arrived", "sleep 500 ms",
+  // "publish kr/door (URS.DoorEvent)", ...
   std::string summary() const;
 };
 

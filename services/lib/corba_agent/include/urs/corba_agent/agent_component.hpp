@@ -4,6 +4,8 @@
 // on configured topics leave through data OutPorts as the CDR of their IDL struct, so OpenRTM-aist
 // InPorts of that type can take them. The agent starts when the component is initialized (calls
 // are answered whatever the component's state, as a service port's are) and stops at finalize.
+// An agent that is agent::Tunable offers its parameters as the component's configuration
+// parameters: a tool's change (rtconf set, `urs rtc conf set`) reaches the agent at once.
 
 #include <yaml-cpp/yaml.h>
 

@@ -98,6 +98,11 @@ class Client {
 
   // Events. publish() returns UNAVAILABLE with a message if the queue is full, OK otherwise.
   CallResult publish(const std::string& topic, std::string payload, const std::string& content_type);
+  // Publishes and blocks until the server acknowledges the event: OK once it is sequenced and
+  // stored, the server's refusal (e.g. BAD_ARGUMENTS for an invalid topic), or DEADLINE_EXCEEDED
+  // after `timeout` (the event stays queued and may still be delivered). Not from a callback.
+  CallResult publish_and_wait(const std::string& topic, std::string payload, const std::string& content_type,
+                              std::chrono::milliseconds timeout);
   uint64_t subscribe(const std::string& pattern, EventHandler handler, uint64_t resume_after_seq = 0);
   void unsubscribe(uint64_t subscription_id);
 

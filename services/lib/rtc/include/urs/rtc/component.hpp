@@ -7,8 +7,9 @@
 //
 // SDO features URSLink does not offer answer as the specification allows: empty lists for
 // organizations, service profiles and status; InvalidParameter for an unknown id or status name;
-// InterfaceNotImplemented for get_monitoring. get_configuration gives a read-only Configuration
-// with one active set, "default", holding the parameters the component declares.
+// InterfaceNotImplemented for get_monitoring. get_configuration gives the component's
+// configuration sets (urs/rtc/configuration.hpp): the parameters it declares, which tools may
+// change, with the component told of each change through the parameter's `apply`.
 
 #include <functional>
 #include <map>
@@ -18,13 +19,13 @@
 #include <vector>
 
 #include "OpenRTM.hh"
+#include "urs/rtc/configuration.hpp"
 
 namespace urs::rtc {
 
 class Orb;
 class PortBase;
 class PeriodicExecutionContext;
-class ComponentConfiguration;
 
 struct ComponentInfo {
   std::string type_name;  // instance names are <type_name><N>
@@ -117,8 +118,14 @@ class Component : public virtual POA_OpenRTM::DataFlowComponent {
   // Registers a port (a member of the derived class) and activates it; from handle_initialize().
   void add_port(PortBase& port);
   Orb& orb() const { return *orb_; }
-  // Shows a parameter (and its current value) in the "default" configuration set tools read.
+  // Offers a configuration parameter to tools (see ParameterSpec: with `apply` tools may change
+  // it, and the component hears of each change at once, in the ORB thread of the tool's call).
+  // Throws std::invalid_argument for an empty name or a value its `check` refuses.
+  void declare_parameter(ParameterSpec spec);
+  // A read-only parameter: tools see `value`, and changing it is refused.
   void declare_parameter(const std::string& name, const std::string& value);
+  // The parameter's value in the active configuration set ("" if there is no such parameter).
+  std::string parameter(const std::string& name) const;
   // A property given at setup ("" if absent).
   std::string property(const std::string& name) const;
 

@@ -38,6 +38,10 @@ class Orb {
   void deactivate(PortableServer::ServantBase* servant);
 
   std::string object_to_string(CORBA::Object_ptr object) const;
+  // A reference of the caller's own to `object` whose calls give up after `timeout` (other
+  // references to the object keep their bounds). Opening a new connection is still bounded by
+  // the ORB's connect timeout. Caller owns; nil for nil.
+  CORBA::Object_ptr bounded(CORBA::Object_ptr object, std::chrono::milliseconds timeout) const;
   // Throws std::invalid_argument with omniORB's reason for a malformed IOR or corbaloc URL.
   CORBA::Object_ptr string_to_object(const std::string& text) const;
 
@@ -51,6 +55,13 @@ std::string endpoint_from_address(const std::string& host_port, const std::strin
 
 // True if `object` is nil, does not exist any more, or cannot be reached (any system exception).
 bool is_gone(CORBA::Object_ptr object);
+
+// What one _non_existent() call tells of an object. kGone: nil, no such object, or nobody at its
+// address (TRANSIENT, COMM_FAILURE); kNoAnswer: it did not answer in time (TIMEOUT, or
+// TRANSIENT_CallTimedout when the call had to open a connection: it may be busy or paused, which
+// is not death); kAlive: it answered that it exists.
+enum class Liveness { kAlive, kGone, kNoAnswer };
+Liveness liveness(CORBA::Object_ptr object);
 
 // The text of a CORBA exception: "TRANSIENT (TRANSIENT_ConnectFailed)", "BAD_PARAM", or the
 // repository ID of a user exception.

@@ -8,9 +8,13 @@
 //                        an earlier port publishes reaches later ones and vice versa), and keep cp.
 //   disconnect(id)       asks the first port that answers to notify_disconnect(id), which
 //                        unsubscribes and passes it on along cp.ports.
-// Connections whose peer ports no longer exist are dropped whenever the profile is read.
+// Connections whose peer ports no longer exist are dropped whenever the profile is read; each
+// peer is asked with a 500 ms bound, and one that does not answer in time (paused, busy) is kept
+// and not asked again for 10 s, so reading a profile never fails nor waits long because of a peer.
 // Subclasses (service ports, data ports) supply publish/subscribe/unsubscribe.
 
+#include <chrono>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -53,7 +57,8 @@ class PortBase : public virtual POA_RTC::PortService {
   // Removes a connection locally (unsubscribing it) without telling its peers; used when a peer
   // is known to be dead. False if there is no such connection.
   bool drop_connection(const std::string& connector_id);
-  // Drops every connection one of whose other ports no longer exists; returns how many.
+  // Drops every connection one of whose other ports no longer exists (Liveness::kGone, asked
+  // with a 500 ms bound each); returns how many.
   int drop_dead_connections();
 
   std::size_t connection_count() const;
@@ -89,6 +94,8 @@ class PortBase : public virtual POA_RTC::PortService {
   // Tells profile.ports[next] (and so the ports after it) to forget a connection that failed.
   void forget_after(const RTC::ConnectorProfile& profile, CORBA::ULong next);
   bool has_duplicate_of(const RTC::ConnectorProfile& profile) const;
+  // Whether a peer port is gone (Liveness::kGone); a quiet peer counts as there.
+  bool peer_gone(Orb& orb, RTC::PortService_ptr peer);
 
   const std::string short_name_;
   mutable std::mutex mutex_;
@@ -99,6 +106,7 @@ class PortBase : public virtual POA_RTC::PortService {
   RTC::PortInterfaceProfileList interfaces_;
   SDOPackage::NVList properties_;
   std::vector<RTC::ConnectorProfile> connections_;
+  std::map<std::string, std::chrono::steady_clock::time_point> quiet_peers_;  // IOR -> ask again after
 };
 
 // A fresh connector id (a random UUID, as OpenRTM-aist assigns).

@@ -28,6 +28,18 @@ RTC::PortService_ptr find_port(RTC::RTObject_ptr rtc, const std::string& name);
 SDOPackage::NVList connector_properties(const std::vector<RTC::PortProfile>& ports,
                                         const SDOPackage::NVList& extra);
 
+// True if two IDL type names name the same type: each may be a scoped name ("URC::Navigation"),
+// a repository ID ("IDL:URC/Navigation:1.0", "IDL:omg.org/RTC/TimedLong:1.0") or a bare name
+// ("Navigation", as OpenRTM-aist 1.x writes); the shorter must be the tail of the longer.
+bool same_type_name(const std::string& a, const std::string& b);
+
+// Why two ports cannot work together, naming both sides; "" if they can (or if a port's kind is
+// unknown, so nothing can be said). Refused: a service port and a data port; two data ports of
+// one direction; data ports whose dataport.data_type differ; service ports where no required
+// interface of one meets a provided interface of the same type on the other, or where neither
+// requires anything. A service port that declares no interface is compatible with any.
+std::string connection_mismatch(const RTC::PortProfile& a, const RTC::PortProfile& b);
+
 struct Connection {
   RTC::ReturnCode_t code = RTC::RTC_ERROR;
   RTC::ConnectorProfile profile;  // as returned by connect(): connector_id and published keys

@@ -86,5 +86,15 @@ std::string repository_id(const google::protobuf::MethodDescriptor& m);
 std::string repository_id(const google::protobuf::Descriptor& d);
 // True if the message stands for an IDL exception.
 bool is_exception(const google::protobuf::Descriptor& d);
+// The operation as IDL declares it, from the options of its Request and Reply (parameter names,
+// directions and IDL types in signature order, the result type, raises, oneway):
+//   "double add(in double a, in double b)"
+//   "void moveTo(in double x, in double y) raises (URC::InvalidTarget, URC::NotReady)"
+//   "oneway void notify(in string topic, in string text)"
+// An attribute's accessors read "readonly attribute unsigned long speed" (_get_ without _set_)
+// or "attribute string name" (_get_ of a settable one) and "" for _set_ (the attribute line covers
+// it). Fields without urs.options (a schema not generated from IDL) show their Protobuf type and
+// count as in (Request) or out (Reply) parameters.
+std::string idl_signature(const google::protobuf::MethodDescriptor& m);
 
 }  // namespace urs::schema
