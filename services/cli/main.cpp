@@ -14,6 +14,7 @@
 #include <fstream>
 #include <map>
 #include <iostream>
+#include <limits>
 #include <mutex>
 #include <sstream>
 
@@ -107,7 +108,9 @@ int main(int argc, char** argv) {
   call->add_option("service", service)->required();
   call->add_option("operation", operation)->required();
   call->add_option("json", args, "Request as JSON (Protobuf JSON mapping); default {}");
-  call->add_option("--deadline-ms", deadline_ms, "Deadline of the call (default: the service's)");
+  call->add_option("--deadline-ms", deadline_ms,
+                   "Deadline of the call (default: none sent, so the service's advertised deadline applies)")
+      ->check(CLI::Range(1, std::numeric_limits<int>::max()));
 
   auto* watch = app.add_subcommand("watch", "Print events whose topic matches PATTERN, one JSON line each");
   int count = 0;
