@@ -9,6 +9,10 @@
 //   disconnect(id)       asks the first port that answers to notify_disconnect(id), which
 //                        unsubscribes and passes it on along cp.ports.
 // Connections whose peer ports no longer exist are dropped whenever the profile is read.
+// A connection to a port this port is already connected to is refused (PRECONDITION_NOT_MET)
+// unless the profile says dataport.allow_dup_connection=YES, whatever the kind of port, as in
+// OpenRTM-aist 2.x: so a peer that forgot its half of a connection cannot connect again until the
+// other half is dropped too (notify_disconnect on this port).
 // Subclasses (service ports, data ports) supply publish/subscribe/unsubscribe.
 
 #include <memory>
@@ -57,6 +61,14 @@ class PortBase : public virtual POA_RTC::PortService {
   int drop_dead_connections();
 
   std::size_t connection_count() const;
+  // The connections this port holds, as they are (no peer is asked whether it still exists).
+  std::vector<RTC::ConnectorProfile> connections() const;
+
+  // What OpenRTM-aist's PortAdmin does on a component's activation and deactivation: the objects
+  // the port provides become reachable, or stop being so (Component::serve_while_inactive).
+  // Default: nothing. Idempotent.
+  virtual void activate_interfaces() {}
+  virtual void deactivate_interfaces() {}
 
  protected:
   // Writes what this port offers into profile.properties (service port: its providers' IORs;
@@ -66,9 +78,6 @@ class PortBase : public virtual POA_RTC::PortService {
   // peer's InPortCdr). Non-RTC_OK aborts the connection.
   virtual RTC::ReturnCode_t subscribe_interfaces(const RTC::ConnectorProfile& profile) = 0;
   virtual void unsubscribe_interfaces(const RTC::ConnectorProfile& profile) = 0;
-  // Data ports refuse a second connection to the same peer ports unless the profile says
-  // dataport.allow_dup_connection=YES; service ports accept it.
-  virtual bool refuses_duplicates() const { return false; }
 
   // Called at the end of attach() and at the start of detach(): a subclass activates and
   // deactivates the CORBA objects it offers (providers, InPortCdr) here.
@@ -88,7 +97,10 @@ class PortBase : public virtual POA_RTC::PortService {
   void erase_connection(const std::string& connector_id);  // unsubscribes and forgets it
   // Tells profile.ports[next] (and so the ports after it) to forget a connection that failed.
   void forget_after(const RTC::ConnectorProfile& profile, CORBA::ULong next);
-  bool has_duplicate_of(const RTC::ConnectorProfile& profile) const;
+  // As OpenRTM-aist's ports (of every kind) do in notify_connect: true if this port already holds a
+  // connection listing one of the other ports of `profile` (dataport.allow_dup_connection=YES in
+  // the profile lets it pass). With the mutex held.
+  bool already_connected_to(const RTC::ConnectorProfile& profile) const;
 
   const std::string short_name_;
   mutable std::mutex mutex_;
