@@ -668,7 +668,8 @@ void Bridge::poll_rt() {
     Known& known = *known_ptr;
     if (!known.reachable || known.bridged) continue;
     for (const auto& port : known.ports) {
-      auto connect = [&](const std::string& link, rtc::PortBase& ours, bool ours_first, const SDOPackage::NVList& extra) {
+      auto connect = [&](const std::string& link, rtc::PortBase& ours, bool ours_first,
+                         const SDOPackage::NVList& extra) {
         if (known.links.count(link)) return;
         RTC::PortService_var ours_ref = ours.reference();
         const std::vector<RTC::PortService_ptr> ports =
@@ -680,7 +681,8 @@ void Bridge::poll_rt() {
           // A port that still holds a connection to ours whose other half is gone (we could not
           // tell it when it was dropped) refuses a new one, as OpenRTM-aist's ports do: drop
           // that half, then connect again.
-          if (made.code == RTC::PRECONDITION_NOT_MET && drop_stale_halves(path, port.ref, port.name, ours) > 0) {
+          if (made.code == RTC::PRECONDITION_NOT_MET &&
+              drop_stale_halves(path, port.ref, port.name, ours) > 0) {
             made = rtc::connect_ports(ports, name, extra);
           }
           if (made.code != RTC::RTC_OK) {
@@ -866,7 +868,10 @@ void Bridge::restore_connections(Session& session) {
     }
     const std::string where = component->instance_name() + "." + saved.port;
     if (ours == nullptr || held) {
-      if (ours == nullptr) spdlog::warn("bridge: {} has no port {} any more; connection {} is not restored", component->instance_name(), saved.port, saved.id);
+      if (ours == nullptr) {
+        spdlog::warn("bridge: {} has no port {} any more; connection {} is not restored", component->instance_name(),
+                     saved.port, saved.id);
+      }
       it = restores_.erase(it);
       continue;
     }
@@ -899,15 +904,22 @@ void Bridge::restore_connections(Session& session) {
           ports, saved.name, rtc::nv_from({saved.properties.begin(), saved.properties.end()}), saved.id);
       if (made.code == RTC::RTC_OK) {
         spdlog::info("bridge: connection {} ({}) of {} restored", saved.id, saved.name, where);
+        warned_.erase("restore|" + saved.id);
         it = restores_.erase(it);
         continue;
       }
-      spdlog::warn("bridge: restoring connection {} of {}: {}; trying again in {} ms", saved.id, where,
-                   rtc::return_code_name(made.code), kRetryPeriod.count());
+      if (warned_.insert("restore|" + saved.id).second) {
+        spdlog::warn("bridge: restoring connection {} of {}: {}; trying again every {} ms", saved.id, where,
+                     rtc::return_code_name(made.code), kRetryPeriod.count());
+      }
     } catch (const std::exception& e) {
-      spdlog::warn("bridge: restoring connection {} of {}: {}", saved.id, where, e.what());
+      if (warned_.insert("restore|" + saved.id).second) {
+        spdlog::warn("bridge: restoring connection {} of {}: {}", saved.id, where, e.what());
+      }
     } catch (const CORBA::Exception& e) {
-      spdlog::warn("bridge: restoring connection {} of {}: {}", saved.id, where, rtc::describe(e));
+      if (warned_.insert("restore|" + saved.id).second) {
+        spdlog::warn("bridge: restoring connection {} of {}: {}", saved.id, where, rtc::describe(e));
+      }
     }
     it->retry_at = now + kRetryPeriod;
     ++it;
