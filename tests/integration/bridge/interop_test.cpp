@@ -275,6 +275,15 @@ TEST_F(BridgeInterop, ARestartedBridgeConnectsItsRtcsConsumersAgain) {
   EXPECT_FALSE(consumer_->consumer().connected());
   start_importing_bridge("bridge3");
   EXPECT_TRUE(wait_until([&] { return consumer_echoes("after a stop"); }, 20s)) << bridge_->log();
+
+  // Deactivated (its RTCs withdrawn, the consumer disconnected), then activated again.
+  auto bridge_rtc = resolve<RTC::RTObject>("bridgehost.host_cxt/Bridge0.rtc");
+  RTC::ExecutionContextList_var contexts = bridge_rtc->get_owned_contexts();
+  ASSERT_EQ(contexts->length(), 1u);
+  ASSERT_EQ(contexts[0]->deactivate_component(bridge_rtc), RTC::RTC_OK);
+  EXPECT_TRUE(wait_until([&] { return !consumer_->consumer().connected(); }, 10s)) << bridge_->log();
+  ASSERT_EQ(contexts[0]->activate_component(bridge_rtc), RTC::RTC_OK);
+  EXPECT_TRUE(wait_until([&] { return consumer_echoes("after a reactivation"); }, 20s)) << bridge_->log();
 }
 
 TEST_F(BridgeInterop, ReferencesCarryTheirRepositoryIdAndAnAddressTheNamingServicesPeersReach) {
