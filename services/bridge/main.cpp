@@ -10,6 +10,7 @@
 
 #include <CLI/CLI.hpp>
 #include <cstdlib>
+#include <filesystem>
 
 #include "urs/bridge/bridge.hpp"
 #include "urs/bridge/config.hpp"
@@ -33,6 +34,7 @@ int main(int argc, char** argv) {
   std::string listen;
   std::string token_file;
   std::string ready_file;
+  std::string data_dir;
   int call_timeout_ms = 10000;
   std::string log_level = "info";
   app.add_option("--space", space, "Name of the space the bridge belongs to")->required();
@@ -42,11 +44,15 @@ int main(int argc, char** argv) {
   app.add_option("--host,--host-context", host,
                  "Naming context <host>.host_cxt (env URS_HOST_CONTEXT; default: this machine's host name)")
       ->envname("URS_HOST_CONTEXT");
-  app.add_option("--listen", listen, "HOST:PORT for the bridge's object references (default: any, ephemeral)");
+  app.add_option("--listen", listen,
+                 "HOST:PORT for the bridge's object references (default: an ephemeral port on this host's "
+                 "address towards the naming service)");
   app.add_option("--token-file", token_file, "File holding the space's Planet token");
   app.add_option("--call-timeout-ms", call_timeout_ms, "Bound on CORBA calls other than bridged ones")
       ->capture_default_str();
   app.add_option("--ready-file", ready_file, "Written with the bridge RTC's naming path once it is bound");
+  app.add_option("--data-dir", data_dir,
+                 "Directory keeping the connections of the bridge's RTCs, restored after a restart (default: none)");
   app.add_option("--log-level", log_level, urs::util::kLogLevels)->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
@@ -65,12 +71,24 @@ int main(int argc, char** argv) {
       planet->port = endpoint.port;
       planet->token = urs::util::read_token_file(token_file);
     }
-    if (!naming.empty()) urs::util::parse_endpoint(naming, "--naming");
-    if (!listen.empty()) orb_options.endpoint = urs::rtc::endpoint_from_address(listen, "--listen");
+    if (!listen.empty()) {
+      orb_options.endpoint = urs::rtc::endpoint_from_address(listen, "--listen");
+    } else if (!naming.empty()) {
+      orb_options.endpoint = urs::rtc::endpoint_towards(naming, "--naming");
+    }
     if (call_timeout_ms < 0) throw urs::util::ConfigError("--call-timeout-ms: must be >= 0");
     orb_options.call_timeout = std::chrono::milliseconds(call_timeout_ms);
     config = urs::bridge::load_bridge_config(config_path, host.empty() ? urs::util::host_name() : host);
     config.space = space;
+    if (!data_dir.empty()) {
+      std::error_code error;
+      std::filesystem::create_directories(data_dir, error);
+      if (error || !std::filesystem::is_directory(data_dir)) {
+        throw urs::util::ConfigError("--data-dir: '" + data_dir + "' cannot be created: " +
+                                     (error ? error.message() : "not a directory"));
+      }
+      config.data_dir = data_dir;
+    }
     catalog = std::make_unique<urs::bridge::InterfaceCatalog>();
     for (const auto& idl : config.idl) {
       for (const auto& loaded : catalog->load_idl(idl, config.include_dirs)) {

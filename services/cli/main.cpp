@@ -14,6 +14,7 @@
 #include <fstream>
 #include <map>
 #include <iostream>
+#include <limits>
 #include <mutex>
 #include <sstream>
 
@@ -107,7 +108,9 @@ int main(int argc, char** argv) {
   call->add_option("service", service)->required();
   call->add_option("operation", operation)->required();
   call->add_option("json", args, "Request as JSON (Protobuf JSON mapping); default {}");
-  call->add_option("--deadline-ms", deadline_ms, "Deadline of the call (default: the service's)");
+  call->add_option("--deadline-ms", deadline_ms,
+                   "Deadline of the call (default: none sent, so the service's advertised deadline applies)")
+      ->check(CLI::Range(1, std::numeric_limits<int>::max()));
 
   auto* watch = app.add_subcommand("watch", "Print events whose topic matches PATTERN, one JSON line each");
   int count = 0;
@@ -204,12 +207,15 @@ int main(int argc, char** argv) {
       int rc = builtin(client, "camus.registry", "List", request, timeout, reply, json_out);
       if (rc != kOk || json_out) return rc;
       // ORIGIN: "native" for a service agent of this space; what a bridge offers names where the
-      // service really is ("rtc:<naming path>:<port>").
+      // service really is ("rtc:<naming path>:<port>"). STATE: the registry's, unless the provider
+      // reports it cannot serve (urslink.health of a bridged RT provider: slow, inactive, error).
       std::printf("%-32s %-28s %-24s %-10s %s\n", "SERVICE", "INTERFACE", "OWNER", "STATE", "ORIGIN");
       for (const auto& s : reply.services()) {
         const auto origin = s.properties().find("urslink.origin");
+        const auto health = s.properties().find("urslink.health");
+        const std::string& state = health == s.properties().end() || health->second == "ok" ? s.state() : health->second;
         std::printf("%-32s %-28s %-24s %-10s %s\n", s.name().c_str(), s.interface().c_str(), s.owner().c_str(),
-                    s.state().c_str(), origin == s.properties().end() ? "native" : origin->second.c_str());
+                    state.c_str(), origin == s.properties().end() ? "native" : origin->second.c_str());
       }
       return kOk;
     }

@@ -53,7 +53,9 @@ int main(int argc, char** argv) {
   app.add_option("--host,--host-context", host,
                  "Naming context <host>.host_cxt (env URS_HOST_CONTEXT; default: this machine's host name)")
       ->envname("URS_HOST_CONTEXT");
-  app.add_option("--listen", listen, "HOST:PORT for the components' object references (default: any, ephemeral)");
+  app.add_option("--listen", listen,
+                 "HOST:PORT for the components' object references (default: an ephemeral port on this host's "
+                 "address towards the naming service)");
   app.add_option("--call-timeout-ms", call_timeout_ms, "Bound on every outgoing CORBA call")->capture_default_str();
   app.add_option("--ready-file", ready_file, "Written with the bound naming paths once all components are up");
   app.add_option("--log-level", log_level, urs::util::kLogLevels)->capture_default_str();
@@ -64,8 +66,8 @@ int main(int argc, char** argv) {
   urs::rtc::OrbOptions orb_options;
   try {
     urs::util::init_logging("urs-rtc-manager", log_level);
-    urs::util::parse_endpoint(naming, "--naming");
-    if (!listen.empty()) orb_options.endpoint = urs::rtc::endpoint_from_address(listen, "--listen");
+    orb_options.endpoint = listen.empty() ? urs::rtc::endpoint_towards(naming, "--naming")
+                                          : urs::rtc::endpoint_from_address(listen, "--listen");
     if (call_timeout_ms < 0) throw urs::util::ConfigError("--call-timeout-ms: must be >= 0");
     orb_options.call_timeout = std::chrono::milliseconds(call_timeout_ms);
     config = urs::rtc::load_manager_config(config_path);

@@ -17,6 +17,19 @@
 
 namespace urs::test {
 
+// A bridge configuration offering every Diagnostic provider's port as CAMUS service
+// "rt.<instance>", each call bounded by `deadline_ms` (also the service's advertised deadline).
+inline std::string diagnostic_rules(int deadline_ms) {
+  return "name: bridge-test\n"
+         "rt_to_camus:\n"
+         "  poll_ms: 100\n"
+         "  providers:\n"
+         "    - match: \"*/Diagnostic*.rtc\"\n"
+         "      interface: URS::Diagnostic\n"
+         "      name: \"rt.{instance}\"\n"
+         "      deadline_ms: " + std::to_string(deadline_ms) + "\n";
+}
+
 // What a Planet client sees of one call.
 struct Observed {
   planet::Status status = planet::INTERNAL;

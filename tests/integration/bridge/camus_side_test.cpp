@@ -24,16 +24,6 @@ using namespace std::chrono_literals;
 using Clock = std::chrono::steady_clock;
 namespace gp = google::protobuf;
 
-constexpr const char* kDiagnosticRules =
-    "name: bridge-test\n"
-    "rt_to_camus:\n"
-    "  poll_ms: 100\n"
-    "  providers:\n"
-    "    - match: \"*/Diagnostic*.rtc\"\n"
-    "      interface: URS::Diagnostic\n"
-    "      name: \"rt.{instance}\"\n"
-    "      deadline_ms: 1500\n";
-
 class BridgeCamusSide : public BridgeSpaceTest {
  protected:
   Observed call(const std::string& service, const std::string& operation, const std::string& payload,
@@ -64,7 +54,7 @@ class BridgeCamusSide : public BridgeSpaceTest {
 
   void start_diagnostic_space() {
     start_manager("m", "labhost", "components:\n  - type: Diagnostic\n");
-    start_bridge(kDiagnosticRules);
+    start_bridge(diagnostic_rules(1500));
     ASSERT_TRUE(wait_for_service("rt.Diagnostic0")) << bridge_->log();
   }
 };

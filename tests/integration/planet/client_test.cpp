@@ -126,6 +126,49 @@ TEST(PlanetClient, DeadlineExceededAndALateReplyIsIgnored) {
   EXPECT_EQ(after.payload, "after");
 }
 
+TEST(PlanetClient, ACallWithoutDeadlineLeavesItToTheServer) {
+  TestHandler handler;
+  Server server(server_options(), handler);
+  server.start();
+  ClientOptions options = client_options(server.port(), "patient");
+  options.queue_timeout = 300ms;  // bounds only the wait for a connection
+  Client client(options);
+  client.start();
+  ASSERT_TRUE(client.wait_connected(5s));
+
+  // Sent with deadline_ms 0 (the service's deadline applies at the server) and answered long
+  // after queue_timeout: the client waited for the answer.
+  Replies replies;
+  client.call_async("silent", "wait", "", 0ms, replies.handler("no deadline"));
+  ASSERT_TRUE(eventually([&] { return handler.silent().size() == 1; }));
+  const auto received = handler.received_from("patient");
+  ASSERT_FALSE(received.empty());
+  EXPECT_EQ(received.back().frame.request().deadline_ms(), 0u);
+  EXPECT_FALSE(replies.wait_count(1, 900ms)) << "the client gave up on its own";
+  Frame answer;
+  answer.mutable_reply()->set_call_id(handler.silent()[0].call_id);
+  answer.mutable_reply()->set_payload("late but wanted");
+  ASSERT_TRUE(handler.silent()[0].session.lock()->send(answer));
+  ASSERT_TRUE(replies.wait_count(1));
+  EXPECT_TRUE(replies.got()[0].second.ok()) << replies.got()[0].second.message;
+  EXPECT_EQ(replies.got()[0].second.payload, "late but wanted");
+}
+
+TEST(PlanetClient, ACallWithoutDeadlineWaitsForAConnectionOnlyUpToTheQueueTimeout) {
+  uint16_t port = 0;
+  {
+    RawListener listener;  // a port that was free a moment ago: no server will answer
+    port = listener.port();
+  }
+  ClientOptions options = client_options(port, "unsent");
+  options.queue_timeout = 200ms;
+  Client client(options);
+  client.start();
+  const CallResult result = client.call("echo", "x", "y");
+  EXPECT_EQ(result.status, UNAVAILABLE);
+  EXPECT_EQ(result.message, "echo.x not sent: no connection to 127.0.0.1:" + std::to_string(port) + " within 200 ms");
+}
+
 TEST(PlanetClient, ReconnectRestoresRegistrationsSubscriptionsAndQueuedCalls) {
   TestHandler handler;
   handler.replay_overlap = true;  // the server replays one event the client already has

@@ -1,6 +1,7 @@
 // Service ports on the wire: a consumer in this process and one in a manager process call the
 // Diagnostic provider of a urs-rtc-manager process through connected ports, with the provider's
-// IOR published under both key styles; the minimal foreign route; dead peers dropped.
+// IOR published under both key styles; the minimal foreign route; dead peers dropped; a second
+// connection between the same ports refused, as OpenRTM-aist 2.x refuses it.
 
 #include <gtest/gtest.h>
 #include <signal.h>
@@ -138,6 +139,23 @@ TEST_F(ServicePort, TheRequiredKeyPicksAProviderWhoseInstanceNameDiffers) {
   ASSERT_EQ(mapped.code, RTC::RTC_OK);
   EXPECT_EQ(rtc::nv_string(mapped.profile.properties, required_key), std::string(kNewKey));
   EXPECT_TRUE(consumer.consumer().connected());
+}
+
+TEST_F(ServicePort, ASecondConnectionToTheSamePeerIsRefusedAsOpenRtmRefusesIt) {
+  auto& consumer = make_consumer("diagnostic");
+  RTC::PortService_var port = consumer.port();
+  ASSERT_EQ(rtc::connect_ports({port.in(), provider_port_.in()}, "first").code, RTC::RTC_OK);
+  // Either order, either port first: each port already holds a connection to the other.
+  EXPECT_EQ(rtc::connect_ports({port.in(), provider_port_.in()}, "again").code, RTC::PRECONDITION_NOT_MET);
+  EXPECT_EQ(rtc::connect_ports({provider_port_.in(), port.in()}, "again").code, RTC::PRECONDITION_NOT_MET);
+  RTC::ConnectorProfileList_var theirs = provider_port_->get_connector_profiles();
+  EXPECT_EQ(theirs->length(), 1u);
+  // Unless the connector allows it.
+  EXPECT_EQ(rtc::connect_ports({port.in(), provider_port_.in()}, "dup",
+                               rtc::nv_from({{"dataport.allow_dup_connection", "YES"}})).code,
+            RTC::RTC_OK);
+  theirs = provider_port_->get_connector_profiles();
+  EXPECT_EQ(theirs->length(), 2u);
 }
 
 TEST_F(ServicePort, TheMinimalForeignRouteNeedsOnlyTheProvidersPort) {

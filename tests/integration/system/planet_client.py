@@ -1,8 +1,9 @@
 #!/usr/bin/env python3
 """A Planet client written from docs/planet.md and the generated schema alone (no URSLink code).
 
-It proves the protocol is language-neutral: handshake with the space token, a call to the
-diagnostic agent, a subscription, and an event delivered to it.
+It proves the protocol is language-neutral: handshake with the space token, calls to the
+diagnostic agent without a deadline of their own (the service's applies), a subscription, and an
+event delivered to it.
 """
 import argparse
 import socket
@@ -15,6 +16,7 @@ def main():
     parser.add_argument("--server", required=True, help="HOST:PORT")
     parser.add_argument("--token-file", required=True)
     parser.add_argument("--pythonpath", required=True, help="colon-separated folders of generated modules")
+    parser.add_argument("--sleep-ms", type=int, default=0, help="diag.sleep called without a deadline")
     args = parser.parse_args()
     sys.path[:0] = args.pythonpath.split(":")
     import planet_pb2
@@ -79,7 +81,7 @@ def main():
     call.request.service = "diag"
     call.request.operation = "echo"
     call.request.payload = Diagnostic_pb2.Diagnostic_echo_Request(text="hola").SerializeToString()
-    call.request.deadline_ms = 5000
+    # No deadline_ms (0): the server applies the deadline diag advertised when it registered.
     send(call)
     kind, frame = receive()
     if kind != "reply" or frame.reply.status != planet_pb2.OK:
@@ -88,6 +90,19 @@ def main():
     reply = Diagnostic_pb2.Diagnostic_echo_Reply()
     reply.ParseFromString(frame.reply.payload)
     print("echo reply:", reply.result)
+
+    # A call longer than that deadline: the server cuts it there and says which deadline it was.
+    slow = planet_pb2.Frame()
+    slow.request.call_id = 2
+    slow.request.service = "diag"
+    slow.request.operation = "sleep"
+    slow.request.payload = Diagnostic_pb2.Diagnostic_sleep_Request(ms=args.sleep_ms).SerializeToString()
+    send(slow)
+    kind, frame = receive()
+    if kind != "reply":
+        print("sleep: no reply:", frame)
+        return 1
+    print("sleep reply:", planet_pb2.Status.Name(frame.reply.status), frame.reply.message)
 
     subscribe = planet_pb2.Frame()
     subscribe.subscribe.subscription_id = 1
@@ -99,7 +114,7 @@ def main():
         return 1
 
     notify = planet_pb2.Frame()
-    notify.request.call_id = 2
+    notify.request.call_id = 3
     notify.request.service = "diag"
     notify.request.operation = "notify"
     notify.request.oneway = True

@@ -67,6 +67,17 @@ TEST_F(SpaceTest, DeadlineExceededWhileOtherCallsKeepFlowing) {
   slow.join();
 }
 
+TEST_F(SpaceTest, ACallWithoutDeadlineGetsTheOneTheServiceAdvertised) {
+  // diag registered with deadline_ms 5000 (sam.yaml): a call that gives none is cut there (by the
+  // server, or by the agent, which sees the deadline the server forwards), whatever default the
+  // client might have had; with 10 s the 5.2 s sleep would answer OK.
+  auto r = urs({"call", "diag", "sleep", R"({"ms":5200})"});
+  EXPECT_EQ(r.exit_code, 1) << r.out;
+  EXPECT_THAT(r.err, HasSubstr("DEADLINE_EXCEEDED"));
+  r = urs({"call", "diag", "echo", R"({"text":"x"})", "--deadline-ms", "0"});
+  EXPECT_EQ(r.exit_code, 2) << "a deadline of 0 ms is not a deadline: " << r.err;
+}
+
 TEST_F(SpaceTest, WrongTokenIsRefusedWithTheReason) {
   write(dir_ + "/bad-token", "wrong\n");
   auto r = run_command({URS_CLI_BIN, "--server", server_address(), "--token-file", dir_ + "/bad-token",
@@ -252,11 +263,14 @@ TEST_F(SpaceTest, LargeReplyDoesNotDelayASmallCallOnTheSameConnection) {
 }
 
 TEST_F(SpaceTest, PythonClientCallsAndReceivesAnEventFromTheSpecAlone) {
+  // Its calls carry no deadline: diag's own (5000 ms, sam.yaml) bounds a 5200 ms sleep, which
+  // would answer OK within 10 s.
   auto r = run_command({"/usr/bin/python3", URS_PY_CLIENT, "--server", server_address(), "--token-file",
-                        dir_ + "/token", "--pythonpath", URS_PY_PATH},
+                        dir_ + "/token", "--pythonpath", URS_PY_PATH, "--sleep-ms", "5200"},
                        30s);
   EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
   EXPECT_THAT(r.out, HasSubstr("echo reply: hola"));
+  EXPECT_THAT(r.out, HasSubstr("sleep reply: DEADLINE_EXCEEDED"));
   EXPECT_THAT(r.out, HasSubstr("event: lab/python"));
 }
 

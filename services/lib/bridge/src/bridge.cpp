@@ -2,6 +2,7 @@
 
 #include <google/protobuf/dynamic_message.h>
 #include <google/protobuf/struct.pb.h>
+#include <omniORB4/minorCode.h>
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
@@ -18,6 +19,7 @@
 #include "urs/corba_agent/corba_proxy.hpp"
 #include "urs/rtc/component.hpp"
 #include "urs/rtc/data_port.hpp"
+#include "urs/rtc/nvlist.hpp"
 #include "urs/rtc/tools.hpp"
 #include "urs/schema/json.hpp"
 #include "urs/rtc/execution_context.hpp"
@@ -33,8 +35,10 @@ namespace {
 
 constexpr auto kCamusTimeout = std::chrono::milliseconds(2000);  // registry calls of one poll
 constexpr auto kProbeTimeout = std::chrono::milliseconds(500);   // liveness probe of a provider
+constexpr auto kProfileTimeout = std::chrono::milliseconds(2000);  // reading a component's profile
 constexpr auto kRetryPeriod = std::chrono::milliseconds(2000);   // a component that did not answer
 constexpr const char* kOrigin = "urslink.origin";
+constexpr const char* kHealth = "urslink.health";  // of an RT provider: "ok", "slow", "inactive", ...
 constexpr const char* kConnectorName = "urs-bridge";
 
 std::string sanitize(const std::string& text) {
@@ -66,10 +70,29 @@ SDOPackage::NVList properties(std::initializer_list<std::pair<const char*, std::
   return list;
 }
 
-CORBA::Object_ptr with_timeout(CORBA::Object_ptr object, std::chrono::milliseconds timeout) {
-  CORBA::Object_ptr copy = CORBA::Object::_duplicate(object);
-  omniORB::setClientCallTimeout(copy, static_cast<CORBA::ULong>(timeout.count()));
-  return copy;
+// How a component answered a probe. Slowness is not death: only an object that does not exist,
+// or a process that refuses the connection, is gone; a call that timed out or a connection cut
+// mid-call says nothing yet (the next probe will).
+enum class Liveness { kAlive, kSlow, kGone };
+
+Liveness liveness_of(const CORBA::SystemException& e) {
+  if (dynamic_cast<const CORBA::TIMEOUT*>(&e) != nullptr || dynamic_cast<const CORBA::COMM_FAILURE*>(&e) != nullptr) {
+    return Liveness::kSlow;
+  }
+  if (dynamic_cast<const CORBA::TRANSIENT*>(&e) != nullptr) {
+    return e.minor() == omni::TRANSIENT_CallTimedout ? Liveness::kSlow : Liveness::kGone;
+  }
+  return Liveness::kGone;  // OBJECT_NOT_EXIST, INV_OBJREF, ...
+}
+
+// What `urs ls` shows for an RT provider (property urslink.health): "ok" while its component is
+// Active and answers, else why not.
+std::string health_word(bool slow, bool state_known, RTC::LifeCycleState state) {
+  if (slow) return "slow";
+  if (!state_known || state == RTC::ACTIVE) return "ok";
+  std::string word = rtc::state_name(state);
+  for (char& c : word) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return word;
 }
 
 }  // namespace
@@ -160,6 +183,8 @@ class Bridge::Session {
   schema::SchemaPool remote;  // interfaces of CAMUS services, from the registry
 
   std::map<std::string, std::string> exports;  // export key ("<connector id>|<key>") -> CAMUS name
+  std::map<std::string, std::string> export_paths;   // CAMUS name of an RT provider -> its naming path
+  std::map<std::string, std::string> export_health;  // CAMUS name -> urslink.health last registered
   struct Import {
     rtc::Component* component;
     std::string path;
@@ -216,9 +241,21 @@ struct Bridge::Known {
   bool reachable = false;
   bool bridged = false;  // carries an origin: something a bridge made
   Clock::time_point retry_at;
-  CORBA::Object_var probe;
+  CORBA::Object_var probe;             // the component, calls bounded by kProbeTimeout
+  RTC::ExecutionContext_var context;   // its first owned context, bounded the same; nil if none
+  bool slow = false;                   // the last probe timed out (it is kept, not withdrawn)
+  bool state_known = false;
+  RTC::LifeCycleState state = RTC::CREATED;  // in `context`, as last read
   std::vector<Port> ports;
   std::map<std::string, std::string> links;  // "<port>" or "<port>#<our port>" -> connector id we made
+
+  const Port* port(const std::string& link) const {  // the port of a link key
+    const std::string name = link.substr(0, link.find('#'));
+    for (const auto& entry : ports) {
+      if (entry.name == name) return &entry;
+    }
+    return nullptr;
+  }
 };
 
 // ---- the bridge ------------------------------------------------------------------------------
@@ -226,7 +263,10 @@ struct Bridge::Known {
 Bridge::Bridge(rtc::Orb& orb, rtc::NamingClient* naming, rtc::Manager* manager, const InterfaceCatalog& catalog,
                BridgeConfig config, std::optional<planet::ClientOptions> planet)
     : orb_(orb), naming_(naming), manager_(manager), catalog_(catalog), config_(std::move(config)),
-      planet_(std::move(planet)) {
+      planet_(std::move(planet)),
+      store_(config_.data_dir.empty() || manager_ == nullptr
+                 ? std::string()
+                 : config_.data_dir + "/connections-" + sanitize(config_.name) + ".yaml") {
   if ((naming_ == nullptr) != (manager_ == nullptr)) throw std::logic_error("bridge: naming client without manager");
   if (planet_) {
     planet_->peer_name = config_.name;
@@ -301,6 +341,7 @@ BridgeStatus Bridge::status() const {
   status.active = session_ != nullptr;
   if (session_) {
     for (const auto& [key, name] : session_->exports) status.exported.push_back(name);
+    status.health = session_->export_health;
     for (const auto& [service, import] : session_->imports) status.imported.push_back(import.path);
     for (const auto& [key, remote] : session_->remotes) status.remote.push_back(key);
   }
@@ -405,6 +446,7 @@ void Bridge::open_session() {
     std::lock_guard lock(mutex_);
     session_ = session;
   }
+  load_connections();
   if (planet_) {
     spdlog::info("bridge {}: active (CAMUS server {}:{})", config_.name, planet_->host, planet_->port);
   } else {
@@ -523,11 +565,9 @@ void Bridge::poll_rt() {
   auto forget = [this](const std::string& path, const char* why) {
     auto it = known_.find(path);
     if (it == known_.end()) return;
-    for (const auto& [port, connector_id] : it->second->links) {
-      spdlog::info("bridge: {} {}: dropping connection {} of its port {}", path, why, connector_id, port);
-      component_->providers().drop_connection(connector_id);
-      for (std::size_t i = 0; i < config_.data_to_camus.size(); ++i) component_->in_port(i).drop_connection(connector_id);
-      for (std::size_t i = 0; i < config_.events_to_rt.size(); ++i) component_->out_port(i).drop_connection(connector_id);
+    for (const auto& [link, connector_id] : it->second->links) {
+      spdlog::info("bridge: {} {}: dropping connection {} of its port {}", path, why, connector_id, link);
+      drop_link(*it->second, link, connector_id);
     }
     known_.erase(it);
   };
@@ -549,9 +589,8 @@ void Bridge::poll_rt() {
     known->ior = ior;
     try {
       CORBA::Object_var object = orb_.string_to_object(ior);
-      known->probe = with_timeout(object, kProbeTimeout);
-      CORBA::Object_var bounded = with_timeout(object, std::chrono::milliseconds(2000));
-      RTC::RTObject_var rtc = RTC::RTObject::_narrow(bounded);
+      known->probe = orb_.bounded<CORBA::Object>(object, kProbeTimeout);
+      RTC::RTObject_var rtc = orb_.bounded<RTC::RTObject>(object, kProfileTimeout);
       RTC::ComponentProfile_var profile = rtc->get_component_profile();
       known->instance = profile->instance_name.in();
       known->type_name = profile->type_name.in();
@@ -572,6 +611,10 @@ void Bridge::poll_rt() {
         entry.ref = RTC::PortService::_duplicate(port.port_ref);
         known->ports.push_back(std::move(entry));
       }
+      RTC::ExecutionContextList_var contexts = rtc->get_owned_contexts();
+      if (contexts->length() > 0 && !CORBA::is_nil(contexts[0])) {
+        known->context = orb_.bounded<RTC::ExecutionContext>(contexts[0], kProbeTimeout);
+      }
       known->reachable = true;
     } catch (const CORBA::Exception& e) {
       known->retry_at = now + kRetryPeriod;
@@ -582,37 +625,66 @@ void Bridge::poll_rt() {
     }
   }
 
-  // 4. Providers that died without unbinding.
+  // 4. Providers that died without unbinding are withdrawn; slow ones are kept and marked, and
+  //    the lifecycle state of each is read (an Inactive OpenRTM-aist provider serves nothing).
   for (auto it = known_.begin(); it != known_.end();) {
     const std::string path = it->first;
-    const auto& known = *(it++)->second;
+    Known& known = *(it++)->second;
     if (!known.reachable || known.links.empty()) continue;
-    bool dead = false;
+    Liveness answer = Liveness::kAlive;
+    std::string why;
     try {
-      dead = known.probe->_non_existent();
-    } catch (const CORBA::Exception&) {
-      dead = true;
+      if (known.probe->_non_existent()) answer = Liveness::kGone;
+      if (answer == Liveness::kAlive && !CORBA::is_nil(known.context)) {
+        RTC::RTObject_var self = RTC::RTObject::_unchecked_narrow(known.probe);
+        known.state = known.context->get_component_state(self);
+        known.state_known = true;
+      }
+    } catch (const CORBA::SystemException& e) {
+      answer = liveness_of(e);
+      why = rtc::describe(e);
     }
-    if (dead) {
+    if (answer == Liveness::kGone) {
       forget(path, "stopped answering");
       auto& again = known_[path];  // keep it out of the choice until the binding changes or a retry
       again = std::make_shared<Known>();
       again->ior = bound.count(path) ? bound[path] : "";
       again->retry_at = Clock::now() + kRetryPeriod;
+      continue;
     }
+    const bool slow = answer == Liveness::kSlow;
+    if (slow != known.slow) {
+      if (slow) {
+        spdlog::warn("bridge: {} did not answer within {} ms ({}); kept, marked slow", path, kProbeTimeout.count(), why);
+      } else {
+        spdlog::info("bridge: {} answers again", path);
+      }
+    }
+    known.slow = slow;
   }
 
   // 5. Connect what the rules ask for and is not connected yet.
-  RTC::PortService_var providers = component_->providers().reference();
   for (auto& [path, known_ptr] : known_) {
     Known& known = *known_ptr;
     if (!known.reachable || known.bridged) continue;
     for (const auto& port : known.ports) {
-      auto connect = [&](const std::string& link, std::vector<RTC::PortService_ptr> ports,
+      auto connect = [&](const std::string& link, rtc::PortBase& ours, bool ours_first,
                          const SDOPackage::NVList& extra) {
         if (known.links.count(link)) return;
+        RTC::PortService_var ours_ref = ours.reference();
+        const std::vector<RTC::PortService_ptr> ports =
+            ours_first ? std::vector<RTC::PortService_ptr>{ours_ref.in(), port.ref.in()}
+                       : std::vector<RTC::PortService_ptr>{port.ref.in(), ours_ref.in()};
+        const std::string name = std::string(kConnectorName) + "." + config_.name;
         try {
-          const rtc::Connection made = rtc::connect_ports(ports, std::string(kConnectorName) + "." + config_.name, extra);
+          rtc::Connection made = rtc::connect_ports(ports, name, extra);
+          // A port that still holds a connection to ours whose other half is gone (we could not
+          // tell it when it was dropped) refuses a new one, as OpenRTM-aist's ports do: drop
+          // that half, then connect again.
+          if (made.code == RTC::PRECONDITION_NOT_MET &&
+              drop_stale_halves(path, port.ref, port.name, ours) > 0) {
+            made = rtc::connect_ports(ports, name, extra);
+          }
           if (made.code != RTC::RTC_OK) {
             if (warned_.insert(path + "|" + link).second) {
               spdlog::warn("bridge: connecting {} port {} failed: {}", path, port.name, rtc::return_code_name(made.code));
@@ -635,7 +707,7 @@ void Bridge::poll_rt() {
             if (glob_match(rule.match, path) && glob_match(rule.interface, type)) wanted = true;
           }
         }
-        if (wanted) connect(port.name, {providers.in(), port.ref.in()}, properties({{"urslink.connector", config_.name}}));
+        if (wanted) connect(port.name, component_->providers(), true, properties({{"urslink.connector", config_.name}}));
       }
       // A data port of the component that one of the bridge's own data ports is configured for.
       auto connect_data = [&](const char* kind, const std::string& match, const std::string& name,
@@ -649,11 +721,7 @@ void Bridge::poll_rt() {
           }
           return;
         }
-        RTC::PortService_var ours_ref = ours.reference();
-        connect(port.name + "#" + ours.short_name(),
-                ours_first ? std::vector<RTC::PortService_ptr>{ours_ref.in(), port.ref.in()}
-                           : std::vector<RTC::PortService_ptr>{port.ref.in(), ours_ref.in()},
-                extra);
+        connect(port.name + "#" + ours.short_name(), ours, ours_first, extra);
       };
       for (std::size_t i = 0; i < config_.data_to_camus.size(); ++i) {
         const auto& entry = config_.data_to_camus[i];
@@ -670,8 +738,217 @@ void Bridge::poll_rt() {
   }
 
   reconcile_exports();
+  restore_connections(*session_);
+  save_connections(*session_);
   sync_dds_exports(*session_);
   if (session_->state && session_->state->rtc_states_due()) share_rtc_states();
+}
+
+rtc::PortBase& Bridge::our_port(const std::string& link) {
+  const auto hash = link.find('#');
+  if (hash == std::string::npos) return component_->providers();
+  const std::string ours = link.substr(hash + 1);
+  for (std::size_t i = 0; i < config_.data_to_camus.size(); ++i) {
+    if (component_->in_port(i).short_name() == ours) return component_->in_port(i);
+  }
+  for (std::size_t i = 0; i < config_.events_to_rt.size(); ++i) {
+    if (component_->out_port(i).short_name() == ours) return component_->out_port(i);
+  }
+  throw std::logic_error("bridge: no port " + ours + " of its own");
+}
+
+void Bridge::drop_link(const Known& known, const std::string& link, const std::string& connector_id) {
+  // The peer's half first (best effort, bounded): a port that kept it would refuse the next
+  // connection to ours (OpenRTM-aist refuses duplicates), and neither its disconnect() (which
+  // asks our port first, and ours no longer knows the id) nor a tool could clear it.
+  if (const Known::Port* peer = known.port(link); peer != nullptr && !CORBA::is_nil(peer->ref)) {
+    try {
+      RTC::PortService_var bounded = orb_.bounded<RTC::PortService>(peer->ref, kProbeTimeout);
+      bounded->notify_disconnect(connector_id.c_str());
+    } catch (const CORBA::Exception& e) {
+      spdlog::debug("bridge: port {} did not take back connection {}: {}", peer->name, connector_id, rtc::describe(e));
+    }
+  }
+  our_port(link).drop_connection(connector_id);
+}
+
+int Bridge::drop_stale_halves(const std::string& path, RTC::PortService_ptr peer, const std::string& peer_name,
+                              rtc::PortBase& ours) {
+  std::set<std::string> held;
+  for (const auto& profile : ours.connections()) held.insert(profile.connector_id.in());
+  RTC::PortService_var ours_ref = ours.reference();
+  int dropped = 0;
+  try {
+    RTC::PortService_var bounded = orb_.bounded<RTC::PortService>(peer, kProfileTimeout);
+    RTC::ConnectorProfileList_var profiles = bounded->get_connector_profiles();
+    for (CORBA::ULong i = 0; i < profiles->length(); ++i) {
+      const RTC::ConnectorProfile& profile = profiles[i];
+      if (held.count(profile.connector_id.in())) continue;
+      bool lists_ours = false;
+      for (CORBA::ULong j = 0; j < profile.ports.length() && !lists_ours; ++j) {
+        lists_ours = !CORBA::is_nil(profile.ports[j]) && profile.ports[j]->_is_equivalent(ours_ref);
+      }
+      if (!lists_ours) continue;
+      spdlog::info("bridge: {} port {} still held connection {} to {}, whose other half is gone; dropping it", path,
+                   peer_name, profile.connector_id.in(), ours.name());
+      bounded->notify_disconnect(profile.connector_id);
+      ++dropped;
+    }
+  } catch (const CORBA::Exception& e) {
+    spdlog::debug("bridge: cannot clear stale connections of {} port {}: {}", path, peer_name, rtc::describe(e));
+  }
+  return dropped;
+}
+
+// ---- restarts -------------------------------------------------------------------------------
+
+rtc::Component* Bridge::our_rtc(Session& session, const std::string& key) const {
+  if (key == "bridge") return component_;
+  if (key.rfind("camus:", 0) == 0) {
+    const auto it = session.imports.find(key.substr(6));
+    return it == session.imports.end() ? nullptr : it->second.component;
+  }
+  if (key.rfind("dds:", 0) == 0) {
+    const auto it = session.remotes.find(key.substr(4));
+    return it == session.remotes.end() ? nullptr : it->second.component;
+  }
+  return nullptr;
+}
+
+void Bridge::load_connections() {
+  if (store_.path().empty()) return;
+  const std::vector<SavedConnection> saved = store_.load();
+  if (!stale_halves_dropped_) {
+    // A new process: what the saved connections' peers hold is half of a connection to ports
+    // that died with the last one. Dropped by id (notify_disconnect), which reads no profile:
+    // an OpenRTM-aist OutPort whose peer was killed crashes on its next profile read.
+    stale_halves_dropped_ = true;
+    int dropped = 0;
+    for (const auto& connection : saved) {
+      for (const auto& ior : connection.ports) {
+        if (ior.empty()) continue;
+        try {
+          CORBA::Object_var object = orb_.string_to_object(ior);
+          RTC::PortService_var peer = orb_.bounded<RTC::PortService>(object, kProbeTimeout);
+          if (peer->notify_disconnect(connection.id.c_str()) == RTC::RTC_OK) ++dropped;
+        } catch (const std::exception& e) {
+          spdlog::debug("bridge: connection {}: {}", connection.id, e.what());
+        } catch (const CORBA::Exception& e) {
+          spdlog::debug("bridge: connection {}: a peer port does not answer: {}", connection.id, rtc::describe(e));
+        }
+      }
+    }
+    if (!saved.empty()) {
+      spdlog::info("bridge: {} connection(s) of its RTCs were kept in {}; {} stale half(s) dropped at their peers",
+                   saved.size(), store_.path(), dropped);
+    }
+  }
+  restores_.clear();
+  for (const auto& connection : saved) {
+    if (!connection.made_by_bridge) restores_.push_back({connection, Clock::now()});  // the rules remake the others
+  }
+}
+
+void Bridge::restore_connections(Session& session) {
+  const auto now = Clock::now();
+  for (auto it = restores_.begin(); it != restores_.end();) {
+    const SavedConnection& saved = it->saved;
+    rtc::Component* component = our_rtc(session, saved.rtc);
+    if (component == nullptr || now < it->retry_at) {
+      ++it;
+      continue;
+    }
+    rtc::PortBase* ours = nullptr;
+    for (rtc::PortBase* port : component->ports()) {
+      if (port->short_name() == saved.port) ours = port;
+    }
+    bool held = false;
+    if (ours != nullptr) {
+      for (const auto& profile : ours->connections()) held = held || saved.id == profile.connector_id.in();
+    }
+    const std::string where = component->instance_name() + "." + saved.port;
+    if (ours == nullptr || held) {
+      if (ours == nullptr) {
+        spdlog::warn("bridge: {} has no port {} any more; connection {} is not restored", component->instance_name(),
+                     saved.port, saved.id);
+      }
+      it = restores_.erase(it);
+      continue;
+    }
+    try {
+      RTC::PortService_var ours_ref = ours->reference();
+      std::vector<RTC::PortService_var> peers;  // own the references while connecting
+      peers.reserve(saved.ports.size());
+      std::vector<RTC::PortService_ptr> ports;
+      bool gone = false;
+      for (const auto& ior : saved.ports) {
+        if (ior.empty()) {
+          ports.push_back(ours_ref.in());
+          continue;
+        }
+        CORBA::Object_var object = orb_.string_to_object(ior);
+        peers.push_back(orb_.bounded<RTC::PortService>(object, kProfileTimeout));
+        try {
+          gone = gone || peers.back()->_non_existent();
+        } catch (const CORBA::SystemException& e) {
+          gone = gone || liveness_of(e) == Liveness::kGone;
+        }
+        ports.push_back(peers.back().in());
+      }
+      if (gone) {
+        spdlog::info("bridge: connection {} of {} is not restored: a peer port no longer exists", saved.id, where);
+        it = restores_.erase(it);
+        continue;
+      }
+      const rtc::Connection made = rtc::connect_ports(
+          ports, saved.name, rtc::nv_from({saved.properties.begin(), saved.properties.end()}), saved.id);
+      if (made.code == RTC::RTC_OK) {
+        spdlog::info("bridge: connection {} ({}) of {} restored", saved.id, saved.name, where);
+        warned_.erase("restore|" + saved.id);
+        it = restores_.erase(it);
+        continue;
+      }
+      if (warned_.insert("restore|" + saved.id).second) {
+        spdlog::warn("bridge: restoring connection {} of {}: {}; trying again every {} ms", saved.id, where,
+                     rtc::return_code_name(made.code), kRetryPeriod.count());
+      }
+    } catch (const std::exception& e) {
+      if (warned_.insert("restore|" + saved.id).second) {
+        spdlog::warn("bridge: restoring connection {} of {}: {}", saved.id, where, e.what());
+      }
+    } catch (const CORBA::Exception& e) {
+      if (warned_.insert("restore|" + saved.id).second) {
+        spdlog::warn("bridge: restoring connection {} of {}: {}", saved.id, where, rtc::describe(e));
+      }
+    }
+    it->retry_at = now + kRetryPeriod;
+    ++it;
+  }
+}
+
+void Bridge::save_connections(Session& session) {
+  if (store_.path().empty()) return;
+  std::vector<std::pair<std::string, rtc::Component*>> rtcs{{"bridge", component_}};
+  for (const auto& [service, import] : session.imports) rtcs.emplace_back("camus:" + service, import.component);
+  for (const auto& [key, remote] : session.remotes) {
+    if (remote.component) rtcs.emplace_back("dds:" + key, remote.component);
+  }
+  const std::string ours_name = std::string(kConnectorName) + "." + config_.name;
+  const auto ior_of = [this](CORBA::Object_ptr object) { return orb_.object_to_string(object); };
+  std::vector<SavedConnection> held;
+  for (const auto& [key, component] : rtcs) {
+    for (rtc::PortBase* port : component->ports()) {
+      RTC::PortService_var ref = port->reference();
+      for (const auto& profile : port->connections()) {
+        SavedConnection saved;
+        if (describe_connection(profile, ref, key, port->short_name(), ours_name == profile.name.in(), ior_of, saved)) {
+          held.push_back(std::move(saved));
+        }
+      }
+    }
+  }
+  for (const auto& restore : restores_) held.push_back(restore.saved);  // kept until made again
+  store_.save(held);
 }
 
 void Bridge::share_rtc_states() {
@@ -738,14 +1015,19 @@ void Bridge::reconcile_exports() {
                                                    {"host", host}});
       try {
         CORBA::Object_var target = orb_.string_to_object(provided.ior);
-        auto proxy = std::make_shared<corba_agent::CorbaProxyAgent>(
-            orb_.orb(), target, *interface, corba_agent::CorbaProxyOptions{std::chrono::milliseconds(rule.deadline_ms),
-                                                                  std::chrono::milliseconds(rule.deadline_ms)});
+        corba_agent::CorbaProxyOptions options{std::chrono::milliseconds(rule.deadline_ms),
+                                               std::chrono::milliseconds(rule.deadline_ms), {}};
+        const auto known = known_.find(path);
+        if (known != known_.end() && known->second->reachable) {
+          options.explain_missing_target = owner_state_check(path, known->second->ior);
+        }
+        auto proxy = std::make_shared<corba_agent::CorbaProxyAgent>(orb_.orb(), target, *interface, options);
         agent::HostedService hosted{name, proxy,
                                     {{kOrigin, "rtc:" + path + ":" + provided.port},
                                      {"urslink.bridge", config_.name},
                                      {"rtc.type_name", provided.type_name}},
                                     rule.deadline_ms};
+        if (known != known_.end()) add_health(hosted.properties, *known->second);
         session->host.add(hosted);
         if (session->client) session->client->register_service(session->host.registration(hosted), [name, path](planet::CallResult result) {
           if (result.ok()) {
@@ -757,6 +1039,8 @@ void Bridge::reconcile_exports() {
         });
         std::lock_guard lock(mutex_);
         session->exports[key] = name;
+        session->export_paths[name] = path;
+        session->export_health[name] = hosted.properties.count(kHealth) ? hosted.properties.at(kHealth) : "";
       } catch (const std::exception& e) {
         if (warned_.insert("export|" + key).second) spdlog::error("bridge: cannot offer {} as {}: {}", path, name, e.what());
       }
@@ -771,8 +1055,70 @@ void Bridge::reconcile_exports() {
     if (session->client) session->client->unregister_service(it->second);
     session->host.remove(it->second);
     std::lock_guard lock(mutex_);
+    session->export_paths.erase(it->second);
+    session->export_health.erase(it->second);
     it = session->exports.erase(it);
   }
+  update_health(*session);
+}
+
+void Bridge::add_health(std::map<std::string, std::string>& properties, const Known& known) const {
+  properties[kHealth] = health_word(known.slow, known.state_known, known.state);
+  if (known.state_known) properties["rtc.state"] = rtc::state_name(known.state);
+}
+
+void Bridge::update_health(Session& session) {
+  for (const auto& [name, path] : session.export_paths) {
+    const auto known = known_.find(path);
+    const agent::HostedService* hosted = session.host.find(name);
+    if (known == known_.end() || hosted == nullptr) continue;
+    agent::HostedService updated = *hosted;
+    add_health(updated.properties, *known->second);
+    const std::string& health = updated.properties[kHealth];
+    {
+      std::lock_guard lock(mutex_);  // status() reads it
+      std::string& registered = session.export_health[name];
+      if (health == registered) continue;
+      registered = health;
+    }
+    spdlog::info("bridge: {} is {} ({})", name, health, path);
+    // Registering again under the same name replaces the registry's entry (and what the client
+    // re-registers after a reconnect).
+    if (session.client) session.client->register_service(session.host.registration(updated));
+  }
+}
+
+std::function<std::string()> Bridge::owner_state_check(const std::string& path, const std::string& ior) const {
+  // Runs on the host's worker threads, after the provider answered OBJECT_NOT_EXIST: OpenRTM-aist
+  // deactivates the objects a component provides while it is not Active (docs/bridge.md).
+  RTC::RTObject_var owner;
+  try {
+    CORBA::Object_var object = orb_.string_to_object(ior);
+    owner = orb_.bounded<RTC::RTObject>(object, kProbeTimeout);
+  } catch (const std::exception&) {
+    return {};
+  }
+  const rtc::Orb* orb = &orb_;
+  return [orb, path, owner]() -> std::string {
+    try {
+      RTC::ExecutionContextList_var contexts = owner->get_owned_contexts();
+      if (contexts->length() == 0 || CORBA::is_nil(contexts[0])) return {};
+      RTC::ExecutionContext_var context = orb->bounded<RTC::ExecutionContext>(contexts[0], kProbeTimeout);
+      const RTC::LifeCycleState state = context->get_component_state(owner);
+      switch (state) {
+        case RTC::ACTIVE: return {};
+        case RTC::INACTIVE:
+          return "provider component " + path + " is INACTIVE; activate it with `urs rtc act " + path + "`";
+        case RTC::ERROR:
+          return "provider component " + path + " is in ERROR; reset it with `urs rtc reset " + path +
+                 "`, then activate it with `urs rtc act " + path + "`";
+        default:
+          return "provider component " + path + " is not initialized (CREATED)";
+      }
+    } catch (const CORBA::Exception&) {
+      return {};
+    }
+  };
 }
 
 void Bridge::on_data(std::size_t entry, const gp::Message& value) {

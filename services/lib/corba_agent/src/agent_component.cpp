@@ -168,11 +168,18 @@ rtc::ComponentFactory agent_component_factory(
     std::vector<std::string> errors;
     if (config && !config.IsNull()) {
       if (!config.IsMap()) throw util::ConfigError("config: a map is expected");
-      util::check_keys(config, "config", {"params", "port", "interface_instance", "streams"}, errors);
+      util::check_keys(config, "config", {"params", "port", "interface_instance", "streams", "deadline_ms"}, errors);
       if (config["params"]) params = YAML::Clone(config["params"]);
       if (config["port"]) util::read_scalar(config["port"], "config.port", settings.port, errors);
       if (config["interface_instance"]) {
         util::read_scalar(config["interface_instance"], "config.interface_instance", settings.interface_instance, errors);
+      }
+      if (config["deadline_ms"]) {
+        std::uint32_t deadline_ms = 0;
+        if (util::read_scalar(config["deadline_ms"], "config.deadline_ms", deadline_ms, errors) && deadline_ms == 0) {
+          errors.push_back("config.deadline_ms: 0 is not a positive number of milliseconds");
+        }
+        if (deadline_ms > 0) settings.deadline = std::chrono::milliseconds(deadline_ms);
       }
       if (const auto streams = config["streams"]) {
         if (!streams.IsSequence()) errors.push_back("config.streams: a list is expected");

@@ -221,7 +221,7 @@ agent::Outcome CorbaProxyAgent::invoke(const gp::MethodDescriptor& method, const
     dii->invoke();
     if (CORBA::Exception* raised = dii->env()->exception()) {
       if (auto* user = CORBA::UnknownUserException::_downcast(raised)) return answer_user_exception(call, *user);
-      if (auto* system = CORBA::SystemException::_downcast(raised)) return from_system_exception(*system, call.operation);
+      if (auto* system = CORBA::SystemException::_downcast(raised)) return answer_system_exception(call, *system);
       return agent::Outcome::error(planet::INTERNAL, call.operation + ": " + rtc::describe(*raised));
     }
     try {
@@ -237,8 +237,16 @@ agent::Outcome CorbaProxyAgent::invoke(const gp::MethodDescriptor& method, const
   } catch (const ConversionError& e) {
     return agent::Outcome::error(planet::BAD_ARGUMENTS, call.operation + ": " + e.what());
   } catch (const CORBA::SystemException& e) {
-    return from_system_exception(e, call.operation);
+    return answer_system_exception(call, e);
   }
+}
+
+agent::Outcome CorbaProxyAgent::answer_system_exception(const Call& call, const CORBA::SystemException& raised) const {
+  if (options_.explain_missing_target && dynamic_cast<const CORBA::OBJECT_NOT_EXIST*>(&raised) != nullptr) {
+    const std::string why = options_.explain_missing_target();
+    if (!why.empty()) return agent::Outcome::error(planet::UNAVAILABLE, call.operation + ": " + why);
+  }
+  return from_system_exception(raised, call.operation);
 }
 
 agent::Outcome CorbaProxyAgent::answer_user_exception(const Call& call, CORBA::UnknownUserException& raised) const {

@@ -104,8 +104,8 @@ void validate(const ClientOptions& options) {
     errors.push_back("reconnect_min " + ms(options.reconnect_min) + " and reconnect_max " +
                      ms(options.reconnect_max) + " must satisfy 0 < min <= max");
   }
-  if (options.default_deadline.count() <= 0) {
-    errors.push_back("default_deadline " + ms(options.default_deadline) + " must be > 0");
+  if (options.queue_timeout.count() <= 0) {
+    errors.push_back("queue_timeout " + ms(options.queue_timeout) + " must be > 0");
   }
   check_message_limits(options.chunk_bytes, options.max_message_bytes, errors);
   if (errors.empty()) return;
@@ -157,7 +157,7 @@ struct ClientCore {
     ReplyHandler handler;      // empty for oneways
     std::unique_ptr<asio::steady_timer> timer;
     Clock::time_point expires;
-    milliseconds deadline{0};
+    milliseconds deadline{0};  // 0: none given, the server's applies once sent
     bool sent = false;
   };
   struct Subscription {
@@ -746,7 +746,7 @@ void ClientCore::on_welcome_locked(const std::shared_ptr<ClientLink>& from,
         }
       };
     }
-    start_call_locked(std::move(request), options.default_deadline, std::move(handler), out,
+    start_call_locked(std::move(request), milliseconds(0), std::move(handler), out,
                       /*jump_queue=*/true);
   }
   for (const auto& [id, subscription] : subscriptions) send_subscribe_locked(id, subscription);
@@ -781,7 +781,9 @@ uint64_t ClientCore::start_call_locked(Request request, milliseconds deadline,
   call.label = request.service() + "." + request.operation();
   call.handler = std::move(handler);
   call.deadline = deadline;
-  call.expires = Clock::now() + deadline;
+  // Without a deadline the local timer bounds only the wait for a connection: once sent, the
+  // server answers by the service's deadline (docs/planet.md, "Calls and deadlines").
+  call.expires = Clock::now() + (deadline.count() > 0 ? deadline : options.queue_timeout);
   const bool oneway = request.oneway();
   call.request = std::move(request);
   if (!oneway) {
@@ -806,7 +808,9 @@ bool ClientCore::send_call_locked(uint64_t id, Deferred& out) {
   Frame frame;
   Request& request = *frame.mutable_request();
   request = std::move(call.request);
-  if (!request.oneway()) {
+  if (request.oneway() || call.deadline.count() == 0) {
+    request.set_deadline_ms(0);  // the service's deadline, else the server's default
+  } else {
     const auto left = std::chrono::duration_cast<milliseconds>(call.expires - Clock::now()).count();
     request.set_deadline_ms(static_cast<uint32_t>(std::max<int64_t>(1, left)));
   }
@@ -841,20 +845,29 @@ bool ClientCore::send_call_locked(uint64_t id, Deferred& out) {
 
 void ClientCore::on_deadline(uint64_t id) {
   ReplyHandler handler;
+  Status status = Status::DEADLINE_EXCEEDED;
   std::string message;
   {
     std::lock_guard<std::mutex> lock(mutex);
     auto it = calls.find(id);
     if (it == calls.end()) return;
+    const bool server_deadline = it->second.deadline.count() == 0;
+    if (server_deadline && it->second.sent) return;  // the server's answer bounds it now
     if (!it->second.sent) queue.erase(std::remove(queue.begin(), queue.end(), id), queue.end());
     handler = std::move(it->second.handler);
-    message = "no reply from " + it->second.label + " within " +
-              std::to_string(it->second.deadline.count()) + " ms";
+    if (server_deadline) {
+      status = Status::UNAVAILABLE;
+      message = it->second.label + " not sent: no connection to " + target + " within " +
+                std::to_string(options.queue_timeout.count()) + " ms";
+    } else {
+      message = "no reply from " + it->second.label + " within " +
+                std::to_string(it->second.deadline.count()) + " ms";
+    }
     calls.erase(it);
   }
   if (!handler) return;
   try {
-    handler(CallResult::error(Status::DEADLINE_EXCEEDED, message));
+    handler(CallResult::error(status, message));
   } catch (const std::exception& exception) {
     spdlog::error("planet: reply handler threw: {}", exception.what());
   }
@@ -885,8 +898,7 @@ void ClientCore::call_async(const std::string& service, const std::string& opera
       request.set_operation(operation);
       request.set_payload(std::move(payload));
       request.set_oneway(oneway);
-      start_call_locked(std::move(request),
-                        deadline.count() > 0 ? deadline : options.default_deadline,
+      start_call_locked(std::move(request), std::max(deadline, milliseconds(0)),
                         std::move(handler), out);
       if (accepted) *accepted = true;
     }
@@ -1001,7 +1013,7 @@ void ClientCore::register_service(const camus::RegisterRequest& registration,
             }
           };
         }
-        start_call_locked(std::move(request), options.default_deadline, std::move(handler), out);
+        start_call_locked(std::move(request), milliseconds(0), std::move(handler), out);
       } else {
         // Sent first thing on the next session; the handler gets that attempt's result.
         it->first_handler = std::move(handler);

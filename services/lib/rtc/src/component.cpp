@@ -65,8 +65,14 @@ std::string Component::property(const std::string& name) const {
 
 void Component::add_port(PortBase& port) {
   port.attach(*orb_, instance_name_, self_.in());
+  if (!serve_while_inactive_) port.deactivate_interfaces();  // added while Inactive
   std::lock_guard lock(mutex_);
   ports_.push_back(&port);
+}
+
+std::vector<PortBase*> Component::ports() const {
+  std::lock_guard lock(mutex_);
+  return ports_;
 }
 
 RTC::ReturnCode_t Component::guarded(const char* hook, const std::function<RTC::ReturnCode_t()>& body) {
@@ -96,10 +102,17 @@ RTC::ReturnCode_t Component::on_shutdown(RTC::ExecutionContextHandle_t h) {
 }
 RTC::ReturnCode_t Component::on_activated(RTC::ExecutionContextHandle_t h) {
   spdlog::debug("{}: activating in context {}", instance_name_, h);
-  return guarded("on_activated", [&] { return handle_activated(h); });
+  const RTC::ReturnCode_t result = guarded("on_activated", [&] { return handle_activated(h); });
+  if (!serve_while_inactive_) {
+    for (PortBase* port : ports()) port->activate_interfaces();
+  }
+  return result;
 }
 RTC::ReturnCode_t Component::on_deactivated(RTC::ExecutionContextHandle_t h) {
   spdlog::debug("{}: deactivating in context {}", instance_name_, h);
+  if (!serve_while_inactive_) {
+    for (PortBase* port : ports()) port->deactivate_interfaces();
+  }
   return guarded("on_deactivated", [&] { return handle_deactivated(h); });
 }
 RTC::ReturnCode_t Component::on_aborting(RTC::ExecutionContextHandle_t h) {

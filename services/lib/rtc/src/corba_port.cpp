@@ -56,13 +56,37 @@ void CorbaPort::attached() {
   for (auto& provider : providers_) {
     CORBA::Object_var object = orb().activate(provider.servant);
     provider.ior = orb().object_to_string(object);
+    provider.id = orb().poa()->reference_to_id(object);
+    provider.active = true;
   }
 }
 
 void CorbaPort::detaching() {
   std::lock_guard lock(mutex_);
   attached_ = false;
-  for (auto& provider : providers_) orb().deactivate(provider.servant);
+  for (auto& provider : providers_) {
+    if (provider.active) orb().deactivate(provider.servant);
+    provider.active = false;
+  }
+}
+
+void CorbaPort::activate_interfaces() {
+  std::lock_guard lock(mutex_);
+  if (!attached_) return;
+  for (auto& provider : providers_) {
+    if (provider.active) continue;
+    orb().poa()->activate_object_with_id(provider.id.in(), provider.servant);
+    provider.active = true;
+  }
+}
+
+void CorbaPort::deactivate_interfaces() {
+  std::lock_guard lock(mutex_);
+  for (auto& provider : providers_) {
+    if (!provider.active) continue;
+    orb().deactivate(provider.servant);
+    provider.active = false;
+  }
 }
 
 std::string CorbaPort::provided_key(const Provider& provider) const {

@@ -88,6 +88,7 @@ Component& Manager::create(const ComponentSpec& spec, const ComponentFactory& fa
                                                                   {"pid", std::to_string(getpid())}};
     properties.insert(properties.end(), spec.properties.begin(), spec.properties.end());
     component->setup(orb_, instance, rate, properties);
+    component->serve_while_inactive(spec.serve_while_inactive);
     const RTC::ReturnCode_t init = component->initialize();
     if (init != RTC::RTC_OK) {
       component->exit();
@@ -179,7 +180,7 @@ ManagerConfig load_manager_config(const std::string& path) {
   if (!components || !components.IsSequence()) {
     errors.push_back("components: a list of components is required");
   } else {
-    util::for_each_map(components, "components", "at least a type", {"type", "instance", "rate", "activate", "config"},
+    util::for_each_map(components, "components", "at least a type", {"type", "instance", "rate", "activate", "serve_while_inactive", "config"},
                        errors, [&](const YAML::Node& node, const std::string& where) {
       ComponentSpec spec;
       if (!node["type"]) {
@@ -190,6 +191,9 @@ ManagerConfig load_manager_config(const std::string& path) {
       if (node["instance"]) util::read_scalar(node["instance"], where + ".instance", spec.instance_name, errors);
       if (node["rate"]) read_rate(node["rate"], where + ".rate", spec.rate_hz);
       if (node["activate"]) util::read_scalar(node["activate"], where + ".activate", spec.activate, errors);
+      if (node["serve_while_inactive"]) {
+        util::read_scalar(node["serve_while_inactive"], where + ".serve_while_inactive", spec.serve_while_inactive, errors);
+      }
       if (node["config"]) spec.config = node["config"];
       config.components.push_back(std::move(spec));
     });

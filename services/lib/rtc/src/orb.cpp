@@ -1,8 +1,18 @@
 #include "urs/rtc/orb.hpp"
 
+#include <arpa/inet.h>
+#include <netdb.h>
+#include <netinet/in.h>
 #include <spdlog/spdlog.h>
+#include <sys/socket.h>
+#include <unistd.h>
 
+#include <algorithm>
+#include <cerrno>
 #include <chrono>
+#include <cstring>
+#include <memory>
+#include <cstdint>
 #include <stdexcept>
 #include <thread>
 #include <vector>
@@ -51,6 +61,13 @@ Orb::~Orb() {
 
 CORBA::Object_ptr Orb::activate(PortableServer::ServantBase* servant) {
   PortableServer::ObjectId_var id = poa_->activate_object(servant);
+  // A DSI servant has no compiled-in type: omniORB's id_to_reference() would publish an empty
+  // repository ID, so peers could neither narrow the reference without asking nor tell what it
+  // is (catior, OpenRTM-aist's tools). Its _primary_interface() says what it is.
+  if (auto* dynamic = dynamic_cast<PortableServer::DynamicImplementation*>(servant)) {
+    CORBA::String_var type = dynamic->_primary_interface(id.in(), poa_.in());
+    return poa_->create_reference_with_id(id.in(), type.in());
+  }
   return poa_->id_to_reference(id.in());
 }
 
@@ -87,10 +104,18 @@ std::string Orb::object_to_string(CORBA::Object_ptr object) const {
 
 CORBA::Object_ptr Orb::bounded(CORBA::Object_ptr object, std::chrono::milliseconds timeout) const {
   if (CORBA::is_nil(object)) return CORBA::Object::_nil();
-  // A fresh proxy from the stringified reference: the timeout set on it binds no other holder.
-  CORBA::Object_var own = orb_->string_to_object(object_to_string(object).c_str());
-  omniORB::setClientCallTimeout(own, static_cast<CORBA::ULong>(timeout.count()));
+  CORBA::Object_var own = fresh_reference(object);
+  set_call_timeout(own, timeout);
   return own._retn();
+}
+
+CORBA::Object_ptr Orb::fresh_reference(CORBA::Object_ptr object) const {
+  if (CORBA::is_nil(object)) throw std::invalid_argument("a bounded reference to a nil object");
+  return string_to_object(object_to_string(object));
+}
+
+void Orb::set_call_timeout(CORBA::Object_ptr object, std::chrono::milliseconds timeout) {
+  omniORB::setClientCallTimeout(object, static_cast<CORBA::ULong>(std::max<std::int64_t>(1, timeout.count())));
 }
 
 CORBA::Object_ptr Orb::string_to_object(const std::string& text) const {
@@ -105,6 +130,34 @@ CORBA::Object_ptr Orb::string_to_object(const std::string& text) const {
 std::string endpoint_from_address(const std::string& host_port, const std::string& what) {
   const util::Endpoint endpoint = util::parse_endpoint(host_port, what);
   return "giop:tcp:" + endpoint.host + ":" + std::to_string(endpoint.port);
+}
+
+std::string endpoint_towards(const std::string& peer, const std::string& what) {
+  const util::Endpoint endpoint = util::parse_endpoint(peer, what);
+  const auto fail = [&](const std::string& why) {
+    return util::ConfigError(what + ": cannot tell which address of this host the peers of " + peer +
+                             " reach it by (" + why + "); give --listen HOST:PORT");
+  };
+  addrinfo hints{};
+  hints.ai_family = AF_INET;
+  hints.ai_socktype = SOCK_DGRAM;
+  addrinfo* found = nullptr;
+  const int resolved = getaddrinfo(endpoint.host.c_str(), std::to_string(endpoint.port).c_str(), &hints, &found);
+  if (resolved != 0) throw fail(std::string("cannot resolve ") + endpoint.host + ": " + gai_strerror(resolved));
+  std::unique_ptr<addrinfo, decltype(&freeaddrinfo)> addresses(found, freeaddrinfo);
+  // connect() on a UDP socket only picks the route (and so the source address); nothing is sent.
+  const int fd = socket(AF_INET, SOCK_DGRAM, 0);
+  if (fd < 0) throw fail(std::string("socket: ") + std::strerror(errno));
+  sockaddr_in local{};
+  socklen_t length = sizeof local;
+  const bool routed = connect(fd, addresses->ai_addr, addresses->ai_addrlen) == 0 &&
+                      getsockname(fd, reinterpret_cast<sockaddr*>(&local), &length) == 0;
+  const int error = errno;
+  close(fd);
+  if (!routed) throw fail(std::string("no route: ") + std::strerror(error));
+  char text[INET_ADDRSTRLEN] = {};
+  inet_ntop(AF_INET, &local.sin_addr, text, sizeof text);
+  return "giop:tcp:" + std::string(text) + ":";
 }
 
 bool is_gone(CORBA::Object_ptr object) {

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cctype>
 #include <cstdio>
 #include <random>
 
@@ -124,6 +125,11 @@ std::size_t PortBase::connection_count() const {
   return connections_.size();
 }
 
+std::vector<RTC::ConnectorProfile> PortBase::connections() const {
+  std::lock_guard lock(mutex_);
+  return connections_;
+}
+
 // ---- profiles ----
 
 RTC::PortProfile* PortBase::get_port_profile() {
@@ -158,21 +164,18 @@ RTC::ConnectorProfile* PortBase::get_connector_profile(const char* connector_id)
 
 // ---- connecting ----
 
-bool PortBase::has_duplicate_of(const RTC::ConnectorProfile& profile) const {
-  // A profile naming only this port (the minimal foreign route) does not say who the peer is:
-  // two such connections may come from different peers.
-  if (profile.ports.length() < 2) return false;
-  for (const auto& existing : connections_) {
-    if (existing.ports.length() != profile.ports.length()) continue;
-    bool same = true;
-    for (CORBA::ULong i = 0; i < profile.ports.length() && same; ++i) {
-      try {
-        same = existing.ports[i]->_is_equivalent(profile.ports[i]);
-      } catch (const CORBA::SystemException&) {
-        same = false;
+bool PortBase::already_connected_to(const RTC::ConnectorProfile& profile) const {
+  for (CORBA::ULong i = 0; i < profile.ports.length(); ++i) {
+    const RTC::PortService_ptr other = profile.ports[i];
+    if (CORBA::is_nil(other) || (!CORBA::is_nil(self_) && other->_is_equivalent(self_))) continue;
+    for (const auto& existing : connections_) {
+      for (CORBA::ULong j = 0; j < existing.ports.length(); ++j) {
+        try {
+          if (!CORBA::is_nil(existing.ports[j]) && existing.ports[j]->_is_equivalent(other)) return true;
+        } catch (const CORBA::SystemException&) {
+        }
       }
     }
-    if (same) return true;
   }
   return false;
 }
@@ -208,11 +211,12 @@ RTC::ReturnCode_t PortBase::notify_connect(RTC::ConnectorProfile& connector_prof
     spdlog::warn("port {}: notify_connect for connector {} that does not list this port", name(), id);
     return RTC::BAD_PARAMETER;
   }
-  if (refuses_duplicates()) {
-    const auto allow = nv_string(connector_profile.properties, "dataport.allow_dup_connection");
+  {
+    std::string allow = nv_string(connector_profile.properties, "dataport.allow_dup_connection").value_or("");
+    for (char& c : allow) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
     std::lock_guard lock(mutex_);
-    if (allow != "YES" && has_duplicate_of(connector_profile)) {
-      spdlog::warn("port {}: connection {} refused: these ports are already connected "
+    if (allow != "YES" && already_connected_to(connector_profile)) {
+      spdlog::warn("port {}: connection {} refused: this port is already connected to a port of it "
                    "(dataport.allow_dup_connection=YES allows it)", short_name_, id);
       return RTC::PRECONDITION_NOT_MET;
     }

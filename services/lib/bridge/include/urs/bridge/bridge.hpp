@@ -13,7 +13,9 @@
 // The bridge RTC's lifecycle drives it: activating it opens the Planet session, registers the
 // proxies and creates the wrapper RTCs; deactivating it withdraws them all. While active it polls
 // the naming service (connector role: providers matching the rules are connected to the bridge,
-// and their proxies withdrawn when they vanish or die) and the CAMUS registry.
+// and their proxies withdrawn when they vanish or are gone, kept and marked when merely slow;
+// every connection it drops is dropped on both ends) and the CAMUS registry. With a data dir it
+// keeps the connections of its RTCs and makes them again after a restart (ConnectionStore).
 //
 // Loops are prevented by origin: what the bridge offers carries "urslink.origin" (a CAMUS property
 // "rtc:<path>:<port>", a component property "camus:<service>"), and nothing that carries one is
@@ -32,12 +34,14 @@
 #include <vector>
 
 #include "urs/bridge/config.hpp"
+#include "urs/bridge/connection_store.hpp"
 #include "urs/bridge/dds_link.hpp"
 #include "urs/bridge/interfaces.hpp"
 #include "urs/planet/client.hpp"
 #include "urs/rtc/manager.hpp"
 #include "urs/rtc/naming.hpp"
 #include "urs/rtc/orb.hpp"
+#include "urs/rtc/port.hpp"
 
 namespace urs::bridge {
 
@@ -46,6 +50,7 @@ struct BridgeStatus {
   std::vector<std::string> exported;  // CAMUS services standing for RT providers
   std::vector<std::string> imported;  // naming paths of RTCs standing for CAMUS services
   std::vector<std::string> remote;    // "<space>/<service>" of other spaces' services offered here
+  std::map<std::string, std::string> health;  // CAMUS name of an RT provider -> "ok", "slow", "inactive", ...
 };
 
 class Bridge {
@@ -84,6 +89,30 @@ class Bridge {
   void share_rtc_states();
   void poll_camus();
   void reconcile_exports();
+  // The bridge RTC's port of a link key ("<port>": providers; "<port>#<ours>": that data port).
+  rtc::PortBase& our_port(const std::string& link);
+  // Drops one connection the bridge made, on both ends: notify_disconnect on the peer's port
+  // (best effort, bounded), then our port's half.
+  void drop_link(const Known& known, const std::string& link, const std::string& connector_id);
+  // Drops, on `peer`, the connections listing `ours` that `ours` no longer holds; returns how many.
+  int drop_stale_halves(const std::string& path, RTC::PortService_ptr peer, const std::string& peer_name,
+                        rtc::PortBase& ours);
+  // urslink.health and rtc.state of an RT provider, from what the last poll saw of its component.
+  void add_health(std::map<std::string, std::string>& properties, const Known& known) const;
+  // Registers again every RT provider whose health changed since it was last registered.
+  void update_health(Session& session);
+  // For CorbaProxyOptions::explain_missing_target: the state of the component at `path` (IOR
+  // `ior`) when it is why its provider does not exist; empty if not.
+  std::function<std::string()> owner_state_check(const std::string& path, const std::string& ior) const;
+
+  // Restarts (ConnectionStore): at a session's opening, what was saved becomes connections to
+  // restore (and, in a new process, the peers first drop their stale halves); each RT poll
+  // restores those whose RTC is back and saves what the bridge's RTCs hold.
+  void load_connections();
+  void restore_connections(Session& session);
+  void save_connections(Session& session);
+  // The RTC of the bridge for a SavedConnection::rtc key; nullptr if it is not there (now).
+  rtc::Component* our_rtc(Session& session, const std::string& key) const;
   void on_data(std::size_t entry, const google::protobuf::Message& value);
   void poll_dds();
   void sync_dds_exports(Session& session);
@@ -114,6 +143,13 @@ class Bridge {
   // Used by the bridge's thread only.
   std::map<std::string, std::shared_ptr<Known>> known_;  // by naming path
   std::set<std::string> warned_;                         // problems logged once
+  ConnectionStore store_;
+  bool stale_halves_dropped_ = false;  // once per process, at its first session
+  struct Restore {
+    SavedConnection saved;
+    std::chrono::steady_clock::time_point retry_at;
+  };
+  std::vector<Restore> restores_;  // saved connections not made again yet
 };
 
 }  // namespace urs::bridge

@@ -135,6 +135,9 @@ struct DdsConfig {
 
 struct BridgeConfig {
   std::string space;  // the space the bridge belongs to (set from --space)
+  // Where the connections of the bridge's RTCs are kept across restarts (set from --data-dir;
+  // "" keeps them nowhere). See ConnectionStore.
+  std::string data_dir;
   std::string name;
   std::string instance;
   bool activate = true;

@@ -3,7 +3,8 @@
 // an AgentServant under the interface's IDL scoped name ("URC::Navigation"); the agent's events
 // on configured topics leave through data OutPorts as the CDR of their IDL struct, so OpenRTM-aist
 // InPorts of that type can take them. The agent starts when the component is initialized (calls
-// are answered whatever the component's state, as a service port's are) and stops at finalize.
+// are answered whatever the component's state, unless Component::serve_while_inactive(false)
+// makes the service port follow it as OpenRTM-aist's do) and stops at finalize.
 // An agent that is agent::Tunable offers its parameters as the component's configuration
 // parameters: a tool's change (rtconf set, `urs rtc conf set`) reaches the agent at once.
 
@@ -112,6 +113,7 @@ class AgentComponent : public rtc::Component {
 //   port:                the service port's name (default: the interface name in lower case)
 //   interface_instance:  the provided interface's instance name (default: the port's name)
 //   streams:             [{topic: <event topic>, port: <OutPort name>, type: <Protobuf message>}]
+//   deadline_ms:         the deadline the agent sees for each call (AgentComponentConfig::deadline)
 // make_agent and the keys above throw urs::util::ConfigError naming the key.
 rtc::ComponentFactory agent_component_factory(
     std::string type_name, std::function<std::shared_ptr<agent::ServiceAgent>(const YAML::Node& params)> make_agent);

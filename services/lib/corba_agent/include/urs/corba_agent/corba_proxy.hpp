@@ -14,6 +14,7 @@
 #include <omniORB4/CORBA.h>
 
 #include <chrono>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -31,6 +32,10 @@ struct CorbaProxyOptions {
   // When > 0, no call waits on the target longer than this, whatever the caller's deadline (a
   // per-service bound from configuration); past it the caller gets DEADLINE_EXCEEDED.
   std::chrono::milliseconds max_deadline{0};
+  // When set, called on the calling thread after the target answered OBJECT_NOT_EXIST: why it
+  // does not exist when its owner knows (e.g. "provider component P is INACTIVE; activate it
+  // with `urs rtc act P`"), answered as UNAVAILABLE with that text; "" keeps "provider gone".
+  std::function<std::string()> explain_missing_target{};
 };
 
 class CorbaProxyAgent : public agent::ServiceAgent {
@@ -53,6 +58,7 @@ class CorbaProxyAgent : public agent::ServiceAgent {
   // call timeout per reference; one per thread, so concurrent calls never share a setting).
   CORBA::Object_ptr reference_for(std::chrono::milliseconds timeout) const;
   agent::Outcome answer_user_exception(const Call& call, CORBA::UnknownUserException& raised) const;
+  agent::Outcome answer_system_exception(const Call& call, const CORBA::SystemException& raised) const;
 
   const google::protobuf::ServiceDescriptor& interface_;
   const CorbaProxyOptions options_;

@@ -35,7 +35,9 @@ struct ClientOptions {
   std::chrono::milliseconds connect_timeout{2000};
   std::chrono::milliseconds reconnect_min{50};
   std::chrono::milliseconds reconnect_max{2000};
-  std::chrono::milliseconds default_deadline{10000};
+  // A call made without a deadline may wait this long for a connection (then UNAVAILABLE);
+  // once sent, the server bounds it (see call_async).
+  std::chrono::milliseconds queue_timeout{10000};
   size_t max_queued = 10000;              // calls + publishes waiting for a connection
   uint64_t max_message_bytes = 64ull << 20;
   uint32_t chunk_bytes = 64u << 10;
@@ -88,7 +90,11 @@ class Client {
   std::string last_error() const;
   Welcome welcome() const;  // of the current (or last) session
 
-  // Request/reply. deadline 0 = options.default_deadline. The handler runs exactly once.
+  // Request/reply. The handler runs exactly once. `deadline` > 0 bounds the whole call (queueing
+  // included) and the rest of it is sent with the request. `deadline` 0 gives none: the request
+  // carries deadline_ms 0, so the server applies the service's advertised deadline (else its
+  // default) and answers DEADLINE_EXCEEDED itself when it passes; the client waits for that
+  // answer (or a lost connection), and bounds only the wait for a connection by queue_timeout.
   void call_async(const std::string& service, const std::string& operation, std::string payload,
                   std::chrono::milliseconds deadline, ReplyHandler handler);
   CallResult call(const std::string& service, const std::string& operation, std::string payload,

@@ -51,11 +51,17 @@ class Component : public virtual POA_OpenRTM::DataFlowComponent {
              const std::vector<std::pair<std::string, std::string>>& properties = {});
   // Called once after exit() completes (the manager unbinds the name and drops the component).
   void on_exit(std::function<void()> callback);
+  // true (the default): the objects its service ports provide answer whatever its state. false:
+  // they exist only while it is Active, as OpenRTM-aist makes them (its CorbaPort deactivates them
+  // when created and on_deactivated, activates them on_activated; the IORs stay the same, so a
+  // call in between gets OBJECT_NOT_EXIST). Call before initialize().
+  void serve_while_inactive(bool serve) { serve_while_inactive_ = serve; }
 
   const ComponentInfo& info() const { return info_; }
   const std::string& instance_name() const { return instance_name_; }
   RTC::RTObject_ptr reference() const;  // caller owns; nil before setup()
   PeriodicExecutionContext& execution_context() { return *context_; }
+  std::vector<PortBase*> ports() const;  // in the order they were added
   bool exited() const;
 
   // ---- RTC::ComponentAction (called by execution contexts) ----
@@ -145,6 +151,7 @@ class Component : public virtual POA_OpenRTM::DataFlowComponent {
   mutable std::mutex mutex_;
   bool initialized_ = false;
   bool exited_ = false;
+  bool serve_while_inactive_ = true;
   std::vector<PortBase*> ports_;
   std::map<RTC::ExecutionContextHandle_t, RTC::ExecutionContext_var> participating_;
   RTC::ExecutionContextHandle_t next_participating_handle_ = 1000;

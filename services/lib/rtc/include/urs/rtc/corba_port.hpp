@@ -59,6 +59,10 @@ class CorbaPort : public PortBase {
   // Declares a required interface; the returned consumer lives as long as the port.
   Consumer& require(const std::string& instance_name, const std::string& type_name);
 
+  // The provided objects keep their IORs across these (each is reactivated under its first id).
+  void activate_interfaces() override;
+  void deactivate_interfaces() override;
+
  protected:
   void attached() override;
   void detaching() override;
@@ -72,6 +76,8 @@ class CorbaPort : public PortBase {
     std::string type_name;
     PortableServer::ServantBase* servant;
     std::string ior;  // set when first published
+    PortableServer::ObjectId_var id{};  // its object id in the POA, kept while inactive
+    bool active = false;
   };
   std::string provided_key(const Provider& provider) const;
   std::string required_key(const Consumer& consumer) const;

@@ -11,7 +11,7 @@
 //   data_type (must name the port's type), serializer.cdr.endian. Anything else is refused with
 //   BAD_PARAMETER and a log line naming the property.
 // - A second connection between the same ports is refused unless
-//   dataport.allow_dup_connection=YES.
+//   dataport.allow_dup_connection=YES (as for every port, urs/rtc/port.hpp).
 // T is any omniidl-generated struct (RTC::TimedLong, RTC::CameraImage, ...); its TypeCode gives
 // the port's dataport.data_type ("IDL:RTC/TimedLong:1.0").
 
@@ -69,7 +69,6 @@ class DataPort : public PortBase {
   // The connector's byte order if this port can take part in it; nullopt (after a warning that
   // names the offending property) if it cannot.
   std::optional<ByteOrder> connector_byte_order(const RTC::ConnectorProfile& profile) const;
-  bool refuses_duplicates() const override { return true; }
 
  private:
   const std::string data_type_;

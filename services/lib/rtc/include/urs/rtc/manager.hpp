@@ -53,6 +53,9 @@ struct ComponentSpec {
   YAML::Node config;
   // Extra properties of the component profile (after the manager's own).
   std::vector<std::pair<std::string, std::string>> properties;
+  // false: the objects its service ports provide exist only while it is Active, as OpenRTM-aist's
+  // CorbaPort makes them (calls meanwhile get OBJECT_NOT_EXIST). Component::serve_while_inactive.
+  bool serve_while_inactive = true;
 };
 
 class Manager {
@@ -101,6 +104,7 @@ class Manager {
 //       instance: Diagnostic7    # optional
 //       rate: 50                 # optional
 //       activate: true           # optional, default false
+//       serve_while_inactive: false  # optional, default true (ComponentSpec::serve_while_inactive)
 //       config: {...}            # optional, handed to the factory
 // Throws urs::util::ConfigError naming the file, key and value of the first error.
 struct ManagerConfig {

@@ -30,7 +30,8 @@ class Orb {
   CORBA::ORB_ptr orb() const { return orb_.in(); }
   PortableServer::POA_ptr poa() const { return poa_.in(); }
 
-  // Activates `servant` in the root POA; the returned reference is owned by the caller.
+  // Activates `servant` in the root POA; the returned reference is owned by the caller and
+  // carries the servant's repository ID (a DSI servant's _primary_interface()).
   CORBA::Object_ptr activate(PortableServer::ServantBase* servant);
   // Deactivates the servant's object (no-op if it is not active) and returns once the calls in
   // progress on it have returned, so that the servant may be destroyed. Never call it for a
@@ -42,16 +43,40 @@ class Orb {
   // references to the object keep their bounds). Opening a new connection is still bounded by
   // the ORB's connect timeout. Caller owns; nil for nil.
   CORBA::Object_ptr bounded(CORBA::Object_ptr object, std::chrono::milliseconds timeout) const;
+  // A new reference of IDL type T to `object` whose calls wait at most `timeout` (no remote
+  // call: the caller knows the type). omniORB keeps a call timeout per reference object, and
+  // _duplicate() shares the object, so a bound set on a duplicate is overwritten by the next one
+  // set on the original (or on another duplicate); this reference is made anew from the IOR and
+  // no other setting touches it. Throws std::invalid_argument for nil.
+  template <typename T>
+  typename T::_var_type bounded(CORBA::Object_ptr object, std::chrono::milliseconds timeout) const {
+    CORBA::Object_var fresh = fresh_reference(object);
+    typename T::_var_type typed = T::_unchecked_narrow(fresh);
+    set_call_timeout(typed, timeout);
+    return typed;
+  }
   // Throws std::invalid_argument with omniORB's reason for a malformed IOR or corbaloc URL.
   CORBA::Object_ptr string_to_object(const std::string& text) const;
 
  private:
+  CORBA::Object_ptr fresh_reference(CORBA::Object_ptr object) const;  // caller owns
+  static void set_call_timeout(CORBA::Object_ptr object, std::chrono::milliseconds timeout);
+
   CORBA::ORB_var orb_;
   PortableServer::POA_var poa_;
 };
 
 // "giop:tcp:<host>:<port>" from "HOST:PORT" (as given to --listen); throws urs::util::ConfigError.
 std::string endpoint_from_address(const std::string& host_port, const std::string& what);
+
+// The endpoint to use when no --listen is given: "giop:tcp:<address>:" (an ephemeral port) on the
+// address of this host that the route to `peer` ("HOST:PORT", the naming service) leaves from,
+// so every object reference carries an address the peers of that service reach: 127.0.0.1 when
+// it is on loopback, the interface towards it otherwise. (Left to itself omniORB publishes the
+// first non-loopback address, which may be on a network those peers do not reach.) Sends
+// nothing. Throws urs::util::ConfigError naming `what`, the peer and the reason if there is no
+// such route or the name does not resolve.
+std::string endpoint_towards(const std::string& peer, const std::string& what);
 
 // True if `object` is nil, does not exist any more, or cannot be reached (any system exception).
 bool is_gone(CORBA::Object_ptr object);

@@ -11,6 +11,10 @@
 // Connections whose peer ports no longer exist are dropped whenever the profile is read; each
 // peer is asked with a 500 ms bound, and one that does not answer in time (paused, busy) is kept
 // and not asked again for 10 s, so reading a profile never fails nor waits long because of a peer.
+// A connection to a port this port is already connected to is refused (PRECONDITION_NOT_MET)
+// unless the profile says dataport.allow_dup_connection=YES, whatever the kind of port, as in
+// OpenRTM-aist 2.x: so a peer that forgot its half of a connection cannot connect again until the
+// other half is dropped too (notify_disconnect on this port).
 // Subclasses (service ports, data ports) supply publish/subscribe/unsubscribe.
 
 #include <chrono>
@@ -62,6 +66,14 @@ class PortBase : public virtual POA_RTC::PortService {
   int drop_dead_connections();
 
   std::size_t connection_count() const;
+  // The connections this port holds, as they are (no peer is asked whether it still exists).
+  std::vector<RTC::ConnectorProfile> connections() const;
+
+  // What OpenRTM-aist's PortAdmin does on a component's activation and deactivation: the objects
+  // the port provides become reachable, or stop being so (Component::serve_while_inactive).
+  // Default: nothing. Idempotent.
+  virtual void activate_interfaces() {}
+  virtual void deactivate_interfaces() {}
 
  protected:
   // Writes what this port offers into profile.properties (service port: its providers' IORs;
@@ -71,9 +83,6 @@ class PortBase : public virtual POA_RTC::PortService {
   // peer's InPortCdr). Non-RTC_OK aborts the connection.
   virtual RTC::ReturnCode_t subscribe_interfaces(const RTC::ConnectorProfile& profile) = 0;
   virtual void unsubscribe_interfaces(const RTC::ConnectorProfile& profile) = 0;
-  // Data ports refuse a second connection to the same peer ports unless the profile says
-  // dataport.allow_dup_connection=YES; service ports accept it.
-  virtual bool refuses_duplicates() const { return false; }
 
   // Called at the end of attach() and at the start of detach(): a subclass activates and
   // deactivates the CORBA objects it offers (providers, InPortCdr) here.
@@ -93,9 +102,12 @@ class PortBase : public virtual POA_RTC::PortService {
   void erase_connection(const std::string& connector_id);  // unsubscribes and forgets it
   // Tells profile.ports[next] (and so the ports after it) to forget a connection that failed.
   void forget_after(const RTC::ConnectorProfile& profile, CORBA::ULong next);
-  bool has_duplicate_of(const RTC::ConnectorProfile& profile) const;
   // Whether a peer port is gone (Liveness::kGone); a quiet peer counts as there.
   bool peer_gone(Orb& orb, RTC::PortService_ptr peer);
+  // As OpenRTM-aist's ports (of every kind) do in notify_connect: true if this port already holds a
+  // connection listing one of the other ports of `profile` (dataport.allow_dup_connection=YES in
+  // the profile lets it pass). With the mutex held.
+  bool already_connected_to(const RTC::ConnectorProfile& profile) const;
 
   const std::string short_name_;
   mutable std::mutex mutex_;
