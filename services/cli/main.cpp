@@ -20,6 +20,7 @@
 #include "camus.pb.h"
 #include "dynamic_caller.hpp"
 #include "rtc_commands.hpp"
+#include "urs/planet/authenticator.hpp"
 #include "urs/planet/client.hpp"
 #include "urs/util/cli.hpp"
 
@@ -86,7 +87,8 @@ int main(int argc, char** argv) {
   std::string log_level = "warn";
   int timeout_ms = 5000;
   app.add_option("--server", server, "CAMUS server HOST:PORT (env URS_SERVER)")->capture_default_str();
-  app.add_option("--token-file", token_file, "File holding the space's token (or env URS_TOKEN_FILE, or the token in URS_TOKEN)");
+  app.add_option("--token-file", token_file,
+                 "File holding this client's credential token (or env URS_TOKEN_FILE, or the token in URS_TOKEN)");
   app.add_option("--timeout-ms", timeout_ms, "Connection and built-in call timeout")->capture_default_str();
   app.add_option("--log-level", log_level, urs::util::kLogLevels)->capture_default_str();
 
@@ -95,6 +97,8 @@ int main(int argc, char** argv) {
   bool json_out = false;
   ls->add_option("pattern", pattern, "Glob on service names");
   ls->add_flag("--json", json_out, "Print the registry's JSON reply");
+
+  auto* whoami = app.add_subcommand("whoami", "Print who the server takes this client for: identity, role, space");
 
   auto* describe = app.add_subcommand("describe", "Show the operations of a service's interface");
   std::string service;
@@ -190,6 +194,12 @@ int main(int argc, char** argv) {
   urs::cli::DynamicCaller caller(client, timeout);
 
   try {
+    if (*whoami) {
+      const auto welcome = client.welcome();
+      std::printf("%s %s %s\n", welcome.identity().c_str(), urs::planet::role_word(welcome.role()),
+                  welcome.space().c_str());
+      return kOk;
+    }
     if (*ls) {
       camus::ListRequest request;
       request.set_pattern(pattern);
@@ -198,11 +208,13 @@ int main(int argc, char** argv) {
       if (rc != kOk || json_out) return rc;
       // ORIGIN: "native" for a service agent of this space; what a bridge offers names where the
       // service really is ("rtc:<naming path>:<port>").
-      std::printf("%-32s %-28s %-24s %-10s %s\n", "SERVICE", "INTERFACE", "OWNER", "STATE", "ORIGIN");
+      // OWNER is the provider's authenticated identity; PEER the name it declared (display only).
+      std::printf("%-32s %-28s %-20s %-20s %-10s %s\n", "SERVICE", "INTERFACE", "OWNER", "PEER", "STATE", "ORIGIN");
       for (const auto& s : reply.services()) {
         const auto origin = s.properties().find("urslink.origin");
-        std::printf("%-32s %-28s %-24s %-10s %s\n", s.name().c_str(), s.interface().c_str(), s.owner().c_str(),
-                    s.state().c_str(), origin == s.properties().end() ? "native" : origin->second.c_str());
+        std::printf("%-32s %-28s %-20s %-20s %-10s %s\n", s.name().c_str(), s.interface().c_str(),
+                    s.owner().c_str(), s.peer_name().empty() ? "-" : s.peer_name().c_str(), s.state().c_str(),
+                    origin == s.properties().end() ? "native" : origin->second.c_str());
       }
       return kOk;
     }
