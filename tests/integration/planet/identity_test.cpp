@@ -37,6 +37,11 @@ class PlanetIdentity : public ::testing::Test {
     server_->start();
   }
   uint16_t port() const { return server_->port(); }
+  // Waits until the handler has seen `n` sessions open (on_open runs after Welcome is queued, on
+  // any I/O thread: a client can hold its Welcome before the server's handler has run).
+  void wait_opened(size_t n) {
+    ASSERT_TRUE(eventually([&] { return handler.identities().size() >= n; })) << handler.identities().size();
+  }
 
   TestHandler handler;
   std::unique_ptr<Server> server_;
@@ -67,17 +72,20 @@ TEST_F(PlanetIdentity, TheSecretResumesTheSessionOnlyWithTheSameCredential) {
   RawPeer first(port());
   first.send_hello(1, "robot1-token", "sam", "", SAM);
   const Welcome one = welcome_of(first);
+  wait_opened(1);
 
   // Another credential presenting the secret gets a session of its own.
   RawPeer stranger(port());
   stranger.send_hello(1, "alice-token", "thief", one.session_secret(), SAM);
   const Welcome other = welcome_of(stranger);
   EXPECT_NE(other.session_secret(), one.session_secret());
+  wait_opened(2);
   // A secret the server never issued: a new session too.
   RawPeer guesser(port());
   guesser.send_hello(1, "robot1-token", "guess", std::string(64, '0'), SAM);
   const Welcome guessed = welcome_of(guesser);
   EXPECT_NE(guessed.session_secret(), one.session_secret());
+  wait_opened(3);
 
   // The same credential with the secret resumes it; the old connection is closed.
   RawPeer again(port());
@@ -89,7 +97,7 @@ TEST_F(PlanetIdentity, TheSecretResumesTheSessionOnlyWithTheSameCredential) {
   EXPECT_EQ(goodbye->goodbye().status(), UNAVAILABLE);
   EXPECT_EQ(goodbye->goodbye().reason(), "session resumed from another connection");
 
-  ASSERT_TRUE(eventually([&] { return handler.identities().size() == 4; }));
+  wait_opened(4);
   const auto ids = handler.identities();
   EXPECT_EQ(ids[3].session, ids[0].session);
   EXPECT_NE(ids[1].session, ids[0].session);
@@ -151,6 +159,7 @@ TEST_F(PlanetIdentity, ClientResumesItsSessionAndTheSecretIsNeverLogged) {
     RawPeer probe(port());
     probe.send_hello(1, "robot1-token", "probe");
     secret = welcome_of(probe).session_secret();  // a secret of another session, same format
+    wait_opened(2);
     handler.session_of("sam")->close(UNAVAILABLE, "test drops the connection");
     ASSERT_TRUE(eventually([&] {
       const auto ids = handler.identities();
