@@ -25,7 +25,7 @@ trap cleanup EXIT
 
 start_server() {
   "$bin/camus-server/urs-camus-server" --space demo --listen "127.0.0.1:${1}" --token-file "$work/token" \
-    --data-dir "$work/data" --port-file "$work/port" >>"$work/server.log" 2>&1 &
+    --token-role operator --data-dir "$work/data" --port-file "$work/port" >>"$work/server.log" 2>&1 &
   server_pid=$!
   pids+=("$server_pid")
   for _ in $(seq 100); do [[ -s "$work/port" ]] && return 0; sleep 0.05; done

@@ -16,6 +16,7 @@ PACKAGES=(
   libfastrtps-dev libfastcdr-dev fastddsgen default-jre-headless  # fastddsgen runs on Java
   # supporting libraries
   libasio-dev libcli11-dev libyaml-cpp-dev libsqlite3-dev
+  libssl-dev  # OpenSSL libcrypto: token hashes (SHA-256), constant-time compare, session secrets
   libespeak-ng-dev libpocketsphinx-dev libsphinxbase-dev pocketsphinx-en-us  # speech devices
   libqrencode-dev libzbar-dev libpng-dev  # camera device: QR markers, their recognition, PNG frames
   # tools used by tests and scripts

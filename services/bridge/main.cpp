@@ -47,7 +47,8 @@ int main(int argc, char** argv) {
   app.add_option("--listen", listen,
                  "HOST:PORT for the bridge's object references (default: an ephemeral port on this host's "
                  "address towards the naming service)");
-  app.add_option("--token-file", token_file, "File holding the space's Planet token");
+  app.add_option("--token-file", token_file,
+                 "File holding the bridge's credential token (role sam; operator to import context)");
   app.add_option("--call-timeout-ms", call_timeout_ms, "Bound on CORBA calls other than bridged ones")
       ->capture_default_str();
   app.add_option("--ready-file", ready_file, "Written with the bridge RTC's naming path once it is bound");

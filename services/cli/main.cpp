@@ -21,6 +21,7 @@
 #include "camus.pb.h"
 #include "dynamic_caller.hpp"
 #include "rtc_commands.hpp"
+#include "urs/planet/authenticator.hpp"
 #include "urs/planet/client.hpp"
 #include "urs/util/cli.hpp"
 
@@ -87,7 +88,8 @@ int main(int argc, char** argv) {
   std::string log_level = "warn";
   int timeout_ms = 5000;
   app.add_option("--server", server, "CAMUS server HOST:PORT (env URS_SERVER)")->capture_default_str();
-  app.add_option("--token-file", token_file, "File holding the space's token (or env URS_TOKEN_FILE, or the token in URS_TOKEN)");
+  app.add_option("--token-file", token_file,
+                 "File holding this client's credential token (or env URS_TOKEN_FILE, or the token in URS_TOKEN)");
   app.add_option("--timeout-ms", timeout_ms, "Connection and built-in call timeout")->capture_default_str();
   app.add_option("--log-level", log_level, urs::util::kLogLevels)->capture_default_str();
 
@@ -96,6 +98,8 @@ int main(int argc, char** argv) {
   bool json_out = false;
   ls->add_option("pattern", pattern, "Glob on service names");
   ls->add_flag("--json", json_out, "Print the registry's JSON reply");
+
+  auto* whoami = app.add_subcommand("whoami", "Print who the server takes this client for: identity, role, space");
 
   auto* describe = app.add_subcommand("describe", "Show the operations of a service's interface");
   std::string service;
@@ -200,6 +204,12 @@ int main(int argc, char** argv) {
   urs::cli::DynamicCaller caller(client, timeout);
 
   try {
+    if (*whoami) {
+      const auto welcome = client.welcome();
+      std::printf("%s %s %s\n", welcome.identity().c_str(), urs::planet::role_word(welcome.role()),
+                  welcome.space().c_str());
+      return kOk;
+    }
     if (*ls) {
       camus::ListRequest request;
       request.set_pattern(pattern);
@@ -207,15 +217,17 @@ int main(int argc, char** argv) {
       int rc = builtin(client, "camus.registry", "List", request, timeout, reply, json_out);
       if (rc != kOk || json_out) return rc;
       // ORIGIN: "native" for a service agent of this space; what a bridge offers names where the
-      // service really is ("rtc:<naming path>:<port>"). STATE: the registry's, unless the provider
-      // reports it cannot serve (urslink.health of a bridged RT provider: slow, inactive, error).
-      std::printf("%-32s %-28s %-24s %-10s %s\n", "SERVICE", "INTERFACE", "OWNER", "STATE", "ORIGIN");
+      // service really is ("rtc:<naming path>:<port>"). OWNER is the provider's authenticated
+      // identity; PEER the name it declared (display only). STATE: the registry's, unless the
+      // provider reports it cannot serve (urslink.health of a bridged RT provider: slow, inactive, error).
+      std::printf("%-32s %-28s %-20s %-20s %-10s %s\n", "SERVICE", "INTERFACE", "OWNER", "PEER", "STATE", "ORIGIN");
       for (const auto& s : reply.services()) {
         const auto origin = s.properties().find("urslink.origin");
         const auto health = s.properties().find("urslink.health");
         const std::string& state = health == s.properties().end() || health->second == "ok" ? s.state() : health->second;
-        std::printf("%-32s %-28s %-24s %-10s %s\n", s.name().c_str(), s.interface().c_str(), s.owner().c_str(),
-                    state.c_str(), origin == s.properties().end() ? "native" : origin->second.c_str());
+        std::printf("%-32s %-28s %-20s %-20s %-10s %s\n", s.name().c_str(), s.interface().c_str(),
+                    s.owner().c_str(), s.peer_name().empty() ? "-" : s.peer_name().c_str(), state.c_str(),
+                    origin == s.properties().end() ? "native" : origin->second.c_str());
       }
       return kOk;
     }

@@ -80,7 +80,8 @@ int main(int argc, char** argv) {
   app.add_option("--log-level", o.log_level, urs::util::kLogLevels)->capture_default_str();
   auto camus_options = [&](CLI::App* command) {
     command->add_option("--server", o.server, "CAMUS server HOST:PORT")->capture_default_str();
-    command->add_option("--token-file", o.token_file, "File holding the space's Planet token (or env URS_TOKEN_FILE)");
+    command->add_option("--token-file", o.token_file,
+                        "File holding this client's credential token (or env URS_TOKEN_FILE)");
   };
   auto motion_options = [&](CLI::App* command) {
     command->add_option("--service", o.service, "Navigation service on CAMUS")->capture_default_str();

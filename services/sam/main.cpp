@@ -47,7 +47,8 @@ int main(int argc, char** argv) {
   app.add_option("--space", space, "Name of the space this SAM belongs to")->required();
   app.add_option("--server", server, "CAMUS server HOST:PORT")->capture_default_str();
   app.add_option("--config", config_path, "YAML file listing the agents to host")->required();
-  app.add_option("--token-file", token_file, "File holding the space's Planet token");
+  app.add_option("--token-file", token_file,
+                 "File holding this SAM's credential token (a credential of role sam or operator)");
   app.add_option("--log-level", log_level, urs::util::kLogLevels)->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 

@@ -204,14 +204,7 @@ void expect_ok(const urs::planet::CallResult& r, const char* what) {
   if (!r.ok()) throw std::runtime_error(std::string(what) + ": " + std::string(urs::planet::status_name(r.status)) + ": " + r.message);
 }
 
-long rss_kib(pid_t pid) {
-  std::ifstream in("/proc/" + std::to_string(pid) + "/status");
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line.rfind("VmRSS:", 0) == 0) return std::stol(line.substr(6));
-  }
-  return -1;
-}
+long rss_kib(pid_t pid) { return urs::test::resident_kib(pid); }
 
 // A real process started from a YAML configuration, up once its ready file exists.
 std::unique_ptr<urs::test::Process> start_with_config(const std::string& dir, const std::string& name,

@@ -42,7 +42,7 @@ std::vector<std::pair<std::string, std::string>> seeds() {
   hello.mutable_hello()->set_token("t");
   hello.mutable_hello()->set_peer_name("sam@robot1");
   hello.mutable_hello()->set_role(urs::planet::SAM);
-  hello.mutable_hello()->set_session_id("abc");
+  hello.mutable_hello()->set_session_secret("abc");
   out.emplace_back("hello_whole", std::string(1, '\0') + encode_frame(hello));
   out.emplace_back("hello_bytewise", std::string(1, '\1') + encode_frame(hello));
 

@@ -52,4 +52,7 @@ std::string make_temp_dir(const std::string& prefix);
 
 std::string read_text(const std::string& path);
 
+// Resident memory of process `pid` in KiB (VmRSS of /proc/PID/status); -1 if it cannot be read.
+long resident_kib(pid_t pid);
+
 }  // namespace urs::test

@@ -49,12 +49,14 @@ class RawPeer {
   }
   void send_frame(const planet::Frame& frame) { send_bytes(planet::encode_frame(frame)); }
   void send_hello(uint32_t version = planet::kProtocolVersion, const std::string& token = "",
-                  const std::string& name = "raw") {
+                  const std::string& name = "raw", const std::string& session_secret = "",
+                  planet::Role role = planet::CLIENT) {
     planet::Frame frame;
     frame.mutable_hello()->set_version(version);
     frame.mutable_hello()->set_token(token);
     frame.mutable_hello()->set_peer_name(name);
-    frame.mutable_hello()->set_session_id("raw-" + name);
+    frame.mutable_hello()->set_role(role);
+    frame.mutable_hello()->set_session_secret(session_secret);
     send_frame(frame);
   }
 

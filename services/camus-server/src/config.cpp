@@ -5,6 +5,7 @@
 #include <CLI/CLI.hpp>
 #include <charconv>
 #include <filesystem>
+#include <vector>
 
 #include "urs/camus_server/registry.hpp"
 
@@ -31,6 +32,9 @@ std::optional<ServerConfig> parse_command_line(int argc, const char* const* argv
   std::string space;
   std::string listen;
   std::string token_file;
+  std::string token_name = "space";
+  std::string token_role;
+  std::string credentials_file;
   std::string data_dir;
   std::string tasks_dir;
   std::string port_file;
@@ -39,9 +43,51 @@ std::optional<ServerConfig> parse_command_line(int argc, const char* const* argv
   std::string default_deadline = "10000";
   std::string retention = "100000";
   std::string log_level = "info";
+  // The server's semantic limits, by flag: their text, then the field each fills.
+  const SemanticLimits defaults;
+  struct LimitFlag {
+    const char* flag;
+    const char* help;
+    uint64_t SemanticLimits::*field;
+    uint64_t min;
+    uint64_t max;
+    const char* what;
+    std::string text;
+  };
+  std::vector<LimitFlag> limit_flags = {
+      {"--max-topic-bytes", "longest topic or pattern in bytes", &SemanticLimits::max_topic_bytes, 16, 65536,
+       "a number of bytes", ""},
+      {"--max-topic-levels", "most levels of a topic or pattern", &SemanticLimits::max_topic_levels, 2, 1024,
+       "a number of levels", ""},
+      {"--max-subscriptions-per-session", "subscriptions one connection may hold",
+       &SemanticLimits::max_subscriptions_per_session, 1, 1'000'000, "a number", ""},
+      {"--max-subscriptions", "subscriptions of all connections together", &SemanticLimits::max_subscriptions, 1,
+       10'000'000, "a number", ""},
+      {"--max-pending-calls-per-session", "calls one connection may have waiting for a reply",
+       &SemanticLimits::max_pending_calls_per_session, 1, 1'000'000, "a number", ""},
+      {"--max-pending-calls", "calls waiting for a reply, server-wide", &SemanticLimits::max_pending_calls, 1,
+       10'000'000, "a number", ""},
+      {"--max-deadline-ms", "largest deadline_ms a call may ask for", &SemanticLimits::max_deadline_ms, 1,
+       uint64_t{1} << 40, "a number of milliseconds", ""},
+      {"--event-queue", "publishes and subscribes waiting for the event bus before RESOURCE_EXHAUSTED",
+       &SemanticLimits::event_queue, 1, 10'000'000, "a number", ""},
+      {"--event-queue-per-session", "of those, from one session", &SemanticLimits::event_queue_per_session, 1,
+       10'000'000, "a number", ""},
+      {"--event-queue-bytes", "bytes of those", &SemanticLimits::event_queue_bytes, 65536, uint64_t{1} << 40,
+       "a number of bytes", ""},
+  };
+  for (auto& limit : limit_flags) {
+    limit.text = std::to_string(defaults.*limit.field);
+    app.add_option(limit.flag, limit.text, std::string(limit.help) + " (default " + limit.text + ")");
+  }
   app.add_option("--space", space, "name of this robot space (announced to clients)")->required();
   app.add_option("--listen", listen, "HOST:PORT to accept Planet connections on (port 0 = any free port)")->required();
-  app.add_option("--token-file", token_file, "file holding the space's shared secret (clients must present it)");
+  app.add_option("--credentials", credentials_file,
+                 "YAML file of named credentials (name, role, token_sha256 | token_file, certificate); "
+                 "re-read on SIGHUP");
+  app.add_option("--token-file", token_file, "file holding one token that clients may present (with --token-role)");
+  app.add_option("--token-name", token_name, "name the --token-file credential authenticates as (default space)");
+  app.add_option("--token-role", token_role, "role of the --token-file credential: client, sam or operator");
   app.add_option("--data-dir", data_dir, "directory for the event log, context and tasks (default: in memory)");
   app.add_option("--tasks-dir", tasks_dir, "directory of task YAML files defined at start");
   app.add_option("--port-file", port_file, "write the bound port to this file once listening");
@@ -65,10 +111,24 @@ std::optional<ServerConfig> parse_command_line(int argc, const char* const* argv
   }
   config.space = space;
   config.listen = util::parse_endpoint(listen, "--listen");
-  try {
-    config.token = util::read_token_file(token_file);
-  } catch (const util::ConfigError& e) {
-    throw util::ConfigError(std::string("--token-file: ") + e.what());
+  config.credentials.credentials_file = credentials_file;
+  config.credentials.token_file = token_file;
+  config.credentials.token_name = token_name;
+  if (!token_role.empty()) {
+    config.credentials.token_role = parse_role(token_role);
+    if (config.credentials.token_role == planet::ROLE_UNSPECIFIED) {
+      throw util::ConfigError("--token-role: '" + token_role + "' is not client, sam or operator");
+    }
+  }
+  if (!token_file.empty() && token_role.empty()) {
+    throw util::ConfigError("--token-file needs --token-role (client, sam or operator): the role of the one "
+                            "credential it holds");
+  }
+  if (auto why = planet::Credentials::name_problem(token_name); !why.empty()) {
+    throw util::ConfigError("--token-name: '" + token_name + "' is not valid: " + why);
+  }
+  for (const auto& limit : limit_flags) {
+    config.limits.*limit.field = parse_number(limit.flag, limit.text, limit.min, limit.max, limit.what);
   }
   config.heartbeat_ms =
       static_cast<uint32_t>(parse_number("--heartbeat-ms", heartbeat, 10, 3'600'000, "a number of milliseconds"));

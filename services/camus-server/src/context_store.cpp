@@ -17,6 +17,19 @@ Error storage_error(const std::string& key, const SqliteError& e) {
   return make_error(planet::INTERNAL, "context entry '" + key + "' not stored: " + e.what());
 }
 
+constexpr size_t kMaxOriginBytes = 200;
+
+// Empty if `origin` (ContextSetRequest.source) may be kept as the entry's origin, else why not.
+std::string origin_problem(const std::string& origin) {
+  if (origin.size() > kMaxOriginBytes) {
+    return "it is " + std::to_string(origin.size()) + " bytes long; the limit is " + std::to_string(kMaxOriginBytes);
+  }
+  for (char c : origin) {
+    if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) return "it holds a control character";
+  }
+  return {};
+}
+
 }  // namespace
 
 ContextStore::ContextStore(const std::string& db_path, agent::EventSink& events, const Clock& clock, Scheduler& timers)
@@ -64,7 +77,10 @@ Result<camus::ContextEntry> ContextStore::get(const std::string& key) const {
 Result<camus::ContextEntry> ContextStore::set(const camus::ContextSetRequest& request, const std::string& caller) {
   const std::string& key = request.key();
   if (auto why = topic_problem(key); !why.empty()) {
-    return make_error(planet::BAD_ARGUMENTS, "context key '" + key + "' is not valid: " + why);
+    return make_error(planet::BAD_ARGUMENTS, "context key " + quote_prefix(key) + " is not valid: " + why);
+  }
+  if (auto why = origin_problem(request.source()); !why.empty()) {
+    return make_error(planet::BAD_ARGUMENTS, "context entry '" + key + "': source is not valid: " + why);
   }
   if (!request.has_value() || request.value().kind_case() == gp::Value::KIND_NOT_SET) {
     return make_error(planet::BAD_ARGUMENTS,
@@ -77,7 +93,8 @@ Result<camus::ContextEntry> ContextStore::set(const camus::ContextSetRequest& re
   uint64_t version = it == rows_.end() ? 0 : it->second.entry.version();
   row.entry.set_key(key);
   *row.entry.mutable_value() = request.value();
-  row.entry.set_source(request.source().empty() ? caller : request.source());
+  row.entry.set_source(caller);
+  row.entry.set_origin(request.source());
   row.entry.set_updated_unix_ns(now);
   row.entry.set_ttl_ms(request.ttl_ms());
   row.entry.set_expires_unix_ns(request.ttl_ms() == 0 ? 0 : now + int64_t{request.ttl_ms()} * 1'000'000);

@@ -2,17 +2,24 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
+#include <cstdint>
+#include <iterator>
 #include <utility>
 
 namespace urs::camus_server {
 
 namespace {
 constexpr uint64_t kInternalOwnerBit = 1ull << 63;
+constexpr uint64_t kConnectionBudgetBit = 1ull << 62;  // subscribes count per connection, publishes per session
 }
 
 struct EventBus::Job {
   enum class Kind { Publish, Subscribe, Unsubscribe, DropOwner, Flush };
   Kind kind = Kind::Flush;
+  size_t bytes = 0;      // counted against event_queue_bytes (with `counted`)
+  bool counted = false;  // an operation of a session, counted against event_queue
+  uint64_t budget = 0;   // whose share of event_queue_per_session it uses
   // Publish
   PublishInput input;
   PublishAckFn publish_ack;
@@ -20,10 +27,8 @@ struct EventBus::Job {
   uint64_t owner = 0;
   uint64_t subscription_id = 0;
   uint64_t resume_after = 0;
-  std::string pattern_text;
   TopicPattern pattern;
-  bool parsed = false;  // internal subscriptions come with a parsed pattern
-  bool replay_from_zero = false;  // internal: resume_after 0 replays everything retained
+  bool internal = false;  // the server's own subscription: replays from 0, not counted
   DeliverFn deliver;
   SubscribeAckFn subscribe_ack;
 };
@@ -54,55 +59,113 @@ EventBus::EventBus(const std::string& db_path, EventBusOptions options, const Cl
 
 EventBus::~EventBus() { stop(); }
 
-bool EventBus::enqueue(Job job, bool refuse_when_full) {
+void EventBus::refuse(Job& job, planet::Status status, const std::string& why) {
+  if (job.kind == Job::Kind::Publish && job.publish_ack) {
+    planet::PublishAck ack;
+    ack.set_publish_id(job.input.publish_id);
+    ack.set_status(status);
+    ack.set_message("event on " + quote_prefix(job.input.topic) + " not accepted: " + why);
+    job.publish_ack(ack);
+  } else if (job.kind == Job::Kind::Subscribe && job.subscribe_ack) {
+    planet::SubscribeAck ack;
+    ack.set_subscription_id(job.subscription_id);
+    ack.set_status(status);
+    ack.set_message("subscription to " + quote_prefix(job.pattern.text()) + " not accepted: " + why);
+    job.subscribe_ack(ack);
+  }
+}
+
+bool EventBus::enqueue(Job job) {
   std::unique_lock<std::mutex> lock(mutex_);
+  planet::Status status = planet::OK;
   std::string why;
   if (stopping_) {
+    status = planet::UNAVAILABLE;
     why = "server is shutting down";
-  } else if (refuse_when_full && queue_.size() >= options_.max_queue) {
-    why = "event bus is overloaded (" + std::to_string(options_.max_queue) + " operations queued); retry later";
+  } else if (job.counted && queued_ >= options_.event_queue) {
+    status = planet::RESOURCE_EXHAUSTED;
+    why = "the event bus is behind: " + std::to_string(queued_) + " operations are queued (event_queue " +
+          std::to_string(options_.event_queue) + "); retry later";
+  } else if (job.counted && queued_by_session_[job.budget] >= options_.event_queue_per_session) {
+    status = planet::RESOURCE_EXHAUSTED;
+    why = "the event bus is behind: this session has " + std::to_string(queued_by_session_[job.budget]) +
+          " operations queued (event_queue_per_session " + std::to_string(options_.event_queue_per_session) +
+          "); retry later";
+  } else if (job.counted && queued_bytes_ + job.bytes > options_.event_queue_bytes) {
+    status = planet::RESOURCE_EXHAUSTED;
+    why = "the event bus is behind: " + std::to_string(queued_bytes_) + " bytes are queued and this adds " +
+          std::to_string(job.bytes) + " (event_queue_bytes " + std::to_string(options_.event_queue_bytes) +
+          "); retry later";
   }
-  if (why.empty()) {
+  if (status == planet::OK) {
+    if (job.counted) {
+      ++queued_;
+      queued_bytes_ += job.bytes;
+      ++queued_by_session_[job.budget];
+    }
     queue_.push_back(std::move(job));
     ++enqueued_;
     wake_.notify_one();
     return true;
   }
+  if (job.counted && queued_by_session_[job.budget] == 0) queued_by_session_.erase(job.budget);
   lock.unlock();
-  if (job.kind == Job::Kind::Publish && job.publish_ack) {
-    planet::PublishAck ack;
-    ack.set_publish_id(job.input.publish_id);
-    ack.set_status(planet::UNAVAILABLE);
-    ack.set_message("event on '" + job.input.topic + "' not accepted: " + why);
-    job.publish_ack(ack);
-  } else if (job.kind == Job::Kind::Subscribe && job.subscribe_ack) {
-    planet::SubscribeAck ack;
-    ack.set_subscription_id(job.subscription_id);
-    ack.set_status(planet::UNAVAILABLE);
-    ack.set_message("subscription to '" + job.pattern_text + "' not accepted: " + why);
-    job.subscribe_ack(ack);
-  }
+  refuse(job, status, why);
   return false;
 }
 
 bool EventBus::publish(PublishInput input, PublishAckFn ack) {
   Job job;
   job.kind = Job::Kind::Publish;
+  job.bytes = input.topic.size() + input.payload.size() + input.content_type.size();
+  job.counted = input.publisher != 0;
+  job.budget = input.publisher;
   job.input = std::move(input);
   job.publish_ack = std::move(ack);
-  return enqueue(std::move(job), true);
+  const PublishInput& in = job.input;
+  if (in.publisher != 0 && in.publish_id == 0) {
+    refuse(job, planet::BAD_ARGUMENTS, "publish_id 0 is not valid: number the publishes of a session from 1");
+    return false;
+  }
+  // The server's own topics are bounded by what it validates itself (service names, context keys).
+  const TopicLimits unbounded{SIZE_MAX, SIZE_MAX};
+  if (auto why = topic_problem(in.topic, in.publisher != 0 ? options_.topics : unbounded); !why.empty()) {
+    refuse(job, planet::BAD_ARGUMENTS, "the topic is not valid: " + why);
+    return false;
+  }
+  if (in.publisher != 0 && is_server_topic(in.topic)) {
+    refuse(job, planet::PERMISSION_DENIED,
+           "topics under '" + in.topic.substr(0, in.topic.find('/')) +
+               "/' are published by the server alone (registry/, context/ and task/ are server topics)");
+    return false;
+  }
+  return enqueue(std::move(job));
 }
 
 void EventBus::subscribe(uint64_t owner, const planet::Subscribe& request, DeliverFn deliver, SubscribeAckFn ack) {
   Job job;
   job.kind = Job::Kind::Subscribe;
+  job.counted = true;
+  job.bytes = request.pattern().size();
+  job.budget = owner | kConnectionBudgetBit;
   job.owner = owner;
   job.subscription_id = request.subscription_id();
   job.resume_after = request.resume_after_seq();
-  job.pattern_text = request.pattern();
   job.deliver = std::move(deliver);
   job.subscribe_ack = std::move(ack);
-  enqueue(std::move(job), false);
+  auto parsed = TopicPattern::parse(request.pattern(), options_.topics);
+  if (!parsed.ok()) {
+    if (job.subscribe_ack) {
+      planet::SubscribeAck refused;
+      refused.set_subscription_id(job.subscription_id);
+      refused.set_status(parsed.status());
+      refused.set_message(parsed.message());
+      job.subscribe_ack(refused);
+    }
+    return;
+  }
+  job.pattern = std::move(parsed.value());
+  enqueue(std::move(job));
 }
 
 uint64_t EventBus::subscribe_internal(const TopicPattern& pattern, uint64_t resume_after_seq, DeliverFn deliver) {
@@ -112,12 +175,10 @@ uint64_t EventBus::subscribe_internal(const TopicPattern& pattern, uint64_t resu
   job.owner = owner;
   job.subscription_id = owner;
   job.resume_after = resume_after_seq;
-  job.pattern_text = pattern.text();
   job.pattern = pattern;
-  job.parsed = true;
-  job.replay_from_zero = true;
+  job.internal = true;
   job.deliver = std::move(deliver);
-  enqueue(std::move(job), false);
+  enqueue(std::move(job));
   return owner;
 }
 
@@ -128,14 +189,14 @@ void EventBus::unsubscribe(uint64_t owner, uint64_t subscription_id) {
   job.kind = Job::Kind::Unsubscribe;
   job.owner = owner;
   job.subscription_id = subscription_id;
-  enqueue(std::move(job), false);
+  enqueue(std::move(job));
 }
 
 void EventBus::drop_owner(uint64_t owner) {
   Job job;
   job.kind = Job::Kind::DropOwner;
   job.owner = owner;
-  enqueue(std::move(job), false);
+  enqueue(std::move(job));
 }
 
 void EventBus::flush() {
@@ -158,48 +219,85 @@ void EventBus::stop() {
 
 uint64_t EventBus::oldest_retained_seq() const { return oldest_seq_.load(); }
 
+size_t EventBus::subscriptions() const { return subscription_count_.load(); }
+
 void EventBus::run() {
   for (;;) {
-    std::deque<Job> jobs;
+    std::vector<Job> jobs;  // a run of publishes (at most `batch`), or one other operation
     {
       std::unique_lock<std::mutex> lock(mutex_);
       wake_.wait(lock, [this] { return stopping_ || !queue_.empty(); });
       if (queue_.empty()) return;  // stopping and drained
-      jobs.swap(queue_);
+      do {
+        jobs.push_back(std::move(queue_.front()));
+        queue_.pop_front();
+      } while (jobs.back().kind == Job::Kind::Publish && jobs.size() < options_.batch && !queue_.empty() &&
+               queue_.front().kind == Job::Kind::Publish);
     }
-    size_t count = jobs.size();
-    std::vector<Job> batch;
-    for (auto& job : jobs) {
-      if (job.kind == Job::Kind::Publish) {
-        batch.push_back(std::move(job));
-        continue;
+    Job& first = jobs.front();
+    switch (first.kind) {
+      case Job::Kind::Publish:
+        process_publishes(jobs);
+        break;
+      case Job::Kind::Subscribe:
+        process_subscribe(first);
+        break;
+      case Job::Kind::Unsubscribe: {
+        auto it = subscriptions_.find({first.owner, first.subscription_id});
+        if (it != subscriptions_.end()) remove_subscription(it);
+        break;
       }
-      if (!batch.empty()) {
-        process_publishes(batch);
-        batch.clear();
-      }
-      switch (job.kind) {
-        case Job::Kind::Subscribe:
-          process_subscribe(job);
-          break;
-        case Job::Kind::Unsubscribe:
-          subscriptions_.erase({job.owner, job.subscription_id});
-          break;
-        case Job::Kind::DropOwner:
-          for (auto it = subscriptions_.lower_bound({job.owner, 0});
-               it != subscriptions_.end() && it->first.first == job.owner;) {
-            it = subscriptions_.erase(it);
-          }
-          break;
-        default:
-          break;
-      }
+      case Job::Kind::DropOwner:
+        for (auto it = subscriptions_.lower_bound({first.owner, 0});
+             it != subscriptions_.end() && it->first.first == first.owner;) {
+          auto next = std::next(it);
+          remove_subscription(it);
+          it = next;
+        }
+        break;
+      case Job::Kind::Flush:
+        break;
     }
-    if (!batch.empty()) process_publishes(batch);
     std::lock_guard<std::mutex> lock(mutex_);
-    done_ += count;
+    for (const auto& job : jobs) {
+      if (!job.counted) continue;
+      --queued_;
+      queued_bytes_ -= job.bytes;
+      auto share = queued_by_session_.find(job.budget);
+      if (share != queued_by_session_.end() && --share->second == 0) queued_by_session_.erase(share);
+    }
+    done_ += jobs.size();
     idle_.notify_all();
   }
+}
+
+void EventBus::remember_id(uint64_t publisher, uint64_t publish_id, uint64_t seq) {
+  auto [it, added] = publishers_.try_emplace(publisher);
+  PublisherIds& ids = it->second;
+  if (added) {
+    publisher_order_.push_front(publisher);
+  } else {
+    publisher_order_.splice(publisher_order_.begin(), publisher_order_, ids.lru);
+  }
+  ids.lru = publisher_order_.begin();
+  // Ids arrive increasing; one below `last` fills a gap (an id never accepted before).
+  auto at = std::lower_bound(ids.recent.begin(), ids.recent.end(), std::make_pair(publish_id, uint64_t{0}));
+  ids.recent.insert(at, {publish_id, seq});
+  ids.last = std::max(ids.last, publish_id);
+  while (ids.recent.size() > options_.dedupe_window) ids.recent.pop_front();
+  while (publishers_.size() > options_.max_publishers) {
+    publishers_.erase(publisher_order_.back());
+    publisher_order_.pop_back();
+  }
+}
+
+void EventBus::forget_id(uint64_t publisher, uint64_t publish_id) {
+  auto it = publishers_.find(publisher);
+  if (it == publishers_.end()) return;
+  auto& recent = it->second.recent;
+  auto at = std::lower_bound(recent.begin(), recent.end(), std::make_pair(publish_id, uint64_t{0}));
+  if (at != recent.end() && at->first == publish_id) recent.erase(at);
+  it->second.last = recent.empty() ? 0 : std::max_element(recent.begin(), recent.end())->first;
 }
 
 void EventBus::process_publishes(std::vector<Job>& batch) {
@@ -209,7 +307,7 @@ void EventBus::process_publishes(std::vector<Job>& batch) {
     planet::Event event;
   };
   std::vector<Outcome> outcomes(batch.size());
-  std::vector<std::pair<std::string, uint64_t>> new_ids;  // dedupe entries added by this batch
+  std::vector<std::pair<uint64_t, uint64_t>> new_ids;  // (publisher, publish id) remembered by this batch
   uint64_t seq = last_seq_.load();
   const int64_t now = clock_.now_unix_ns();
   std::string failure;
@@ -219,21 +317,27 @@ void EventBus::process_publishes(std::vector<Job>& batch) {
                      "INSERT INTO events (seq, topic, payload, content_type, source, time_ns) "
                      "VALUES (?, ?, ?, ?, ?, ?)");
     for (size_t i = 0; i < batch.size(); ++i) {
-      const PublishInput& in = batch[i].input;
+      PublishInput& in = batch[i].input;
       Outcome& out = outcomes[i];
       out.ack.set_publish_id(in.publish_id);
-      if (auto why = topic_problem(in.topic); !why.empty()) {
-        out.ack.set_status(planet::BAD_ARGUMENTS);
-        out.ack.set_message("topic '" + in.topic + "' is not valid: " + why);
-        continue;
-      }
-      bool dedupe = !in.session_key.empty() && in.publish_id != 0;
+      const bool dedupe = in.publisher != 0;
       if (dedupe) {
-        auto& seen = dedupe_[in.session_key];
-        auto it = seen.find(in.publish_id);
-        if (it != seen.end()) {
-          out.ack.set_seq(it->second);  // a resent duplicate: same seq, not delivered again
-          continue;
+        auto known = publishers_.find(in.publisher);
+        if (known != publishers_.end() && in.publish_id <= known->second.last) {
+          const auto& recent = known->second.recent;
+          auto at = std::lower_bound(recent.begin(), recent.end(), std::make_pair(in.publish_id, uint64_t{0}));
+          if (at != recent.end() && at->first == in.publish_id) {
+            out.ack.set_seq(at->second);  // a resent duplicate: same seq, not delivered again
+            continue;
+          }
+          if (recent.empty() || in.publish_id < recent.front().first) {
+            out.ack.set_status(planet::ALREADY_EXISTS);
+            out.ack.set_message("publish_id " + std::to_string(in.publish_id) +
+                                " is older than the de-duplication window (the newest " +
+                                std::to_string(options_.dedupe_window) +
+                                " ids of this session); it was accepted or refused before and is not delivered again");
+            continue;
+          }
         }
       }
       ++seq;
@@ -248,14 +352,14 @@ void EventBus::process_publishes(std::vector<Job>& batch) {
       out.ack.set_seq(seq);
       out.deliver = true;
       out.event.set_seq(seq);
-      out.event.set_topic(in.topic);
-      out.event.set_payload(in.payload);
-      out.event.set_content_type(in.content_type);
-      out.event.set_source(in.source);
+      out.event.set_topic(std::move(in.topic));
+      out.event.set_payload(std::move(in.payload));
+      out.event.set_content_type(std::move(in.content_type));
+      out.event.set_source(std::move(in.source));
       out.event.set_time_unix_ns(now);
       if (dedupe) {
-        dedupe_[in.session_key][in.publish_id] = seq;
-        new_ids.emplace_back(in.session_key, in.publish_id);
+        remember_id(in.publisher, in.publish_id, seq);
+        new_ids.emplace_back(in.publisher, in.publish_id);
       }
     }
     if (seq != last_seq_.load()) {
@@ -273,48 +377,51 @@ void EventBus::process_publishes(std::vector<Job>& batch) {
 
   if (!failure.empty()) {
     spdlog::error("event log write failed: {}", failure);
-    for (auto& [key, id] : new_ids) dedupe_[key].erase(id);
+    for (auto& [publisher, id] : new_ids) forget_id(publisher, id);
     for (size_t i = 0; i < batch.size(); ++i) {
       Outcome& out = outcomes[i];
       if (out.deliver) {
         out.deliver = false;
         out.ack.set_seq(0);
         out.ack.set_status(planet::INTERNAL);
-        out.ack.set_message("event on '" + batch[i].input.topic + "' not stored: " + failure);
+        out.ack.set_message("event on " + quote_prefix(out.event.topic()) + " not stored: " + failure);
       }
     }
-  } else {
-    if (seq > last_seq_.load()) {
-      if (oldest_seq_.load() > seq) oldest_seq_ = last_seq_.load() + 1;  // log was empty
-      if (seq > options_.retention) oldest_seq_ = std::max(oldest_seq_.load(), seq - options_.retention + 1);
-      last_seq_ = seq;
-    }
-    // Bound the dedupe memory: drop the oldest ids of a key beyond the window.
-    for (auto& [key, id] : new_ids) {
-      auto& seen = dedupe_[key];
-      while (seen.size() > options_.dedupe_window) seen.erase(seen.begin());
-    }
+  } else if (seq > last_seq_.load()) {
+    if (oldest_seq_.load() > seq) oldest_seq_ = last_seq_.load() + 1;  // log was empty
+    if (seq > options_.retention) oldest_seq_ = std::max(oldest_seq_.load(), seq - options_.retention + 1);
+    last_seq_ = seq;
   }
 
+  // Each event reaches its subscribers before its publisher hears it was accepted.
   for (size_t i = 0; i < batch.size(); ++i) {
+    if (outcomes[i].deliver) deliver_live(outcomes[i].event);
     if (batch[i].publish_ack) batch[i].publish_ack(outcomes[i].ack);
-  }
-  for (auto& out : outcomes) {
-    if (out.deliver) deliver_live(out.event);
   }
 }
 
+void EventBus::remove_subscription(std::map<SubKey, Subscription>::iterator it) {
+  const uint64_t owner = it->first.first;
+  index_.erase(it->second.pattern, it->first);
+  if ((owner & kInternalOwnerBit) == 0) {
+    --session_subscriptions_;
+    auto count = per_owner_.find(owner);
+    if (count != per_owner_.end() && --count->second == 0) per_owner_.erase(count);
+  }
+  subscriptions_.erase(it);
+  subscription_count_ = subscriptions_.size();
+}
+
 void EventBus::deliver_live(const planet::Event& event) {
-  for (auto it = subscriptions_.begin(); it != subscriptions_.end();) {
-    if (it->second.pattern.matches(event.topic())) {
-      planet::Event copy = event;
-      copy.set_subscription_id(it->first.second);
-      if (!it->second.deliver(copy)) {
-        it = subscriptions_.erase(it);
-        continue;
-      }
-    }
-    ++it;
+  std::vector<SubKey> hits;
+  index_.match(event.topic(), hits);
+  std::sort(hits.begin(), hits.end());  // a stable order across subscriptions
+  for (const SubKey& key : hits) {
+    auto it = subscriptions_.find(key);
+    if (it == subscriptions_.end()) continue;
+    planet::Event copy = event;
+    copy.set_subscription_id(key.second);
+    if (!it->second.deliver(copy)) remove_subscription(it);
   }
 }
 
@@ -324,17 +431,6 @@ void EventBus::process_subscribe(Job& job) {
   auto send_ack = [&] {
     if (job.subscribe_ack) job.subscribe_ack(ack);
   };
-  TopicPattern pattern = job.pattern;
-  if (!job.parsed) {
-    auto parsed = TopicPattern::parse(job.pattern_text);
-    if (!parsed.ok()) {
-      ack.set_status(parsed.status());
-      ack.set_message(parsed.message());
-      send_ack();
-      return;
-    }
-    pattern = parsed.value();
-  }
   SubKey key{job.owner, job.subscription_id};
   if (subscriptions_.count(key) != 0) {
     ack.set_status(planet::ALREADY_EXISTS);
@@ -342,13 +438,31 @@ void EventBus::process_subscribe(Job& job) {
     send_ack();
     return;
   }
+  if (!job.internal) {
+    const size_t mine = per_owner_.count(job.owner) != 0 ? per_owner_[job.owner] : 0;
+    std::string why;
+    if (mine >= options_.max_subscriptions_per_session) {
+      why = "this session already has " + std::to_string(mine) + " subscriptions (max_subscriptions_per_session " +
+            std::to_string(options_.max_subscriptions_per_session) + ")";
+    } else if (session_subscriptions_ >= options_.max_subscriptions) {
+      why = "the server already holds " + std::to_string(session_subscriptions_) +
+            " subscriptions (max_subscriptions " + std::to_string(options_.max_subscriptions) + ")";
+    }
+    if (!why.empty()) {
+      ack.set_status(planet::RESOURCE_EXHAUSTED);
+      ack.set_message("subscription to " + quote_prefix(job.pattern.text()) + " not accepted: " + why);
+      send_ack();
+      return;
+    }
+  }
   ack.set_status(planet::OK);
   ack.set_oldest_retained_seq(oldest_seq_.load());
   ack.set_last_seq(last_seq_.load());
   send_ack();
 
   // Replay, then go live. Both happen on this thread, so no live event can slip in between.
-  bool replay = job.resume_after > 0 || job.replay_from_zero;
+  const TopicPattern& pattern = job.pattern;
+  bool replay = job.resume_after > 0 || job.internal;
   if (replay && job.resume_after < last_seq_.load()) {
     try {
       Statement replay(db_,
@@ -369,10 +483,17 @@ void EventBus::process_subscribe(Job& job) {
         if (!job.deliver(event)) return;  // receiver gone
       }
     } catch (const SqliteError& e) {
-      spdlog::error("replay for subscription {} ('{}') failed: {}", job.subscription_id, job.pattern_text, e.what());
+      spdlog::error("replay for subscription {} ({}) failed: {}", job.subscription_id, quote_prefix(pattern.text()),
+                    e.what());
     }
   }
+  index_.insert(pattern, key);
   subscriptions_.emplace(key, Subscription{pattern, std::move(job.deliver)});
+  subscription_count_ = subscriptions_.size();
+  if (!job.internal) {
+    ++per_owner_[job.owner];
+    ++session_subscriptions_;
+  }
 }
 
 planet::CallResult BusEventSink::publish(const std::string& topic, const google::protobuf::Message& event) {

@@ -1,7 +1,8 @@
 // urs-camus-server: see docs/camus.md.
 //
 // Wiring only: parse the command line, build the components in dependency order, serve until
-// SIGINT/SIGTERM, then stop them in reverse order (transport first, so nothing new arrives).
+// SIGINT/SIGTERM (re-reading the credentials on SIGHUP), then stop them in reverse order
+// (transport first, so nothing new arrives).
 
 #include <spdlog/spdlog.h>
 
@@ -13,6 +14,7 @@
 #include "urs/agent/agent.hpp"
 #include "urs/camus_server/config.hpp"
 #include "urs/camus_server/context_store.hpp"
+#include "urs/camus_server/credentials_file.hpp"
 #include "urs/camus_server/event_bus.hpp"
 #include "urs/camus_server/registry.hpp"
 #include "urs/camus_server/router.hpp"
@@ -34,12 +36,34 @@ std::string db_path(const cs::ServerConfig& config, const char* name) {
   return (std::filesystem::path(config.data_dir) / name).string();
 }
 
+cs::EventBusOptions bus_options(const cs::ServerConfig& config) {
+  cs::EventBusOptions options;
+  options.retention = config.event_retention;
+  options.event_queue = config.limits.event_queue;
+  options.event_queue_per_session = config.limits.event_queue_per_session;
+  options.event_queue_bytes = config.limits.event_queue_bytes;
+  options.topics = cs::TopicLimits{config.limits.max_topic_bytes, config.limits.max_topic_levels};
+  options.max_subscriptions_per_session = config.limits.max_subscriptions_per_session;
+  options.max_subscriptions = config.limits.max_subscriptions;
+  return options;
+}
+
+cs::RouterOptions router_options(const cs::ServerConfig& config) {
+  cs::RouterOptions options;
+  options.space = config.space;
+  options.default_deadline = std::chrono::milliseconds(config.default_deadline_ms);
+  options.max_deadline_ms = config.limits.max_deadline_ms;
+  options.max_pending_calls = config.limits.max_pending_calls;
+  options.max_pending_calls_per_session = config.limits.max_pending_calls_per_session;
+  return options;
+}
+
 // Owns every component; members are declared in dependency order so that destruction (reverse
 // order) never leaves a component pointing at a destroyed one. stop() orders the shutdown.
 class CamusServer {
  public:
-  explicit CamusServer(const cs::ServerConfig& config)
-      : bus_(db_path(config, "events.db"), cs::EventBusOptions{config.event_retention, 100000, 65536}, clock_),
+  CamusServer(const cs::ServerConfig& config, std::shared_ptr<const urs::planet::Authenticator> authenticator)
+      : bus_(db_path(config, "events.db"), bus_options(config), clock_),
         sink_(bus_),
         registry_(config.space, sink_),
         context_(db_path(config, "context.db"), sink_, clock_, timers_),
@@ -47,8 +71,7 @@ class CamusServer {
         registry_service_(registry_),
         container_(host_),
         builtins_(registry_service_, container_),
-        router_(cs::RouterOptions{config.space, std::chrono::milliseconds(config.default_deadline_ms)}, registry_,
-                builtins_, timers_),
+        router_(router_options(config), registry_, builtins_, timers_),
         invoker_(router_),
         tasks_(db_path(config, "tasks.db"), cs::TaskManagerOptions{config.tasks_dir, 64, 1000}, invoker_, bus_,
                context_, registry_, sink_, clock_),
@@ -66,7 +89,7 @@ class CamusServer {
     options.host = config.listen.host;
     options.port = config.listen.port;
     options.space = config.space;
-    options.token = config.token;
+    options.authenticator = std::move(authenticator);
     options.heartbeat_interval = std::chrono::milliseconds(config.heartbeat_ms);
     options.heartbeat_timeout = std::chrono::milliseconds(config.heartbeat_timeout_ms);
     server_ = std::make_unique<urs::planet::Server>(options, handler_);
@@ -76,6 +99,11 @@ class CamusServer {
   ~CamusServer() { stop(); }
 
   uint16_t port() const { return server_->port(); }
+
+  // New credentials for the handshakes to come; returns the sessions closed because theirs changed.
+  size_t set_authenticator(std::shared_ptr<const urs::planet::Authenticator> authenticator) {
+    return server_->set_authenticator(std::move(authenticator));
+  }
 
   void stop() {
     if (server_) server_->stop();  // closes every session: on_close cleans up behind them
@@ -107,7 +135,7 @@ class CamusServer {
 }  // namespace
 
 int main(int argc, char** argv) {
-  urs::util::block_shutdown_signals();  // before any thread starts, so every thread inherits it
+  urs::util::block_shutdown_signals(/*with_reload=*/true);  // before any thread starts: all inherit it
   std::optional<cs::ServerConfig> config;
   try {
     config = cs::parse_command_line(argc, argv, std::cout);
@@ -119,12 +147,32 @@ int main(int argc, char** argv) {
   }
 
   try {
-    CamusServer server(*config);
+    auto credentials = cs::load_credentials(config->credentials);
+    CamusServer server(*config, credentials);
+    if (credentials) {
+      spdlog::info("{} credential(s) loaded", credentials->all().size());
+    } else {
+      spdlog::warn("no --credentials or --token-file: every peer is admitted as '{}' with role operator",
+                   urs::planet::kAnonymousIdentity);
+    }
     const std::string bound = config->listen.host + ":" + std::to_string(server.port());
     if (!config->port_file.empty()) urs::util::write_file_atomically(config->port_file, std::to_string(server.port()));
     spdlog::info("space '{}': listening on {}{}", config->space, bound,
                  config->data_dir.empty() ? " (no --data-dir: state is kept in memory only)" : "");
-    int sig = urs::util::wait_for_shutdown();
+    int sig = urs::util::wait_for_shutdown([&] {
+      if (!config->credentials.any()) {
+        spdlog::info("SIGHUP: no --credentials or --token-file to re-read");
+        return;
+      }
+      try {
+        auto reloaded = cs::load_credentials(config->credentials);
+        const size_t closed = server.set_authenticator(reloaded);
+        spdlog::info("SIGHUP: {} credential(s) loaded; {} session(s) closed for a changed or revoked credential",
+                     reloaded->all().size(), closed);
+      } catch (const urs::util::ConfigError& e) {
+        spdlog::error("SIGHUP: credentials not reloaded, the previous ones stay in force: {}", e.what());
+      }
+    });
     spdlog::info("signal {} received: shutting down", sig);
     server.stop();
     spdlog::info("stopped");

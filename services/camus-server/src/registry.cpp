@@ -45,12 +45,12 @@ void Registry::add_builtin(const std::string& name, const gp::ServiceDescriptor&
 }
 
 Result<Done> Registry::register_service(const planet::SessionPtr& session, const camus::RegisterRequest& request) {
-  const auto& hello = session->hello();
+  const auto& identity = session->identity();
   const auto& info = request.service();
   const std::string& name = info.name();
-  if (hello.role() != planet::SAM) {
-    return make_error(planet::UNAUTHENTICATED, "only SAM sessions may register services; " + hello.peer_name() +
-                                                   " connected as " + planet::Role_Name(hello.role()));
+  if (identity.role < planet::SAM) {
+    return make_error(planet::PERMISSION_DENIED, "registering services needs role sam; credential '" +
+                                                     identity.name + "' has role " + planet::role_word(identity.role));
   }
   if (auto why = service_name_problem(name); !why.empty()) {
     return make_error(planet::BAD_ARGUMENTS, "service name '" + name + "' is not valid: " + why);
@@ -83,20 +83,20 @@ Result<Done> Registry::register_service(const planet::SessionPtr& session, const
   if (it != services_.end()) {
     const Entry& existing = it->second;
     bool same_session = existing.owner && existing.owner_session == session->id();
-    bool reconnected = existing.owner && !existing.owner_session_key.empty() &&
-                       existing.owner_session_key == hello.session_id();
-    if (!same_session && !reconnected) {
+    bool resumed = existing.owner && existing.owner_resumable == identity.session;
+    if (!same_session && !resumed) {
       return make_error(planet::ALREADY_EXISTS,
                         "service " + name + " is provided by " + existing.info.owner());
     }
   }
   Entry entry;
   entry.info = info;
-  entry.info.set_owner(hello.peer_name());
+  entry.info.set_owner(identity.name);
+  entry.info.set_peer_name(session->hello().peer_name());
   entry.info.set_state("available");
   entry.owner = session;
   entry.owner_session = session->id();
-  entry.owner_session_key = hello.session_id();
+  entry.owner_resumable = identity.session;
   if (!schema) {
     // Keep the interface known from an earlier registration, if any.
     auto known = interfaces_.find(info.interface());
@@ -106,7 +106,8 @@ Result<Done> Registry::register_service(const planet::SessionPtr& session, const
   }
   entry.schema = schema;
   services_[name] = entry;
-  spdlog::info("service {} ({}) registered by {}", name, info.interface(), hello.peer_name());
+  spdlog::info("service {} ({}) registered by {} (session {}, peer '{}')", name, info.interface(), identity.name,
+               identity.session, session->hello().peer_name());
   publish_locked(entry.info);
   return Done{};
 }
@@ -116,15 +117,15 @@ Result<Done> Registry::unregister_service(const planet::Session& session, const 
   auto it = services_.find(name);
   if (it == services_.end()) return make_error(planet::UNKNOWN_SERVICE, "no service named '" + name + "' in space " + space_);
   const Entry& entry = it->second;
-  bool reconnected = !entry.owner_session_key.empty() && entry.owner_session_key == session.hello().session_id();
-  if (!entry.owner || (entry.owner_session != session.id() && !reconnected)) {
-    return make_error(planet::UNAUTHENTICATED,
+  bool resumed = entry.owner_resumable == session.identity().session;
+  if (!entry.owner || (entry.owner_session != session.id() && !resumed)) {
+    return make_error(planet::PERMISSION_DENIED,
                       "service " + name + " is provided by " + entry.info.owner() + "; only its provider may unregister it");
   }
   camus::ServiceInfo gone = entry.info;
   gone.set_state("gone");
   services_.erase(it);
-  spdlog::info("service {} unregistered by {}", name, session.hello().peer_name());
+  spdlog::info("service {} unregistered by {}", name, session.identity().name);
   publish_locked(gone);
   return Done{};
 }
@@ -246,8 +247,8 @@ planet::CallResult RegistryService::handle(const planet::SessionPtr& caller, con
     camus::RegisterRequest in;
     if (!parse_payload(request, in)) return bad_payload(request, *in.GetDescriptor());
     if (!caller) {
-      return planet::CallResult::error(planet::UNAUTHENTICATED,
-                                       "only SAM sessions may register services; the caller is inside the server");
+      return planet::CallResult::error(planet::PERMISSION_DENIED,
+                                       "only sessions may register services; the caller is inside the server");
     }
     return from(registry_.register_service(caller, in), camus::RegisterReply());
   }
@@ -255,7 +256,7 @@ planet::CallResult RegistryService::handle(const planet::SessionPtr& caller, con
     camus::UnregisterRequest in;
     if (!parse_payload(request, in)) return bad_payload(request, *in.GetDescriptor());
     if (!caller) {
-      return planet::CallResult::error(planet::UNAUTHENTICATED,
+      return planet::CallResult::error(planet::PERMISSION_DENIED,
                                        "only the provider may unregister " + in.name() + "; the caller is inside the server");
     }
     return from(registry_.unregister_service(*caller, in.name()), camus::UnregisterReply());

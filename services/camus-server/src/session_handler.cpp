@@ -2,10 +2,23 @@
 
 #include <spdlog/spdlog.h>
 
+#include "urs/camus_server/context_store.hpp"
+
 namespace urs::camus_server {
 
 bool BuiltinServices::serves(const std::string& service) const {
   return service == RegistryService::kName || container_.hosts(service);
+}
+
+planet::Role BuiltinServices::required_role(const std::string& service, const std::string& operation) const {
+  if (service == RegistryService::kName && (operation == "Register" || operation == "Unregister")) {
+    return planet::SAM;
+  }
+  if (service == ContextAgent::kName && (operation == "Set" || operation == "Delete")) return planet::OPERATOR;
+  if (service == TasksAgent::kName && (operation == "Define" || operation == "Run" || operation == "Cancel")) {
+    return planet::OPERATOR;
+  }
+  return planet::CLIENT;
 }
 
 void BuiltinServices::dispatch(const Caller& caller, const planet::Request& request, Completion done) {
@@ -14,17 +27,18 @@ void BuiltinServices::dispatch(const Caller& caller, const planet::Request& requ
     if (!request.oneway()) done(std::move(result));
     return;
   }
-  container_.dispatch(request, caller.peer, std::move(done));
+  container_.dispatch(request, caller.identity, std::move(done));
 }
 
 void RouterInvoker::call(const std::string& caller, planet::Request request,
                          std::function<void(planet::CallResult)> done) {
-  router_.call(Caller{nullptr, caller}, std::move(request), std::move(done));
+  router_.call(Caller{nullptr, caller, planet::OPERATOR}, std::move(request), std::move(done));
 }
 
 void CamusSessionHandler::on_open(const planet::SessionPtr& session) {
-  const auto& hello = session->hello();
-  spdlog::info("session {} opened: {} ({}) from {}", session->id(), hello.peer_name(), planet::Role_Name(hello.role()),
+  const auto& identity = session->identity();
+  spdlog::info("connection {} opened: {} (role {}, session {}, peer '{}') from {}", session->id(), identity.name,
+               planet::role_word(identity.role), identity.session, session->hello().peer_name(),
                session->remote_address());
 }
 
@@ -43,8 +57,8 @@ void CamusSessionHandler::on_frame(const planet::SessionPtr& session, planet::Fr
       input.topic = std::move(*publish->mutable_topic());
       input.payload = std::move(*publish->mutable_payload());
       input.content_type = std::move(*publish->mutable_content_type());
-      input.source = session->hello().peer_name();
-      input.session_key = session->hello().session_id();
+      input.source = session->identity().name;
+      input.publisher = session->identity().session;
       input.publish_id = publish->publish_id();
       bus_.publish(std::move(input), [weak](const planet::PublishAck& ack) {
         auto s = weak.lock();
@@ -79,8 +93,8 @@ void CamusSessionHandler::on_frame(const planet::SessionPtr& session, planet::Fr
     default: {
       const auto* field = planet::Frame::descriptor()->FindFieldByNumber(frame.body_case());
       std::string kind = field != nullptr ? field->name() : "empty";
-      spdlog::warn("session {} ({}) sent an unexpected '{}' frame; closing it", session->id(),
-                   session->hello().peer_name(), kind);
+      spdlog::warn("connection {} ({}) sent an unexpected '{}' frame; closing it", session->id(),
+                   session->identity().name, kind);
       session->close(planet::BAD_ARGUMENTS, "unexpected '" + kind + "' frame: a server does not accept it");
       return;
     }
@@ -88,7 +102,7 @@ void CamusSessionHandler::on_frame(const planet::SessionPtr& session, planet::Fr
 }
 
 void CamusSessionHandler::on_close(const planet::SessionPtr& session, const std::string& reason) {
-  spdlog::info("session {} ({}) closed: {}", session->id(), session->hello().peer_name(), reason);
+  spdlog::info("connection {} ({}) closed: {}", session->id(), session->identity().name, reason);
   registry_.remove_session(session->id());
   router_.on_session_closed(session->id());
   bus_.drop_owner(session->id());

@@ -2,9 +2,7 @@
 
 namespace urs::camus_server {
 
-namespace {
-
-std::vector<std::string_view> split_levels(std::string_view text) {
+std::vector<std::string_view> topic_levels(std::string_view text) {
   std::vector<std::string_view> levels;
   size_t start = 0;
   for (;;) {
@@ -18,6 +16,28 @@ std::vector<std::string_view> split_levels(std::string_view text) {
   }
 }
 
+std::string quote_prefix(std::string_view text, size_t bytes) {
+  if (text.size() <= bytes) return "'" + std::string(text) + "'";
+  return "'" + std::string(text.substr(0, bytes)) + "...' (" + std::to_string(text.size()) + " bytes)";
+}
+
+namespace {
+
+// Why `text` is over `limits`, counted without splitting it; empty if within.
+std::string over_limits(std::string_view text, const TopicLimits& limits) {
+  if (text.size() > limits.max_bytes) {
+    return "it is " + std::to_string(text.size()) + " bytes long; the limit is " + std::to_string(limits.max_bytes) +
+           " (max_topic_bytes)";
+  }
+  size_t levels = 1;
+  for (char c : text) levels += c == '/' ? 1 : 0;
+  if (levels > limits.max_levels) {
+    return "it has " + std::to_string(levels) + " levels; the limit is " + std::to_string(limits.max_levels) +
+           " (max_topic_levels)";
+  }
+  return {};
+}
+
 bool has_space(std::string_view level) {
   for (char c : level) {
     if (c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '\0') return true;
@@ -27,9 +47,10 @@ bool has_space(std::string_view level) {
 
 }  // namespace
 
-std::string topic_problem(std::string_view topic) {
+std::string topic_problem(std::string_view topic, const TopicLimits& limits) {
   if (topic.empty()) return "it is empty";
-  auto levels = split_levels(topic);
+  if (auto why = over_limits(topic, limits); !why.empty()) return why;
+  auto levels = topic_levels(topic);
   for (size_t i = 0; i < levels.size(); ++i) {
     auto level = levels[i];
     std::string where = "level " + std::to_string(i + 1);
@@ -42,15 +63,16 @@ std::string topic_problem(std::string_view topic) {
   return {};
 }
 
-Result<TopicPattern> TopicPattern::parse(const std::string& text) {
+Result<TopicPattern> TopicPattern::parse(const std::string& text, const TopicLimits& limits) {
   auto invalid = [&text](const std::string& why) {
-    return make_error(planet::BAD_ARGUMENTS, "invalid pattern '" + text + "': " + why);
+    return make_error(planet::BAD_ARGUMENTS, "invalid pattern " + quote_prefix(text) + ": " + why);
   };
   if (text.empty()) return invalid("it is empty");
+  if (auto why = over_limits(text, limits); !why.empty()) return invalid(why);
   TopicPattern pattern;
   pattern.text_ = text;
   pattern.exact_ = true;
-  auto levels = split_levels(text);
+  auto levels = topic_levels(text);
   for (size_t i = 0; i < levels.size(); ++i) {
     auto level = levels[i];
     std::string where = "level " + std::to_string(i + 1);
@@ -74,7 +96,7 @@ Result<TopicPattern> TopicPattern::parse(const std::string& text) {
 
 bool TopicPattern::matches(std::string_view topic) const {
   if (text_.empty() || topic.empty()) return false;
-  auto levels = split_levels(topic);
+  auto levels = topic_levels(topic);
   if (levels.size() < levels_.size()) return false;
   if (!tail_ && levels.size() != levels_.size()) return false;
   for (size_t i = 0; i < levels_.size(); ++i) {

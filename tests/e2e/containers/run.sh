@@ -112,7 +112,8 @@ step "kr: urs ls lists the SAM's services"
 sam1=$(docker inspect -f '{{.Config.Hostname}}' "$(dc ps -q sam-host)")
 out=$(kr ls) || fail "urs ls: $(cat "$tmp/cli.err")"
 echo "$out"
-grep -qE "^diag-$sam1 +URS\.Diagnostic +sam@$sam1 +available" <<<"$out" || fail "diag-$sam1 missing"
+# OWNER is the credential the SAM authenticated with (kr's one token: "space"); PEER its own name.
+grep -qE "^diag-$sam1 +URS\.Diagnostic +space +sam@$sam1 +available" <<<"$out" || fail "diag-$sam1 missing"
 grep -qE "^tts-$sam1 +URC\.TextToSpeech " <<<"$out" || fail "tts-$sam1 missing"
 grep -qE "^voice-$sam1 +URC\.VoiceRecognition " <<<"$out" || fail "voice-$sam1 missing"
 
@@ -188,7 +189,7 @@ text = open(sys.argv[1]).read()
 entries = [json.loads(line) for line in text.splitlines() if line.strip()]
 entries = entries[0]["entries"] if len(entries) == 1 and "entries" in entries[0] else entries
 robots = [e for e in entries if e["key"].endswith("/Robot0.rtc")]
-assert robots and robots[0]["value"]["state"] == "Active" and robots[0]["source"] == "dds:jp", robots
+assert robots and robots[0]["value"]["state"] == "Active" and robots[0]["origin"] == "dds:jp", robots
 PY
 }
 eventually 30 robot_state || fail "jp's Robot0 is not Active in kr's context: $(cat "$tmp/components.json")"

@@ -63,8 +63,8 @@ class BridgeInterop : public BridgeSpaceTest {
   // The STATE column of `urs ls` for `name` ("" if it is not listed).
   std::string state_of(const std::string& name) {
     std::istringstream columns(listed(name));
-    std::string service, interface, owner, state;
-    columns >> service >> interface >> owner >> state;
+    std::string service, interface, owner, peer, state;
+    columns >> service >> interface >> owner >> peer >> state;
     return state;
   }
   bool wait_state(const std::string& name, const std::string& state, std::chrono::milliseconds timeout = 15s) {

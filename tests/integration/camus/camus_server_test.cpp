@@ -119,7 +119,8 @@ TEST_F(CamusServerTest, ContextSetAndGetOverPlanet) {
   camus::ContextEntry entry;
   ASSERT_TRUE(entry.ParseFromString(got.payload));
   EXPECT_DOUBLE_EQ(entry.value().number_value(), 0.75);
-  EXPECT_EQ(entry.source(), "cli@test");
+  EXPECT_EQ(entry.source(), "anonymous");  // an open server: nothing was authenticated
+  EXPECT_TRUE(entry.origin().empty());
   EXPECT_EQ(entry.version(), 1u);
 
   get.set_key("robot1/nothing");
@@ -185,7 +186,7 @@ TEST_F(CamusServerTest, RoutesToASamWithDeadlinesAndProviderGone) {
   ASSERT_EQ(gone.wait_for(5s), std::future_status::ready);
   auto result = gone.get();
   EXPECT_EQ(result.status, planet::PROVIDER_GONE);
-  EXPECT_EQ(result.message, "provider sam@robot1 of robot1.kv disconnected");
+  EXPECT_EQ(result.message, "provider anonymous of robot1.kv disconnected");
   got = client.call("robot1.kv", "Get", "", 5s);
   EXPECT_EQ(got.status, planet::UNKNOWN_SERVICE);
 }

@@ -21,7 +21,7 @@ using ::testing::HasSubstr;
 TEST(PlanetServer, HandshakeSucceedsAndWelcomeCarriesTheSettings) {
   TestHandler handler;
   ServerOptions options = server_options();
-  options.token = "s3cret";
+  options.authenticator = one_token("s3cret", SAM, "robot1");
   options.heartbeat_interval = 500ms;
   options.heartbeat_timeout = 2000ms;
   options.max_message_bytes = 8u << 20;
@@ -45,6 +45,9 @@ TEST(PlanetServer, HandshakeSucceedsAndWelcomeCarriesTheSettings) {
   EXPECT_EQ(welcome.heartbeat_timeout_ms(), 2000u);
   EXPECT_EQ(welcome.max_message_bytes(), 8u << 20);
   EXPECT_EQ(welcome.chunk_bytes(), 32u << 10);
+  EXPECT_EQ(welcome.identity(), "robot1");
+  EXPECT_EQ(welcome.role(), SAM);
+  EXPECT_TRUE(welcome.session_secret().empty()) << "the client keeps the secret to itself";
 
   ASSERT_TRUE(eventually([&] { return handler.opened().size() == 1; }));
   const Hello hello = handler.opened()[0];
@@ -52,7 +55,9 @@ TEST(PlanetServer, HandshakeSucceedsAndWelcomeCarriesTheSettings) {
   EXPECT_EQ(hello.role(), SAM);
   EXPECT_EQ(hello.version(), 1u);
   EXPECT_TRUE(hello.token().empty()) << "the token must not reach the handler";
-  EXPECT_EQ(hello.session_id().size(), 32u);
+  EXPECT_TRUE(hello.session_secret().empty()) << "nor the session secret";
+  EXPECT_EQ(handler.identities()[0].name, "robot1");
+  EXPECT_EQ(handler.identities()[0].role, SAM);
 
   const CallResult result = client.call("echo", "say", "hello");
   EXPECT_TRUE(result.ok()) << result.message;
@@ -63,7 +68,7 @@ TEST(PlanetServer, HandshakeSucceedsAndWelcomeCarriesTheSettings) {
 TEST(PlanetServer, MissingTokenIsRefusedWithTheReason) {
   TestHandler handler;
   ServerOptions options = server_options();
-  options.token = "s3cret";
+  options.authenticator = one_token("s3cret");
   Server server(options, handler);
   server.start();
 
@@ -86,7 +91,7 @@ TEST(PlanetServer, MissingTokenIsRefusedWithTheReason) {
 TEST(PlanetServer, WrongTokenIsRefusedAndTheClientKeepsRetrying) {
   TestHandler handler;
   ServerOptions options = server_options();
-  options.token = "s3cret";
+  options.authenticator = one_token("s3cret");
   Server server(options, handler);
   server.start();
 

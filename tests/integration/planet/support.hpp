@@ -26,7 +26,9 @@
 #include "camus.pb.h"
 #include "urs/planet/codec.hpp"
 #include "urs/planet/client.hpp"
+#include "urs/planet/credentials.hpp"
 #include "urs/planet/server.hpp"
+#include "urs/util/secret.hpp"
 #include "process.hpp"
 #include "raw_peer.hpp"
 
@@ -48,6 +50,16 @@ inline ServerOptions server_options(uint16_t port = 0) {
   options.port = port;
   options.space = "kr";
   return options;
+}
+
+// Credentials of one token, named `name`, with `role`.
+inline std::shared_ptr<const Authenticator> one_token(const std::string& token, Role role = OPERATOR,
+                                                      const std::string& name = "space") {
+  Credential credential;
+  credential.name = name;
+  credential.role = role;
+  credential.token_sha256 = util::sha256_hex(token);
+  return std::make_shared<const Credentials>(std::vector<Credential>{credential});
 }
 
 inline ClientOptions client_options(uint16_t port, const std::string& name) {
@@ -120,7 +132,7 @@ inline bool topic_matches(const std::string& pattern, const std::string& topic) 
 // A miniature CAMUS server for the tests: "echo" answers with the payload, "silent" never answers,
 // camus.registry Register/Unregister route a service name to the registering session, requests
 // to a registered name are forwarded to it, and a tiny event log sequences, dedupes (by
-// session_id + publish_id), fans out and replays publishes. It outlives Server objects, like a
+// the resumable session + publish_id), fans out and replays publishes. It outlives Server objects, like a
 // persistent store would.
 class TestHandler : public SessionHandler {
   mutable std::mutex mutex_;
@@ -151,6 +163,7 @@ class TestHandler : public SessionHandler {
     sessions_[session->id()] = session;
     serials_[session.get()] = next_serial_++;
     opened_.push_back(session->hello());
+    identities_.push_back(session->identity());
     changed_.notify_all();
   }
 
@@ -186,6 +199,7 @@ class TestHandler : public SessionHandler {
 
   // Inspection (thread-safe copies).
   std::vector<Hello> opened() const { return locked([&] { return opened_; }); }
+  std::vector<Identity> identities() const { return locked([&] { return identities_; }); }
   std::vector<Received> received() const { return locked([&] { return received_; }); }
   std::vector<Received> received_from(const std::string& peer) const {
     return locked([&] {
@@ -295,7 +309,7 @@ class TestHandler : public SessionHandler {
   }
 
   void handle_publish(const SessionPtr& session, const Publish& publish) {
-    const auto key = std::make_pair(session->hello().session_id(), publish.publish_id());
+    const auto key = std::make_pair(session->identity().session, publish.publish_id());
     auto seen = published_.find(key);
     uint64_t seq = 0;
     if (seen != published_.end()) {
@@ -307,7 +321,7 @@ class TestHandler : public SessionHandler {
       event.set_topic(publish.topic());
       event.set_payload(publish.payload());
       event.set_content_type(publish.content_type());
-      event.set_source(session->hello().peer_name());
+      event.set_source(session->identity().name);
       events_.push_back(event);
       published_[key] = seq;
       for (const auto& [key2, subscription] : subscriptions_) {
@@ -367,6 +381,7 @@ class TestHandler : public SessionHandler {
   std::map<const Session*, uint64_t> serials_;
   uint64_t next_serial_ = 1;
   std::vector<Hello> opened_;
+  std::vector<Identity> identities_;
   std::vector<Received> received_;
   std::vector<Close> closes_;
   std::vector<Silent> silent_;
@@ -376,7 +391,7 @@ class TestHandler : public SessionHandler {
   uint64_t next_routed_id_ = 1;
   std::map<std::pair<uint64_t, uint64_t>, Subscription> subscriptions_;
   std::vector<Event> events_;
-  std::map<std::pair<std::string, uint64_t>, uint64_t> published_;
+  std::map<std::pair<uint64_t, uint64_t>, uint64_t> published_;
   uint64_t last_seq_ = 0;
   int duplicates_ = 0;
 };

@@ -1,9 +1,9 @@
 #!/usr/bin/env python3
 """A Planet client written from docs/planet.md and the generated schema alone (no URSLink code).
 
-It proves the protocol is language-neutral: handshake with the space token, calls to the
-diagnostic agent without a deadline of their own (the service's applies), a subscription, and an
-event delivered to it.
+It proves the protocol is language-neutral: handshake with a named credential (its token), calls
+to the diagnostic agent without a deadline of their own (the service's applies), a subscription,
+and an event delivered to it.
 """
 import argparse
 import socket
@@ -14,7 +14,7 @@ import sys
 def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("--server", required=True, help="HOST:PORT")
-    parser.add_argument("--token-file", required=True)
+    parser.add_argument("--token-file", required=True, help="the token of this client's credential")
     parser.add_argument("--pythonpath", required=True, help="colon-separated folders of generated modules")
     parser.add_argument("--sleep-ms", type=int, default=0, help="diag.sleep called without a deadline")
     args = parser.parse_args()
@@ -68,13 +68,14 @@ def main():
     hello.hello.token = open(args.token_file).read().strip()
     hello.hello.peer_name = "python-client"
     hello.hello.role = planet_pb2.CLIENT
-    hello.hello.session_id = "python-client-1"
     send(hello)
     kind, frame = receive()
     if kind != "welcome":
         print("handshake failed:", frame)
         return 1
-    print("welcome: space", frame.welcome.space)
+    # welcome.session_secret would resume this session after a reconnect: kept, never printed.
+    print("welcome: space", frame.welcome.space, "as", frame.welcome.identity,
+          "role", planet_pb2.Role.Name(frame.welcome.role))
 
     call = planet_pb2.Frame()
     call.request.call_id = 1

@@ -49,7 +49,7 @@ class SpaceTest : public ::testing::Test {
     std::filesystem::remove(dir_ + "/port");
     server_ = std::make_unique<Process>(
         std::vector<std::string>{URS_SERVER_BIN, "--space", "lab", "--listen", "127.0.0.1:" + std::to_string(port),
-                                 "--token-file", dir_ + "/token", "--data-dir", dir_ + "/data", "--port-file",
+                                 "--token-file", dir_ + "/token", "--token-role", "operator", "--data-dir", dir_ + "/data", "--port-file",
                                  dir_ + "/port", "--heartbeat-ms", "200", "--heartbeat-timeout-ms", "1000",
                                  "--log-level", "debug"},
         dir_ + "/server.log");

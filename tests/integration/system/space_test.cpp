@@ -269,6 +269,7 @@ TEST_F(SpaceTest, PythonClientCallsAndReceivesAnEventFromTheSpecAlone) {
                         dir_ + "/token", "--pythonpath", URS_PY_PATH, "--sleep-ms", "5200"},
                        30s);
   EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
+  EXPECT_THAT(r.out, HasSubstr("as space role OPERATOR"));  // the --token-file credential
   EXPECT_THAT(r.out, HasSubstr("echo reply: hola"));
   EXPECT_THAT(r.out, HasSubstr("sleep reply: DEADLINE_EXCEEDED"));
   EXPECT_THAT(r.out, HasSubstr("event: lab/python"));

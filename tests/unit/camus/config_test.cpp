@@ -53,5 +53,44 @@ TEST(Config, BadValuesNameTheFlag) {
   EXPECT_EQ(error, "--space is required");
 }
 
+TEST(Config, CredentialsAndLimits) {
+  auto config = parse({"--space", "kr", "--listen", "h:1", "--credentials", "c.yaml", "--token-file", "t",
+                       "--token-role", "sam", "--token-name", "kr-shared", "--max-topic-bytes", "1024",
+                       "--max-topic-levels", "16", "--max-subscriptions-per-session", "10", "--max-subscriptions", "100",
+                       "--max-pending-calls-per-session", "5", "--max-pending-calls", "50", "--max-deadline-ms",
+                       "60000", "--event-queue", "7", "--event-queue-per-session", "3", "--event-queue-bytes", "100000"});
+  ASSERT_TRUE(config);
+  EXPECT_EQ(config->credentials.credentials_file, "c.yaml");
+  EXPECT_EQ(config->credentials.token_file, "t");
+  EXPECT_EQ(config->credentials.token_role, planet::SAM);
+  EXPECT_EQ(config->credentials.token_name, "kr-shared");
+  EXPECT_EQ(config->limits.max_topic_bytes, 1024u);
+  EXPECT_EQ(config->limits.max_topic_levels, 16u);
+  EXPECT_EQ(config->limits.max_subscriptions_per_session, 10u);
+  EXPECT_EQ(config->limits.max_subscriptions, 100u);
+  EXPECT_EQ(config->limits.max_pending_calls_per_session, 5u);
+  EXPECT_EQ(config->limits.max_pending_calls, 50u);
+  EXPECT_EQ(config->limits.max_deadline_ms, 60000u);
+  EXPECT_EQ(config->limits.event_queue, 7u);
+  EXPECT_EQ(config->limits.event_queue_per_session, 3u);
+  EXPECT_EQ(config->limits.event_queue_bytes, 100000u);
+
+  auto defaults = parse({"--space", "kr", "--listen", "h:1"});
+  ASSERT_TRUE(defaults);
+  EXPECT_FALSE(defaults->credentials.any());
+  EXPECT_EQ(defaults->limits.max_topic_bytes, 512u);
+  EXPECT_EQ(defaults->limits.max_subscriptions_per_session, 1000u);
+
+  std::string error;
+  EXPECT_FALSE(parse({"--space", "kr", "--listen", "h:1", "--token-file", "t"}, &error));
+  EXPECT_EQ(error, "--token-file needs --token-role (client, sam or operator): the role of the one credential it holds");
+  EXPECT_FALSE(parse({"--space", "kr", "--listen", "h:1", "--token-file", "t", "--token-role", "root"}, &error));
+  EXPECT_EQ(error, "--token-role: 'root' is not client, sam or operator");
+  EXPECT_FALSE(parse({"--space", "kr", "--listen", "h:1", "--token-name", "camus-server"}, &error));
+  EXPECT_EQ(error, "--token-name: 'camus-server' is not valid: it is reserved for the server");
+  EXPECT_FALSE(parse({"--space", "kr", "--listen", "h:1", "--max-topic-levels", "1"}, &error));
+  EXPECT_EQ(error, "--max-topic-levels: '1' is not a number of levels (2..1024)");
+}
+
 }  // namespace
 }  // namespace urs::camus_server::test

@@ -48,7 +48,8 @@ TEST_F(ContextTest, SetThenGetWithSourceTimeAndVersion) {
 
   auto again = store.set(set_request("robot1/battery", 0.7, 0, "planner"), "sam@robot1");
   EXPECT_EQ(again->version(), 2u);
-  EXPECT_EQ(again->source(), "planner");  // an explicit source wins over the caller
+  EXPECT_EQ(again->source(), "sam@robot1");  // who set it, as authenticated
+  EXPECT_EQ(again->origin(), "planner");     // what the setter declared
 
   auto events = sink.events();
   ASSERT_EQ(events.size(), 2u);

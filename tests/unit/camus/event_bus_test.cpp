@@ -9,14 +9,15 @@
 namespace urs::camus_server::test {
 namespace {
 
-PublishInput event_on(const std::string& topic, const std::string& payload, const std::string& key = "",
+// An event of the server itself (publisher 0), or of session `publisher` with its publish id.
+PublishInput event_on(const std::string& topic, const std::string& payload, uint64_t publisher = 0,
                       uint64_t publish_id = 0) {
   PublishInput in;
   in.topic = topic;
   in.payload = payload;
   in.content_type = "text/plain";
   in.source = "tester";
-  in.session_key = key;
+  in.publisher = publisher;
   in.publish_id = publish_id;
   return in;
 }
@@ -84,10 +85,10 @@ TEST(EventBus, DuplicatePublishIsAckedWithOriginalSeqAndNotRedelivered) {
   EventCollector sub;
   bus.subscribe(1, subscribe_to(1, "a/#"), sub.deliver(), sub.ack());
   Acks acks;
-  bus.publish(event_on("a/x", "one", "session-A", 1), acks.fn());
-  bus.publish(event_on("a/x", "two", "session-A", 2), acks.fn());
-  bus.publish(event_on("a/x", "one again", "session-A", 1), acks.fn());  // resent after a reconnect
-  bus.publish(event_on("a/x", "other session", "session-B", 1), acks.fn());
+  bus.publish(event_on("a/x", "one", 1, 1), acks.fn());
+  bus.publish(event_on("a/x", "two", 1, 2), acks.fn());
+  bus.publish(event_on("a/x", "one again", 1, 1), acks.fn());  // resent after a reconnect
+  bus.publish(event_on("a/x", "other session", 2, 1), acks.fn());
   bus.flush();
   auto got = acks.get();
   ASSERT_EQ(got.size(), 4u);
@@ -165,7 +166,7 @@ TEST(EventBus, InvalidPatternAndTopicAreRefusedPrecisely) {
   EventCollector sub;
   bus.subscribe(1, subscribe_to(3, "a/#/b"), sub.deliver(), sub.ack());
   Acks acks;
-  bus.publish(event_on("a/*", "x", "s", 4), acks.fn());
+  bus.publish(event_on("a/*", "x", 7, 4), acks.fn());
   bus.flush();
   auto ack = sub.acks().at(0);
   EXPECT_EQ(ack.subscription_id(), 3u);
@@ -175,7 +176,7 @@ TEST(EventBus, InvalidPatternAndTopicAreRefusedPrecisely) {
   EXPECT_EQ(refused.publish_id(), 4u);
   EXPECT_EQ(refused.seq(), 0u);
   EXPECT_EQ(refused.status(), planet::BAD_ARGUMENTS);
-  EXPECT_EQ(refused.message(), "topic 'a/*' is not valid: level 2 ('*') holds a wildcard");
+  EXPECT_EQ(refused.message(), "event on 'a/*' not accepted: the topic is not valid: level 2 ('*') holds a wildcard");
   EXPECT_EQ(bus.last_seq(), 0u);
 }
 
@@ -260,6 +261,285 @@ TEST(EventBus, StoppedBusRefusesPublishes) {
   EXPECT_EQ(acks.get()[0].status(), planet::UNAVAILABLE);
   EXPECT_EQ(acks.get()[0].message(), "event on 'a' not accepted: server is shutting down");
   bus.flush();  // returns at once
+}
+
+TEST(EventBus, ServerTopicsArePublishedByTheServerAlone) {
+  ManualClock clock;
+  EventBus bus("", {}, clock);
+  EventCollector sub;
+  bus.subscribe(1, subscribe_to(1, "#"), sub.deliver(), sub.ack());
+  Acks acks;
+  for (const char* topic : {"registry/diag", "context/robot1/pose", "task/square/r1", "registry"}) {
+    EXPECT_FALSE(bus.publish(event_on(topic, "forged", 5, 1), acks.fn()));
+  }
+  bus.flush();
+  auto got = acks.get();
+  ASSERT_EQ(got.size(), 4u);
+  for (const auto& ack : got) EXPECT_EQ(ack.status(), planet::PERMISSION_DENIED);
+  EXPECT_EQ(got[0].message(),
+            "event on 'registry/diag' not accepted: topics under 'registry/' are published by the server alone "
+            "(registry/, context/ and task/ are server topics)");
+  EXPECT_TRUE(bus.publish(event_on("registry/diag", "real"), nullptr));  // the server itself
+  EXPECT_TRUE(bus.publish(event_on("registryx/diag", "fine", 5, 2), nullptr));
+  ASSERT_TRUE(sub.wait_events(2));
+  EXPECT_EQ(sub.events()[0].payload(), "real");
+}
+
+TEST(EventBus, PublishIdZeroOfASessionIsRefused) {
+  ManualClock clock;
+  EventBus bus("", {}, clock);
+  Acks acks;
+  EXPECT_FALSE(bus.publish(event_on("a", "x", 5, 0), acks.fn()));
+  ASSERT_EQ(acks.get().size(), 1u);
+  EXPECT_EQ(acks.get()[0].status(), planet::BAD_ARGUMENTS);
+  EXPECT_EQ(acks.get()[0].message(),
+            "event on 'a' not accepted: publish_id 0 is not valid: number the publishes of a session from 1");
+}
+
+TEST(EventBus, DeduplicationWindowAnswersOldIdsWithoutDeliveringThemAgain) {
+  ManualClock clock;
+  EventBusOptions options;
+  options.dedupe_window = 3;
+  EventBus bus("", options, clock);
+  EventCollector sub;
+  bus.subscribe(1, subscribe_to(1, "a"), sub.deliver(), sub.ack());
+  Acks acks;
+  for (uint64_t id : {1, 2, 4, 5}) bus.publish(event_on("a", std::to_string(id), 9, id), acks.fn());
+  // The window now holds ids 2, 4 and 5.
+  bus.publish(event_on("a", "5 again", 9, 5), acks.fn());  // in the window: the original seq
+  bus.publish(event_on("a", "1 again", 9, 1), acks.fn());  // older than the window
+  bus.publish(event_on("a", "3 late", 9, 3), acks.fn());   // in the window's range, never accepted: a gap filled
+  bus.flush();
+  auto got = acks.get();
+  ASSERT_EQ(got.size(), 7u);
+  EXPECT_EQ(got[4].status(), planet::OK);
+  EXPECT_EQ(got[4].seq(), got[3].seq());
+  EXPECT_EQ(got[5].status(), planet::ALREADY_EXISTS);
+  EXPECT_EQ(got[5].seq(), 0u);
+  EXPECT_EQ(got[5].message(),
+            "publish_id 1 is older than the de-duplication window (the newest 3 ids of this session); it was "
+            "accepted or refused before and is not delivered again");
+  EXPECT_EQ(got[6].status(), planet::OK);
+  EXPECT_EQ(got[6].seq(), 5u);
+  ASSERT_TRUE(sub.wait_events(5));
+  EXPECT_EQ(sub.events().size(), 5u);
+  EXPECT_EQ(sub.events()[4].payload(), "3 late");
+}
+
+TEST(EventBus, PublishersAreDeduplicatedApartAndTheLeastRecentIsForgotten) {
+  ManualClock clock;
+  EventBusOptions options;
+  options.max_publishers = 2;
+  EventBus bus("", options, clock);
+  Acks acks;
+  bus.publish(event_on("a", "p1", 1, 1), acks.fn());
+  bus.publish(event_on("a", "p2", 2, 1), acks.fn());
+  bus.publish(event_on("a", "p3", 3, 1), acks.fn());   // forgets publisher 1
+  bus.publish(event_on("a", "p1 again", 1, 1), acks.fn());
+  bus.publish(event_on("a", "p3 again", 3, 1), acks.fn());
+  bus.flush();
+  auto got = acks.get();
+  ASSERT_EQ(got.size(), 5u);
+  EXPECT_EQ(got[3].seq(), 4u);  // no longer known: accepted anew
+  EXPECT_EQ(got[4].seq(), 3u);  // still known: the original
+}
+
+// Holds the bus thread inside a delivery until released.
+class Gate {
+ public:
+  DeliverFn deliver() {
+    return [this](const planet::Event&) {
+      std::unique_lock<std::mutex> lock(mutex_);
+      entered_ = true;
+      cv_.notify_all();
+      cv_.wait_for(lock, kWait, [this] { return open_; });
+      return true;
+    };
+  }
+  bool wait_entered() {
+    std::unique_lock<std::mutex> lock(mutex_);
+    return cv_.wait_for(lock, kWait, [this] { return entered_; });
+  }
+  void open() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    open_ = true;
+    cv_.notify_all();
+  }
+
+ private:
+  std::mutex mutex_;
+  std::condition_variable cv_;
+  bool entered_ = false;
+  bool open_ = false;
+};
+
+// A bus whose thread is held inside the delivery of a first event, on "slow" (publisher 9, id 1),
+// until gate.open(). `all` subscribes to everything after the gate's subscription.
+struct HeldBus {
+  explicit HeldBus(EventBusOptions options, size_t first_payload = 1) : bus("", options, clock) {
+    bus.subscribe(1, subscribe_to(1, "slow"), gate.deliver(), nullptr);
+    bus.subscribe(2, subscribe_to(1, "#"), all.deliver(), all.ack());
+    held = bus.publish(event_on("slow", std::string(first_payload, '0'), 9, 1), acks.fn()) && gate.wait_entered();
+  }
+  ManualClock clock;
+  Gate gate;
+  EventCollector all;
+  Acks acks;
+  EventBus bus;  // declared last: stopped before what its callbacks use goes away
+  bool held = false;
+};
+
+TEST(EventBus, ABusBehindRefusesWithResourceExhaustedAndLosesNothingAcknowledged) {
+  EventBusOptions options;
+  options.event_queue = 4;
+  HeldBus held(options);
+  ASSERT_TRUE(held.held);
+  EventBus& bus = held.bus;
+  Acks& acks = held.acks;
+  EventCollector& all = held.all;
+  Gate& gate = held.gate;
+  EXPECT_TRUE(acks.get().empty());  // acknowledged only once delivered
+  std::vector<bool> accepted;
+  for (uint64_t id = 2; id <= 6; ++id) accepted.push_back(bus.publish(event_on("fast", "x", 9, id), acks.fn()));
+  // The first publish is still being processed and counts: 3 more fit, the rest is refused.
+  EXPECT_EQ(accepted, (std::vector<bool>{true, true, true, false, false}));
+  auto refused = acks.get();
+  ASSERT_EQ(refused.size(), 2u);
+  EXPECT_EQ(refused[0].status(), planet::RESOURCE_EXHAUSTED);
+  EXPECT_EQ(refused[0].message(),
+            "event on 'fast' not accepted: the event bus is behind: 4 operations are queued (event_queue 4); retry "
+            "later");
+  gate.open();
+  bus.flush();
+  size_t ok = 0;
+  for (const auto& ack : acks.get()) ok += ack.status() == planet::OK ? 1 : 0;
+  EXPECT_EQ(ok, 4u);
+  ASSERT_TRUE(all.wait_events(4));
+  EXPECT_EQ(all.events().size(), 4u);  // every acknowledged event delivered
+}
+
+TEST(EventBus, OneSessionCannotFillTheQueueForOthers) {
+  EventBusOptions options;
+  options.event_queue = 10;
+  options.event_queue_per_session = 3;
+  HeldBus held(options);  // publisher 9 has one operation in progress
+  ASSERT_TRUE(held.held);
+  Acks acks;
+  std::vector<bool> flooder;
+  for (uint64_t id = 2; id <= 5; ++id) flooder.push_back(held.bus.publish(event_on("x", "f", 9, id), acks.fn()));
+  EXPECT_EQ(flooder, (std::vector<bool>{true, true, false, false}));
+  EXPECT_EQ(acks.get().at(0).message(),
+            "event on 'x' not accepted: the event bus is behind: this session has 3 operations queued "
+            "(event_queue_per_session 3); retry later");
+  // Another session still gets in, and so do subscribes of another connection.
+  EXPECT_TRUE(held.bus.publish(event_on("x", "legit", 5, 1), acks.fn()));
+  EventCollector late;
+  held.bus.subscribe(77, subscribe_to(1, "x"), late.deliver(), late.ack());
+  held.gate.open();
+  held.bus.flush();
+  EXPECT_EQ(late.acks().at(0).status(), planet::OK);
+  EXPECT_EQ(held.bus.publish(event_on("x", "after", 9, 6), acks.fn()), true);  // the share is free again
+  held.bus.flush();
+}
+
+TEST(EventBus, QueueBytesAreBoundedToo) {
+  EventBusOptions options;
+  options.event_queue_bytes = 1000;
+  HeldBus held(options, 600);
+  ASSERT_TRUE(held.held);
+  EventBus& bus = held.bus;
+  Gate& gate = held.gate;
+  Acks acks;
+  EXPECT_FALSE(bus.publish(event_on("big", std::string(500, 'x'), 9, 2), acks.fn()));
+  EXPECT_EQ(acks.get().at(0).status(), planet::RESOURCE_EXHAUSTED);
+  EXPECT_NE(acks.get().at(0).message().find("(event_queue_bytes 1000)"), std::string::npos) << acks.get()[0].message();
+  gate.open();
+  bus.flush();
+}
+
+TEST(EventBus, SubscriptionsAreBoundedPerSessionAndInTotal) {
+  ManualClock clock;
+  EventBusOptions options;
+  options.max_subscriptions_per_session = 2;
+  options.max_subscriptions = 3;
+  EventBus bus("", options, clock);
+  EventCollector sub;
+  bus.subscribe(1, subscribe_to(1, "a"), sub.deliver(), sub.ack());
+  bus.subscribe(1, subscribe_to(2, "b"), sub.deliver(), sub.ack());
+  bus.subscribe(1, subscribe_to(3, "c"), sub.deliver(), sub.ack());
+  bus.subscribe(2, subscribe_to(1, "a"), sub.deliver(), sub.ack());
+  bus.subscribe(3, subscribe_to(1, "a"), sub.deliver(), sub.ack());
+  bus.subscribe_internal(TopicPattern::parse("#").value(), 0, [](const planet::Event&) { return true; });
+  bus.flush();
+  auto acks = sub.acks();
+  ASSERT_EQ(acks.size(), 5u);
+  EXPECT_EQ(acks[2].status(), planet::RESOURCE_EXHAUSTED);
+  EXPECT_EQ(acks[2].message(),
+            "subscription to 'c' not accepted: this session already has 2 subscriptions "
+            "(max_subscriptions_per_session 2)");
+  EXPECT_EQ(acks[3].status(), planet::OK);
+  EXPECT_EQ(acks[4].status(), planet::RESOURCE_EXHAUSTED);
+  EXPECT_EQ(acks[4].message(),
+            "subscription to 'a' not accepted: the server already holds 3 subscriptions (max_subscriptions 3)");
+  EXPECT_EQ(bus.subscriptions(), 4u);  // the server's own is not counted against the limits
+  bus.drop_owner(1);
+  bus.subscribe(3, subscribe_to(1, "a"), sub.deliver(), sub.ack());
+  bus.flush();
+  EXPECT_EQ(sub.acks().back().status(), planet::OK);
+  EXPECT_EQ(bus.subscriptions(), 3u);
+}
+
+TEST(EventBus, OversizedPatternsAndTopicsAreRefusedBeforeTheyAreKept) {
+  ManualClock clock;
+  EventBus bus("", {}, clock);
+  EventCollector sub;
+  const std::string long_pattern(60 * 1024, 'a');
+  std::string deep_pattern = "a";
+  for (int i = 1; i < 30000; ++i) deep_pattern += "/a";
+  bus.subscribe(1, subscribe_to(1, long_pattern), sub.deliver(), sub.ack());
+  bus.subscribe(1, subscribe_to(2, deep_pattern), sub.deliver(), sub.ack());
+  Acks acks;
+  bus.publish(event_on(deep_pattern, "x", 5, 1), acks.fn());
+  bus.flush();
+  auto got = sub.acks();
+  ASSERT_EQ(got.size(), 2u);
+  EXPECT_EQ(got[0].status(), planet::BAD_ARGUMENTS);
+  EXPECT_EQ(got[0].message(), "invalid pattern '" + long_pattern.substr(0, 64) +
+                                  "...' (61440 bytes): it is 61440 bytes long; the limit is 512 (max_topic_bytes)");
+  EXPECT_EQ(got[1].status(), planet::BAD_ARGUMENTS);
+  EXPECT_NE(got[1].message().find("it is 59999 bytes long; the limit is 512 (max_topic_bytes)"), std::string::npos);
+  EXPECT_EQ(acks.get().at(0).status(), planet::BAD_ARGUMENTS);
+  EXPECT_EQ(bus.subscriptions(), 0u);
+  // Within the byte limit but over the level limit.
+  std::string levels33 = "a";
+  for (int i = 1; i < 33; ++i) levels33 += "/a";
+  bus.subscribe(1, subscribe_to(3, levels33), sub.deliver(), sub.ack());
+  EXPECT_EQ(sub.acks().back().message(), "invalid pattern '" + levels33.substr(0, 64) +
+                                             "...' (65 bytes): it has 33 levels; the limit is 32 (max_topic_levels)");
+}
+
+TEST(EventBus, EventsReachOnlyMatchingSubscriptionsAmongManyOthers) {
+  ManualClock clock;
+  EventBus bus("", {}, clock);
+  std::atomic<int> wrong{0};
+  for (uint64_t i = 0; i < 2000; ++i) {
+    bus.subscribe(100 + i / 500, subscribe_to(i, "kr/robot" + std::to_string(i) + "/#"),
+                  [&wrong](const planet::Event&) {
+                    ++wrong;
+                    return true;
+                  },
+                  nullptr);
+  }
+  EventCollector wanted;
+  bus.subscribe(1, subscribe_to(1, "kr/*/arrived"), wanted.deliver(), wanted.ack());
+  EventCollector robot7;
+  bus.subscribe(2, subscribe_to(1, "kr/robot7/#"), robot7.deliver(), robot7.ack());
+  for (int i = 0; i < 100; ++i) bus.publish(event_on("kr/robotX/arrived", std::to_string(i)), nullptr);
+  bus.publish(event_on("kr/robot7/arrived", "seven"), nullptr);
+  bus.flush();
+  EXPECT_EQ(wanted.events().size(), 101u);
+  EXPECT_EQ(robot7.events().size(), 1u);
+  EXPECT_EQ(wrong.load(), 1);  // only "kr/robot7/#" of the 2,000 matched, once
 }
 
 }  // namespace

@@ -27,15 +27,20 @@ inline constexpr auto kWait = std::chrono::seconds(5);  // bound of every wait i
 
 class FakeSession final : public planet::Session {
  public:
-  FakeSession(uint64_t id, const std::string& peer, planet::Role role = planet::SAM, const std::string& key = "") {
+  // `name` is both the authenticated identity and the declared peer name; `session` is the
+  // resumable session (default: one of its own, numbered like the connection).
+  FakeSession(uint64_t id, const std::string& name, planet::Role role = planet::SAM, uint64_t session = 0) {
     id_ = id;
-    hello_.set_peer_name(peer);
+    hello_.set_peer_name(name);
     hello_.set_role(role);
-    hello_.set_session_id(key);
     hello_.set_version(1);
+    identity_.name = name;
+    identity_.role = role;
+    identity_.session = session != 0 ? session : 1000 + id;
   }
   uint64_t id() const override { return id_; }
   const planet::Hello& hello() const override { return hello_; }
+  const planet::Identity& identity() const override { return identity_; }
   std::string remote_address() const override { return "127.0.0.1:" + std::to_string(40000 + id_); }
   bool send(planet::Frame frame) override {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -92,6 +97,7 @@ class FakeSession final : public planet::Session {
  private:
   uint64_t id_ = 0;
   planet::Hello hello_;
+  planet::Identity identity_;
   mutable std::mutex mutex_;
   mutable std::condition_variable cv_;
   std::vector<planet::Frame> frames_;

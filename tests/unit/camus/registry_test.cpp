@@ -17,8 +17,8 @@ class RegistryTest : public ::testing::Test {
  protected:
   RecordingSink sink;
   Registry registry{"kr", sink};
-  std::shared_ptr<FakeSession> sam1 = std::make_shared<FakeSession>(1, "sam@robot1", planet::SAM, "key-1");
-  std::shared_ptr<FakeSession> sam2 = std::make_shared<FakeSession>(2, "sam@robot2", planet::SAM, "key-2");
+  std::shared_ptr<FakeSession> sam1 = std::make_shared<FakeSession>(1, "sam@robot1", planet::SAM, 101);
+  std::shared_ptr<FakeSession> sam2 = std::make_shared<FakeSession>(2, "sam@robot2", planet::SAM, 102);
 };
 
 TEST_F(RegistryTest, RegistrationFillsOwnerAndStateAndPublishes) {
@@ -71,9 +71,9 @@ TEST_F(RegistryTest, SameSessionReRegisteringReplaces) {
   EXPECT_EQ(listed[0].deadline_ms(), 200u);
 }
 
-TEST_F(RegistryTest, ReconnectedSamWithSameSessionIdReplacesAndOldCloseKeepsIt) {
+TEST_F(RegistryTest, ResumedSessionReplacesAndOldCloseKeepsIt) {
   ASSERT_TRUE(registry.register_service(sam1, navigation_registration("robot1.navigation")).ok());
-  auto again = std::make_shared<FakeSession>(7, "sam@robot1", planet::SAM, "key-1");  // same Hello.session_id
+  auto again = std::make_shared<FakeSession>(7, "sam@robot1", planet::SAM, 101);  // resumed: same Identity::session
   ASSERT_TRUE(registry.register_service(again, navigation_registration("robot1.navigation")).ok());
   // The old connection is declared dead later: the service now belongs to the new one.
   EXPECT_TRUE(registry.remove_session(1).empty());
@@ -100,11 +100,24 @@ TEST_F(RegistryTest, OwnerCloseRemovesItsServicesAndPublishesGone) {
   EXPECT_FALSE(registry.route("robot1.navigation").has_value());
 }
 
-TEST_F(RegistryTest, OnlySamSessionsRegister) {
+TEST_F(RegistryTest, OnlySamAndOperatorRolesRegister) {
   auto client = std::make_shared<FakeSession>(3, "cli", planet::CLIENT);
   auto refused = registry.register_service(client, navigation_registration("x.nav"));
-  EXPECT_EQ(refused.status(), planet::UNAUTHENTICATED);
-  EXPECT_EQ(refused.message(), "only SAM sessions may register services; cli connected as CLIENT");
+  EXPECT_EQ(refused.status(), planet::PERMISSION_DENIED);
+  EXPECT_EQ(refused.message(), "registering services needs role sam; credential 'cli' has role client");
+  auto operator_session = std::make_shared<FakeSession>(4, "ops", planet::OPERATOR);
+  EXPECT_TRUE(registry.register_service(operator_session, navigation_registration("x.nav")).ok());
+}
+
+TEST_F(RegistryTest, SameNameOnAnotherSessionIsNotTheSameOwner) {
+  // The owner is the authenticated session, not a name: a second session of the same credential
+  // (or a stranger declaring the same peer name) cannot take the service over.
+  ASSERT_TRUE(registry.register_service(sam1, navigation_registration("robot1.navigation")).ok());
+  auto same_name = std::make_shared<FakeSession>(9, "sam@robot1", planet::SAM);
+  auto refused = registry.register_service(same_name, navigation_registration("robot1.navigation"));
+  EXPECT_EQ(refused.status(), planet::ALREADY_EXISTS);
+  EXPECT_EQ(registry.unregister_service(*same_name, "robot1.navigation").status(), planet::PERMISSION_DENIED);
+  EXPECT_EQ(registry.route("robot1.navigation")->owner.get(), sam1.get());
 }
 
 TEST_F(RegistryTest, BadRegistrationsAreRefusedPrecisely) {
@@ -183,7 +196,7 @@ TEST_F(RegistryTest, ListFiltersWithGlobAndDescribeFindsInterfaces) {
 TEST_F(RegistryTest, UnregisterOnlyByItsProvider) {
   ASSERT_TRUE(registry.register_service(sam1, navigation_registration("robot1.navigation")).ok());
   auto refused = registry.unregister_service(*sam2, "robot1.navigation");
-  EXPECT_EQ(refused.status(), planet::UNAUTHENTICATED);
+  EXPECT_EQ(refused.status(), planet::PERMISSION_DENIED);
   EXPECT_EQ(refused.message(),
             "service robot1.navigation is provided by sam@robot1; only its provider may unregister it");
   EXPECT_EQ(registry.unregister_service(*sam1, "nope").message(), "no service named 'nope' in space kr");

@@ -22,7 +22,7 @@ class RouterTest : public ::testing::Test {
   }
 
   planet::Request request(uint64_t call_id, const std::string& service, const std::string& op,
-                          uint32_t deadline_ms = 0, bool oneway = false) {
+                          uint64_t deadline_ms = 0, bool oneway = false) {
     planet::Request r;
     r.set_call_id(call_id);
     r.set_service(service);
@@ -47,14 +47,23 @@ class RouterTest : public ::testing::Test {
   NoContainer container;
   BuiltinServices builtins{registry_service, container};
   ManualScheduler timers;
-  Router router{RouterOptions{"kr", std::chrono::milliseconds(1000)}, registry, builtins, timers};
+  static RouterOptions options() {
+    RouterOptions o;
+    o.space = "kr";
+    o.default_deadline = std::chrono::milliseconds(1000);
+    o.max_deadline_ms = 60000;
+    o.max_pending_calls = 5;
+    o.max_pending_calls_per_session = 3;
+    return o;
+  }
+  Router router{options(), registry, builtins, timers};
   std::shared_ptr<FakeSession> caller = std::make_shared<FakeSession>(1, "cli@host", planet::CLIENT);
-  std::shared_ptr<FakeSession> provider = std::make_shared<FakeSession>(2, "sam@robot1", planet::SAM, "k");
+  std::shared_ptr<FakeSession> provider = std::make_shared<FakeSession>(2, "sam@robot1", planet::SAM);
 };
 
 TEST_F(RouterTest, ForwardsWithServerCallIdAndMapsTheReplyBack) {
   router.on_request(caller, request(7, "robot1.navigation", "moveTo"));
-  router.on_request(caller, request(7, "robot1.navigation", "moveTo"));  // same caller id twice: distinct calls
+  router.on_request(caller, request(8, "robot1.navigation", "moveTo"));
   ASSERT_EQ(provider->count(planet::Frame::kRequest), 2u);
   auto first = provider->frames()[0].request();
   auto second = provider->frames()[1].request();
@@ -70,7 +79,8 @@ TEST_F(RouterTest, ForwardsWithServerCallIdAndMapsTheReplyBack) {
   ASSERT_EQ(caller->count(planet::Frame::kReply), 2u);
   auto r0 = caller->frames()[0].reply();
   auto r1 = caller->frames()[1].reply();
-  EXPECT_EQ(r0.call_id(), 7u);
+  EXPECT_EQ(r0.call_id(), 8u);
+  EXPECT_EQ(r1.call_id(), 7u);
   EXPECT_EQ(r0.payload(), "second");
   EXPECT_EQ(r1.payload(), "first");
   EXPECT_EQ(router.pending(), 0u);
@@ -212,11 +222,82 @@ TEST_F(RouterTest, BuiltinRegistryIsServedLocally) {
 
 TEST_F(RouterTest, InternalCallersGetCompletions) {
   std::optional<planet::CallResult> got;
-  router.call(Caller{nullptr, "task:t/r1"}, request(0, "robot1.navigation", "setSpeed"),
+  router.call(Caller{nullptr, "task:t/r1", planet::OPERATOR}, request(0, "robot1.navigation", "setSpeed"),
               [&got](planet::CallResult result) { got = std::move(result); });
   router.on_reply(*provider, reply_from_provider(provider->frames()[0].request().call_id(), "ok"));
   ASSERT_TRUE(got);
   EXPECT_EQ(got->payload, "ok");
+}
+
+TEST_F(RouterTest, DuplicateCallIdOfAPendingCallIsRefusedAndTheFirstGoesOn) {
+  router.on_request(caller, request(7, "robot1.navigation", "moveTo"));
+  router.on_request(caller, request(7, "robot1.navigation", "setSpeed"));
+  ASSERT_EQ(provider->count(planet::Frame::kRequest), 1u);  // the second never reaches the provider
+  ASSERT_EQ(caller->count(planet::Frame::kReply), 1u);
+  auto refused = caller->frames()[0].reply();
+  EXPECT_EQ(refused.call_id(), 7u);
+  EXPECT_EQ(refused.status(), planet::BAD_ARGUMENTS);
+  EXPECT_EQ(refused.message(),
+            "call_id 7 is already pending on this connection (call ids must be unique among pending calls); the "
+            "first call goes on");
+  // A oneway reusing a pending id is dropped too.
+  router.on_request(caller, request(7, "robot1.navigation", "setSpeed", 0, true));
+  EXPECT_EQ(provider->count(planet::Frame::kRequest), 1u);
+  // The first call is answered; then the id is free again.
+  router.on_reply(*provider, reply_from_provider(provider->frames()[0].request().call_id(), "first"));
+  EXPECT_EQ(caller->frames().back().reply().payload(), "first");
+  router.on_request(caller, request(7, "robot1.navigation", "moveTo"));
+  EXPECT_EQ(provider->count(planet::Frame::kRequest), 2u);
+  // Another connection may use the same id at the same time.
+  auto other = std::make_shared<FakeSession>(5, "cli2", planet::CLIENT);
+  router.on_request(other, request(7, "robot1.navigation", "moveTo"));
+  EXPECT_EQ(provider->count(planet::Frame::kRequest), 3u);
+}
+
+TEST_F(RouterTest, DeadlineAboveTheMaximumIsRefusedNotTruncated) {
+  router.on_request(caller, request(1, "robot1.navigation", "moveTo", (uint64_t{1} << 32) + 5));
+  router.on_request(caller, request(2, "robot1.navigation", "moveTo", 60001));
+  router.on_request(caller, request(3, "robot1.navigation", "moveTo", 60000));
+  ASSERT_EQ(caller->count(planet::Frame::kReply), 2u);
+  EXPECT_EQ(caller->frames()[0].reply().status(), planet::BAD_ARGUMENTS);
+  EXPECT_EQ(caller->frames()[0].reply().message(),
+            "deadline_ms 4294967301 exceeds the server's limit of 60000 ms (max_deadline_ms)");
+  EXPECT_EQ(caller->frames()[1].reply().call_id(), 2u);
+  ASSERT_EQ(provider->count(planet::Frame::kRequest), 1u);
+  EXPECT_EQ(provider->frames()[0].request().deadline_ms(), 60000u);
+}
+
+TEST_F(RouterTest, PendingCallsAreBoundedPerSessionAndServerWide) {
+  for (uint64_t id = 1; id <= 4; ++id) router.on_request(caller, request(id, "robot1.navigation", "moveTo"));
+  EXPECT_EQ(router.pending(), 3u);
+  ASSERT_EQ(caller->count(planet::Frame::kReply), 1u);
+  EXPECT_EQ(caller->frames()[0].reply().call_id(), 4u);
+  EXPECT_EQ(caller->frames()[0].reply().status(), planet::RESOURCE_EXHAUSTED);
+  EXPECT_EQ(caller->frames()[0].reply().message(),
+            "this connection already has 3 calls pending (max_pending_calls_per_session 3)");
+  auto other = std::make_shared<FakeSession>(5, "cli2", planet::CLIENT);
+  for (uint64_t id = 1; id <= 3; ++id) router.on_request(other, request(id, "robot1.navigation", "moveTo"));
+  EXPECT_EQ(router.pending(), 5u);
+  ASSERT_EQ(other->count(planet::Frame::kReply), 1u);
+  EXPECT_EQ(other->frames()[0].reply().message(), "the server already has 5 calls pending (max_pending_calls 5)");
+  // Oneways hold nothing and are not counted.
+  router.on_request(caller, request(9, "robot1.navigation", "setSpeed", 0, true));
+  EXPECT_EQ(provider->count(planet::Frame::kRequest), 6u);
+  // Answered calls free their places.
+  router.on_reply(*provider, reply_from_provider(provider->frames()[0].request().call_id(), "done"));
+  router.on_request(caller, request(10, "robot1.navigation", "moveTo"));
+  EXPECT_EQ(router.pending(), 5u);
+}
+
+TEST_F(RouterTest, BuiltinOperationsNeedTheirRole) {
+  planet::Request define = request(1, "camus.registry", "Register");
+  define.set_payload(navigation_registration("cli.nav").SerializeAsString());
+  router.on_request(caller, define);
+  auto reply = caller->wait_frame(planet::Frame::kReply);
+  ASSERT_TRUE(reply);
+  EXPECT_EQ(reply->reply().status(), planet::PERMISSION_DENIED);
+  EXPECT_EQ(reply->reply().message(), "camus.registry.Register needs role sam; credential 'cli@host' has role client");
+  EXPECT_FALSE(registry.route("cli.nav").has_value());
 }
 
 TEST_F(RouterTest, ShutdownAnswersPendingAndLaterCallsUnavailable) {

@@ -40,8 +40,9 @@ class HandlerTest : public ::testing::Test {
   BuiltinServices builtins{registry_service, container};
   Router router{RouterOptions{"kr", std::chrono::milliseconds(1000)}, registry, builtins, timers};
   CamusSessionHandler handler{registry, router, bus};
-  std::shared_ptr<FakeSession> client = std::make_shared<FakeSession>(1, "cli@host", planet::CLIENT, "c1");
-  std::shared_ptr<FakeSession> sam = std::make_shared<FakeSession>(2, "sam@robot1", planet::SAM, "s1");
+  std::shared_ptr<FakeSession> client = std::make_shared<FakeSession>(1, "cli@host", planet::CLIENT);
+  std::shared_ptr<FakeSession> sam = std::make_shared<FakeSession>(2, "sam@robot1", planet::SAM);
+  std::shared_ptr<FakeSession> ops = std::make_shared<FakeSession>(3, "ops", planet::OPERATOR);
 };
 
 TEST_F(HandlerTest, ContextSetAndGetThroughFrames) {
@@ -49,17 +50,23 @@ TEST_F(HandlerTest, ContextSetAndGetThroughFrames) {
   camus::ContextSetRequest set;
   set.set_key("robot1/battery");
   set.mutable_value()->set_number_value(0.5);
-  handler.on_frame(client, request(1, "camus.context", "Set", set));
+  set.set_source("declared");
+  handler.on_frame(client, request(1, "camus.context", "Set", set));  // a client may not set context
+  handler.on_frame(ops, request(1, "camus.context", "Set", set));
+  ASSERT_TRUE(ops->wait_frame(planet::Frame::kReply, 0));
   camus::ContextGetRequest get;
   get.set_key("robot1/battery");
   handler.on_frame(client, request(2, "camus.context", "Get", get));
   auto first = client->wait_frame(planet::Frame::kReply, 0);
   auto second = client->wait_frame(planet::Frame::kReply, 1);
   ASSERT_TRUE(first && second);
+  EXPECT_EQ(first->reply().status(), planet::PERMISSION_DENIED);
+  EXPECT_EQ(first->reply().message(), "camus.context.Set needs role operator; credential 'cli@host' has role client");
   ASSERT_EQ(second->reply().status(), planet::OK) << second->reply().message();
   camus::ContextEntry entry;
   ASSERT_TRUE(entry.ParseFromString(second->reply().payload()));
-  EXPECT_EQ(entry.source(), "cli@host");
+  EXPECT_EQ(entry.source(), "ops");
+  EXPECT_EQ(entry.origin(), "declared");
   EXPECT_DOUBLE_EQ(entry.value().number_value(), 0.5);
 }
 
@@ -94,6 +101,56 @@ TEST_F(HandlerTest, PublishSubscribeAndUnsubscribeThroughFrames) {
   handler.on_frame(sam, std::move(publish));
   bus.flush();
   EXPECT_EQ(client->count(planet::Frame::kEvent), 1u);
+}
+
+TEST_F(HandlerTest, EventsCarryTheAuthenticatedIdentityAndServerTopicsAreRefused) {
+  planet::Frame subscribe;
+  subscribe.mutable_subscribe()->set_subscription_id(1);
+  subscribe.mutable_subscribe()->set_pattern("#");
+  handler.on_frame(client, std::move(subscribe));
+  ASSERT_TRUE(client->wait_frame(planet::Frame::kSubscribeAck));
+  // A session whose peer_name claims to be the server: its identity is what was authenticated.
+  auto impostor = std::make_shared<FakeSession>(7, "intruder", planet::OPERATOR);
+  planet::Frame forged;
+  forged.mutable_publish()->set_publish_id(1);
+  forged.mutable_publish()->set_topic("registry/diag");
+  handler.on_frame(impostor, planet::Frame(forged));
+  auto refused = impostor->wait_frame(planet::Frame::kPublishAck);
+  ASSERT_TRUE(refused);
+  EXPECT_EQ(refused->publish_ack().status(), planet::PERMISSION_DENIED);
+  forged.mutable_publish()->set_publish_id(2);
+  forged.mutable_publish()->set_topic("kr/news");
+  handler.on_frame(impostor, std::move(forged));
+  auto event = client->wait_frame(planet::Frame::kEvent);
+  ASSERT_TRUE(event);
+  EXPECT_EQ(event->event().topic(), "kr/news");
+  EXPECT_EQ(event->event().source(), "intruder");
+}
+
+TEST_F(HandlerTest, AnotherSessionsPublishIdsDoNotPoisonDeduplication) {
+  planet::Frame subscribe;
+  subscribe.mutable_subscribe()->set_subscription_id(1);
+  subscribe.mutable_subscribe()->set_pattern("kr/#");
+  handler.on_frame(client, std::move(subscribe));
+  ASSERT_TRUE(client->wait_frame(planet::Frame::kSubscribeAck));
+  // Same name, same role, another session: its ids are its own.
+  auto stranger = std::make_shared<FakeSession>(8, "sam@robot1", planet::SAM);
+  for (uint64_t id = 1; id <= 3; ++id) {
+    planet::Frame publish;
+    publish.mutable_publish()->set_publish_id(id);
+    publish.mutable_publish()->set_topic("kr/junk");
+    handler.on_frame(stranger, std::move(publish));
+  }
+  planet::Frame real;
+  real.mutable_publish()->set_publish_id(1);
+  real.mutable_publish()->set_topic("kr/robot1/arrived");
+  handler.on_frame(sam, std::move(real));
+  auto ack = sam->wait_frame(planet::Frame::kPublishAck);
+  ASSERT_TRUE(ack);
+  EXPECT_EQ(ack->publish_ack().seq(), 4u);
+  auto event = client->wait_frame(planet::Frame::kEvent, 3);
+  ASSERT_TRUE(event);
+  EXPECT_EQ(event->event().topic(), "kr/robot1/arrived");
 }
 
 TEST_F(HandlerTest, CloseRemovesRegistrationsAndFailsCalls) {

@@ -77,7 +77,7 @@ class TaskTest : public ::testing::Test {
   ContextStore context{"", bus_sink, clock, timers};
   RecordingSink sink;  // where task progress goes
   FakeInvoker invoker;
-  std::shared_ptr<FakeSession> sam = std::make_shared<FakeSession>(1, "sam@robot1", planet::SAM, "k");
+  std::shared_ptr<FakeSession> sam = std::make_shared<FakeSession>(1, "sam@robot1", planet::SAM);
 };
 
 TEST_F(TaskTest, SquarePathCallsInOrderAndWaitsForEachArrival) {

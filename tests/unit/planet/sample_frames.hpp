@@ -16,7 +16,7 @@ inline std::vector<Frame> sample_frames() {
     m.set_token("s3cret");
     m.set_peer_name("sam@robot1");
     m.set_role(SAM);
-    m.set_session_id("0123456789abcdef");
+    m.set_session_secret("0123456789abcdef");
   }
   {
     Welcome& m = *add().mutable_welcome();

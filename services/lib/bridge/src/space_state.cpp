@@ -15,7 +15,7 @@ using SystemClock = std::chrono::system_clock;
 
 constexpr auto kCamusTimeout = std::chrono::milliseconds(2000);
 constexpr const char* kContextPrefix = "context/";
-constexpr const char* kImportedSource = "dds:";  // source of imported context entries: "dds:<space>"
+constexpr const char* kImportedSource = "dds:";  // origin of imported context entries: "dds:<space>"
 
 SystemClock::time_point from_unix_ns(int64_t ns) {
   return SystemClock::time_point(std::chrono::duration_cast<SystemClock::duration>(std::chrono::nanoseconds(ns)));
@@ -138,7 +138,7 @@ void SpaceState::export_event(const planet::Event& event) {
   // Imported events (published by this bridge on <space>/...) are not shared again; context has
   // its own topic.
   if (event.topic().rfind(kContextPrefix, 0) == 0) return;
-  if (event.source() == config_.name) {
+  if (event.source() == client_->welcome().identity()) {
     std::lock_guard lock(spaces_mutex_);
     if (imported_spaces_.count(event.topic().substr(0, event.topic().find('/')))) return;
   }
@@ -159,7 +159,7 @@ void SpaceState::export_context(const planet::Event& event) {
     spdlog::warn("bridge: context change {} is not a ContextEntry; not shared", key);
     return;
   }
-  if (entry.source().rfind(kImportedSource, 0) == 0) return;  // imported from another space
+  if (entry.origin().rfind(kImportedSource, 0) == 0) return;  // imported from another space
   if (entry.value().has_null_value()) {         // removed (or expired)
     link_->drop_context(key);
     return;
@@ -267,7 +267,7 @@ void SpaceState::clear_stale_imports() {
     camus::ContextListReply reply;
     if (!listed.ok() || !reply.ParseFromString(listed.payload)) return;
     for (const auto& entry : reply.entries()) {
-      if (entry.source().rfind(kImportedSource, 0) != 0) continue;
+      if (entry.origin().rfind(kImportedSource, 0) != 0) continue;
       camus::ContextDeleteRequest remove;
       remove.set_key(entry.key());
       client_->call("camus.context", "Delete", remove.SerializeAsString(), kCamusTimeout);

@@ -16,7 +16,7 @@
 #include <vector>
 
 #include "link.hpp"
-#include "random.hpp"
+#include "urs/planet/authenticator.hpp"
 #include "urs/planet/codec.hpp"
 
 namespace urs::planet {
@@ -192,7 +192,6 @@ struct ClientCore {
 
   const ClientOptions options;
   const std::string target;  // "host:port"
-  const std::string session_id = detail::random_hex(16);
   std::shared_ptr<asio::io_context> io = std::make_shared<asio::io_context>();
   std::optional<asio::executor_work_guard<asio::io_context::executor_type>> work;
   std::thread thread;
@@ -219,7 +218,8 @@ struct ClientCore {
   asio::steady_timer reconnect_timer{*io};
   asio::steady_timer connect_timer{*io};
   std::shared_ptr<ClientLink> link;
-  Welcome welcome;
+  Welcome welcome;             // of the current (or last) session, its session_secret cleared
+  std::string session_secret;  // the server's, presented in the next Hello; never logged
   std::string last_error;
   unsigned failures = 0;  // consecutive failed attempts, for the backoff
   std::mt19937_64 rng{std::random_device{}()};
@@ -476,7 +476,7 @@ void ClientCore::on_socket_connected(uint64_t attempt, const std::error_code& er
   hello.set_token(options.token);
   hello.set_peer_name(options.peer_name);
   hello.set_role(options.role);
-  hello.set_session_id(session_id);
+  hello.set_session_secret(session_secret);
   link->enqueue(hello_frame);
   link->start();
 }
@@ -714,6 +714,9 @@ void ClientCore::on_welcome_locked(const std::shared_ptr<ClientLink>& from,
                                      const Welcome& server_welcome, Deferred& out) {
   connect_timer.cancel();
   welcome = server_welcome;
+  const bool resumed = !session_secret.empty() && session_secret == welcome.session_secret();
+  session_secret = welcome.session_secret();
+  welcome.clear_session_secret();
   phase = Phase::kOpen;
   failures = 0;
   send_limit = welcome.max_message_bytes() > 0 ? welcome.max_message_bytes() : UINT64_MAX;
@@ -727,8 +730,9 @@ void ClientCore::on_welcome_locked(const std::shared_ptr<ClientLink>& from,
           ? std::min(options.chunk_bytes, welcome.chunk_bytes())
           : options.chunk_bytes;
   from->open(welcome, limits, chunk_bytes);
-  spdlog::info("planet: connected to {} (space '{}', server instance {}, session {})", target,
-               welcome.space(), welcome.server_instance(), session_id);
+  spdlog::info("planet: connected to {} (space '{}', server instance {}) as {} (role {}), {} session",
+               target, welcome.space(), welcome.server_instance(), welcome.identity(),
+               role_word(welcome.role()), resumed ? "resumed" : "new");
 
   // Restore, in this order: registrations, subscriptions, unacknowledged publishes, queued calls.
   for (Registration& registration : registrations) {

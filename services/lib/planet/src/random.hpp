@@ -1,6 +1,6 @@
 #pragma once
-// Random identifiers (server instance, client session id). Not secrets: uniqueness is all that
-// matters, so std::random_device seeding a fresh engine is enough.
+// Random identifiers (the server instance). Not secrets: uniqueness is all that matters, so
+// std::random_device seeding a fresh engine is enough. Secrets come from util::random_secret_hex.
 
 #include <cstddef>
 #include <random>

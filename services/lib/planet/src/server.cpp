@@ -7,12 +7,14 @@
 #include <map>
 #include <mutex>
 #include <random>
+#include <set>
 #include <stdexcept>
 #include <thread>
 #include <vector>
 
 #include "link.hpp"
 #include "random.hpp"
+#include "session_directory.hpp"
 #include "urs/planet/codec.hpp"
 #include "urs/planet/status.hpp"
 
@@ -21,16 +23,21 @@ namespace {
 
 using std::chrono::milliseconds;
 
-// Compares in time that depends only on the lengths, not on where the first difference is.
-bool constant_time_equal(const std::string& a, const std::string& b) {
-  const size_t size = std::max(a.size(), b.size());
-  unsigned char difference = a.size() == b.size() ? 0 : 1;
-  for (size_t i = 0; i < size; ++i) {
-    const unsigned char x = i < a.size() ? static_cast<unsigned char>(a[i]) : 0;
-    const unsigned char y = i < b.size() ? static_cast<unsigned char>(b[i]) : 0;
-    difference = static_cast<unsigned char>(difference | (x ^ y));
+constexpr size_t kMaxPeerNameBytes = 128;
+
+// Empty if `name` is an acceptable Hello.peer_name, else why not.
+std::string peer_name_problem(const std::string& name) {
+  if (name.empty()) return "it is empty";
+  if (name.size() > kMaxPeerNameBytes) {
+    return "it is " + std::to_string(name.size()) + " bytes long; the limit is " + std::to_string(kMaxPeerNameBytes);
   }
-  return difference == 0;
+  for (char c : name) {
+    const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '.' ||
+                    c == '_' || c == '-' || c == '@' || c == ':' || c == '/';
+    if (!ok) return "it holds a character other than letters, digits and . _ - @ : /";
+  }
+  if (name == "camus-server") return "'camus-server' is the server's own name";
+  return {};
 }
 
 void validate(const ServerOptions& options) {
@@ -52,6 +59,10 @@ void validate(const ServerOptions& options) {
                      " must be at least chunk_bytes (" + std::to_string(options.chunk_bytes) + ")");
   }
   if (options.io_threads == 0) errors.push_back("io_threads must be at least 1");
+  if (options.session_resume_window.count() < 0) {
+    errors.push_back("session_resume_window " + ms(options.session_resume_window) + " must be >= 0");
+  }
+  if (options.max_resumable_sessions == 0) errors.push_back("max_resumable_sessions must be at least 1");
   if (errors.empty()) return;
   std::string message = "invalid Planet ServerOptions:";
   for (const auto& error : errors) message += "\n  " + error;
@@ -72,9 +83,14 @@ struct ServerCore {
   void do_accept();
   void on_session_closed(uint64_t id);
   bool on_io_thread() const;
+  std::shared_ptr<const Authenticator> current_authenticator() const;
+  size_t set_authenticator(std::shared_ptr<const Authenticator> replacement);
 
   const ServerOptions options;
   SessionHandler& handler;
+  detail::SessionDirectory directory{options.session_resume_window, options.max_resumable_sessions};
+  mutable std::mutex auth_mutex;
+  std::shared_ptr<const Authenticator> authenticator;  // null: an open server
   const std::string instance = detail::random_hex(8);
   std::shared_ptr<asio::io_context> io = std::make_shared<asio::io_context>();
   asio::strand<asio::io_context::executor_type> accept_strand{io->get_executor()};
@@ -123,9 +139,13 @@ class ServerSession final : public detail::Link, public Session {
   // Only after the io threads are gone (Server::stop fallback).
   void abandon(const std::string& reason) { finish(reason); }
 
+  // The handshake succeeded: hello() and identity() are set and will not change.
+  bool is_open() const { return opened_; }
+
   // Session
   uint64_t id() const override { return id_; }
   const Hello& hello() const override { return hello_; }
+  const Identity& identity() const override { return identity_; }
   std::string remote_address() const override { return peer_address(); }
   bool send(Frame frame) override { return enqueue(std::move(frame)); }
   void close(Status status, const std::string& reason) override {
@@ -149,6 +169,7 @@ class ServerSession final : public detail::Link, public Session {
   void handle_closed(const std::string& reason) override {
     handshake_timer_.cancel();
     if (opened_) {
+      server_.directory.closed(identity_.session, this);
       spdlog::info("planet: {} closed: {}", describe(), reason);
       try {
         server_.handler.on_close(self(), reason);
@@ -162,7 +183,7 @@ class ServerSession final : public detail::Link, public Session {
 
   std::string describe() const override {
     std::string text = "session " + std::to_string(id_) + " from " + peer_address();
-    if (opened_) text += " (peer '" + hello_.peer_name() + "')";
+    if (opened_) text += " (" + identity_.name + ", peer '" + hello_.peer_name() + "')";
     return text;
   }
 
@@ -174,14 +195,19 @@ class ServerSession final : public detail::Link, public Session {
     close_link(detail::make_goodbye(Status::BAD_ARGUMENTS, reason), reason);
   }
 
+  // The peer's declared name is quoted only once it is known to be printable and short.
   void refuse(Status status, const std::string& reason, const Hello& hello) {
-    spdlog::warn("planet: refused peer '{}' from {}: {}", hello.peer_name(), peer_address(),
+    const bool printable = peer_name_problem(hello.peer_name()).empty();
+    spdlog::warn("planet: refused peer '{}' from {}: {}", printable ? hello.peer_name() : "?", peer_address(),
                  reason);
     Frame refused;
     refused.mutable_refused()->set_status(status);
     refused.mutable_refused()->set_reason(reason);
     close_link(std::move(refused), "refused: " + reason);
   }
+
+  // The verified client-certificate name; empty on a connection without one (plain TCP).
+  std::string certificate_name() const { return {}; }
 
   void handshake(Frame&& frame) {
     handshake_timer_.cancel();
@@ -199,18 +225,37 @@ class ServerSession final : public detail::Link, public Session {
              hello);
       return;
     }
-    if (!options.token.empty()) {
-      if (hello.token().empty()) {
-        refuse(Status::UNAUTHENTICATED, "token required: pass --token-file", hello);
-        return;
-      }
-      if (!constant_time_equal(hello.token(), options.token)) {
-        refuse(Status::UNAUTHENTICATED, "wrong token", hello);
-        return;
-      }
+    if (auto why = peer_name_problem(hello.peer_name()); !why.empty()) {
+      refuse(Status::BAD_ARGUMENTS, "peer_name is not valid: " + why, hello);
+      return;
     }
+    Admission admission;
+    if (auto authenticator = server_.current_authenticator()) {
+      admission = authenticator->admit(hello.token(), certificate_name());
+      if (!admission.ok()) {
+        refuse(admission.status, admission.reason, hello);
+        return;
+      }
+    } else {
+      admission.name = kAnonymousIdentity;
+      admission.role = Role::OPERATOR;
+    }
+    if (hello.role() > admission.role) {
+      refuse(Status::PERMISSION_DENIED,
+             "credential '" + admission.name + "' has role " + role_word(admission.role) + "; Hello asks for " +
+                 role_word(hello.role()) + (hello.role() == Role::SAM ? " (to register services)" : ""),
+             hello);
+      return;
+    }
+    const std::string secret = hello.session_secret();
     hello.clear_token();
+    hello.clear_session_secret();
     hello_ = std::move(hello);
+    auto opened = server_.directory.open(secret, admission.name, self());
+    identity_.name = std::move(admission.name);
+    identity_.role = admission.role;
+    identity_.session = opened.session;
+    identity_.fingerprint = std::move(admission.fingerprint);
 
     Frame welcome_frame;
     Welcome& welcome = *welcome_frame.mutable_welcome();
@@ -221,13 +266,21 @@ class ServerSession final : public detail::Link, public Session {
     welcome.set_heartbeat_timeout_ms(static_cast<uint32_t>(options.heartbeat_timeout.count()));
     welcome.set_max_message_bytes(options.max_message_bytes);
     welcome.set_chunk_bytes(options.chunk_bytes);
-    enqueue(welcome_frame);
+    welcome.set_session_secret(opened.secret);
+    welcome.set_identity(identity_.name);
+    welcome.set_role(identity_.role);
+    enqueue(std::move(welcome_frame));
 
     opened_ = true;
     mark_open();
     set_heartbeat(options.heartbeat_interval, options.heartbeat_timeout);
-    spdlog::info("planet: {} open: role {}, session_id {}", describe(), Role_Name(hello_.role()),
-                 hello_.session_id());
+    spdlog::info("planet: {} open: {} (role {}), session {}{}", describe(), identity_.name,
+                 role_word(identity_.role), identity_.session, opened.resumed ? " resumed" : "");
+    if (opened.previous) {
+      spdlog::info("planet: session {} resumed by connection {}; closing its previous connection",
+                   identity_.session, id_);
+      opened.previous->close(Status::UNAVAILABLE, "session resumed from another connection");
+    }
     server_.handler.on_open(self());
   }
 
@@ -235,12 +288,14 @@ class ServerSession final : public detail::Link, public Session {
   const uint64_t id_;
   asio::steady_timer handshake_timer_;
   Hello hello_;        // written once on the strand before on_open; read-only afterwards
+  Identity identity_;  // likewise
   std::atomic<bool> opened_{false};  // set on the strand after hello_; read anywhere
 };
 
 ServerCore::ServerCore(ServerOptions options_in, SessionHandler& handler_in)
-    : options(std::move(options_in)), handler(handler_in) {
-  validate(options);
+    : options((validate(options_in), std::move(options_in))),
+      handler(handler_in),
+      authenticator(options.authenticator) {
   const std::string where = options.host + ":" + std::to_string(options.port);
   try {
     asio::ip::tcp::resolver resolver(*io);
@@ -323,6 +378,40 @@ void ServerCore::do_accept() {
       });
 }
 
+std::shared_ptr<const Authenticator> ServerCore::current_authenticator() const {
+  std::lock_guard<std::mutex> lock(auth_mutex);
+  return authenticator;
+}
+
+size_t ServerCore::set_authenticator(std::shared_ptr<const Authenticator> replacement) {
+  {
+    std::lock_guard<std::mutex> lock(auth_mutex);
+    authenticator = replacement;
+  }
+  std::vector<std::shared_ptr<ServerSession>> all;
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    for (auto& [id, session] : sessions) all.push_back(session);
+  }
+  std::set<std::string> revoked;
+  size_t closed = 0;
+  for (auto& session : all) {
+    if (!session->is_open()) continue;
+    const Identity& identity = session->identity();
+    const std::string now = replacement ? replacement->fingerprint(identity.name) : std::string();
+    const bool still = replacement ? (!now.empty() && now == identity.fingerprint) : true;
+    if (still) continue;
+    revoked.insert(identity.name);
+    spdlog::warn("planet: closing session {} of '{}': its credential was changed or revoked", identity.session,
+                 identity.name);
+    session->close(Status::UNAUTHENTICATED, "credential '" + identity.name +
+                                                "' was changed or revoked by the operator; reconnect with a current one");
+    ++closed;
+  }
+  for (const auto& name : revoked) directory.forget_identity(name);
+  return closed;
+}
+
 void ServerCore::on_session_closed(uint64_t id) {
   std::lock_guard<std::mutex> lock(mutex);
   sessions.erase(id);
@@ -395,5 +484,9 @@ uint16_t Server::port() const { return impl_->bound_port; }
 void Server::start() { impl_->start(); }
 
 void Server::stop() { impl_->stop(); }
+
+size_t Server::set_authenticator(std::shared_ptr<const Authenticator> authenticator) {
+  return impl_->set_authenticator(std::move(authenticator));
+}
 
 }  // namespace urs::planet

@@ -17,6 +17,8 @@ std::string_view status_name(Status status) {
     case Status::PAYLOAD_TOO_LARGE: return "PAYLOAD_TOO_LARGE";
     case Status::ALREADY_EXISTS: return "ALREADY_EXISTS";
     case Status::NOT_FOUND: return "NOT_FOUND";
+    case Status::RESOURCE_EXHAUSTED: return "RESOURCE_EXHAUSTED";
+    case Status::PERMISSION_DENIED: return "PERMISSION_DENIED";
     default: break;  // proto3 enums are open: values of a newer peer land here
   }
   return "UNKNOWN_STATUS";

@@ -69,26 +69,30 @@ std::string read_token_file(const std::string& path) {
 }
 
 namespace {
-sigset_t shutdown_set() {
+sigset_t shutdown_set(bool with_reload) {
   sigset_t set;
   sigemptyset(&set);
   sigaddset(&set, SIGINT);
   sigaddset(&set, SIGTERM);
+  if (with_reload) sigaddset(&set, SIGHUP);
   return set;
 }
 }  // namespace
 
-void block_shutdown_signals() {
-  sigset_t set = shutdown_set();
+void block_shutdown_signals(bool with_reload) {
+  sigset_t set = shutdown_set(with_reload);
   pthread_sigmask(SIG_BLOCK, &set, nullptr);
   signal(SIGPIPE, SIG_IGN);
 }
 
-int wait_for_shutdown() {
-  sigset_t set = shutdown_set();
-  int sig = 0;
-  sigwait(&set, &sig);
-  return sig;
+int wait_for_shutdown(const std::function<void()>& on_reload) {
+  sigset_t set = shutdown_set(static_cast<bool>(on_reload));
+  for (;;) {
+    int sig = 0;
+    sigwait(&set, &sig);
+    if (sig != SIGHUP) return sig;
+    on_reload();
+  }
 }
 
 void write_file_atomically(const std::string& path, const std::string& content) {

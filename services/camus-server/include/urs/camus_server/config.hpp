@@ -6,14 +6,29 @@
 #include <ostream>
 #include <string>
 
+#include "urs/camus_server/credentials_file.hpp"
 #include "urs/util/cli.hpp"
 
 namespace urs::camus_server {
 
+// What one session, and all together, may hold of the server (docs/planet.md, limits).
+struct SemanticLimits {
+  uint64_t max_topic_bytes = 512;               // topics and subscription patterns
+  uint64_t max_topic_levels = 32;
+  uint64_t max_subscriptions_per_session = 1000;
+  uint64_t max_subscriptions = 20000;
+  uint64_t max_pending_calls_per_session = 1000;
+  uint64_t max_pending_calls = 10000;
+  uint64_t max_deadline_ms = 86'400'000;
+  uint64_t event_queue = 10000;                 // publishes and subscribes waiting for the bus
+  uint64_t event_queue_per_session = 1000;      // of those, from one session
+  uint64_t event_queue_bytes = 64ull << 20;
+};
+
 struct ServerConfig {
   std::string space;
   util::Endpoint listen;
-  std::string token;           // from --token-file; empty = no authentication
+  CredentialSources credentials;  // none given = an open server (everyone is "anonymous", operator)
   std::string data_dir;        // empty = everything in memory (nothing survives a restart)
   std::string tasks_dir;       // empty = none
   std::string port_file;       // empty = none
@@ -21,6 +36,7 @@ struct ServerConfig {
   uint32_t heartbeat_timeout_ms = 3000;
   uint32_t default_deadline_ms = 10000;
   uint64_t event_retention = 100000;
+  SemanticLimits limits;
   std::string log_level = "info";
 };
 

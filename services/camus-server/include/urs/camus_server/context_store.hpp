@@ -1,6 +1,6 @@
 #pragma once
-// The context manager: typed key/value entries (google.protobuf.Value) with source, time, TTL and
-// a per-key version.
+// The context manager: typed key/value entries (google.protobuf.Value) with source (who set it, as
+// authenticated), origin (what the setter declared), time, TTL and a per-key version.
 //
 //  - Keys follow the topic rules ("robot1/pose": non-empty levels, no wildcards); a change of key K
 //    publishes "context/K" carrying the ContextEntry (content type "urs.camus.ContextEntry").
@@ -48,7 +48,8 @@ class ContextStore final : public ContextReader {
   ContextStore& operator=(const ContextStore&) = delete;
 
   Result<camus::ContextEntry> get(const std::string& key) const override;
-  // `caller` becomes the source when the request gives none.
+  // `caller` (the caller's authenticated identity) becomes the entry's source; the request's own
+  // `source` is kept as its origin (display only; at most 200 bytes, no control characters).
   Result<camus::ContextEntry> set(const camus::ContextSetRequest& request, const std::string& caller);
   Result<Done> remove(const std::string& key, const std::string& caller);
   // Keys matching a glob ("robot1/*": '*' any run of characters, '?' one); empty = all. A pattern

@@ -3,11 +3,12 @@
 // their interface looks like.
 //
 // Rules:
-//  - SAM sessions register services; the server fills owner (the session's peer_name) and
-//    state "available" and publishes "registry/<name>" (ServiceInfo).
-//  - A name owned by another live session is refused: ALREADY_EXISTS "service X is provided by Y".
-//    The same session, or a new session with the same Hello.session_id (a reconnected SAM),
-//    replaces the registration.
+//  - Sessions whose credential has role SAM or OPERATOR register services; the server fills owner
+//    (the session's authenticated identity), peer_name (its declared name, for display) and state
+//    "available" and publishes "registry/<name>" (ServiceInfo).
+//  - A name owned by another session is refused: ALREADY_EXISTS "service X is provided by Y".
+//    The same connection, or a connection that resumed the same session (planet::Identity::session,
+//    proven by the server-issued session secret), replaces the registration.
 //  - When the owning session closes, its services are removed and "registry/<name>" is published
 //    with state "gone". Built-in services (owner "camus-server") cannot be replaced or removed.
 //  - Descriptor sets are kept per interface (the latest registration wins).
@@ -64,10 +65,10 @@ class Registry final : public SchemaLookup {
   void add_builtin(const std::string& name, const google::protobuf::ServiceDescriptor& interface,
                    uint32_t deadline_ms = 0);
 
-  // UNAUTHENTICATED for a non-SAM session, BAD_ARGUMENTS for a bad name/interface/descriptor set,
-  // ALREADY_EXISTS as described above.
+  // PERMISSION_DENIED for a session whose role is below SAM, BAD_ARGUMENTS for a bad
+  // name/interface/descriptor set, ALREADY_EXISTS as described above.
   Result<Done> register_service(const planet::SessionPtr& session, const camus::RegisterRequest& request);
-  // UNKNOWN_SERVICE if there is no such service; UNAUTHENTICATED if another session owns it.
+  // UNKNOWN_SERVICE if there is no such service; PERMISSION_DENIED if another session owns it.
   Result<Done> unregister_service(const planet::Session& session, const std::string& name);
   // Glob on names ("*" any run of characters); empty = all. Sorted by name.
   std::vector<camus::ServiceInfo> list(const std::string& pattern) const;
@@ -89,8 +90,8 @@ class Registry final : public SchemaLookup {
   struct Entry {
     camus::ServiceInfo info;
     planet::SessionPtr owner;         // null for built-ins
-    uint64_t owner_session = 0;       // Session::id()
-    std::string owner_session_key;    // Hello.session_id
+    uint64_t owner_session = 0;       // Session::id() of the connection
+    uint64_t owner_resumable = 0;     // Session::identity().session
     std::shared_ptr<const InterfaceSchema> schema;
   };
   void publish_locked(const camus::ServiceInfo& info);

@@ -7,6 +7,14 @@
 // DEADLINE_EXCEEDED, PROVIDER_GONE, or UNAVAILABLE at shutdown); a reply that comes too late is
 // dropped and logged at debug level. Oneway requests are forwarded without bookkeeping.
 //
+// Refusals, each a Reply with the limit or rule named (oneways are dropped and logged instead):
+//  - BAD_ARGUMENTS: deadline_ms over max_deadline_ms; a call_id already pending on the same
+//    connection (the first call goes on; its own Reply comes later under the same id);
+//  - PERMISSION_DENIED: the caller's role is below what the service and operation need
+//    (LocalServices::required_role);
+//  - RESOURCE_EXHAUSTED: the connection already has max_pending_calls_per_session calls
+//    pending, or the server max_pending_calls.
+//
 // Threading: thread-safe; never blocks (Session::send queues). Deadlines run on a Scheduler (one
 // timer thread), so a slow provider holds no thread.
 
@@ -14,6 +22,7 @@
 #include <cstdint>
 #include <functional>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <unordered_map>
 
@@ -28,8 +37,11 @@ namespace urs::camus_server {
 // Who is calling.
 struct Caller {
   planet::SessionPtr session;  // null for callers inside the server (task runs)
-  std::string peer;            // the session's peer_name, or e.g. "task:square-path/r3"
+  std::string identity;        // the session's authenticated name, or e.g. "task:square-path/r3"
+  planet::Role role = planet::OPERATOR;  // what it may do (the server's own callers may do all)
   uint64_t session_id() const { return session ? session->id() : 0; }
+  // The caller of a Request frame from `session`.
+  static Caller of(const planet::SessionPtr& session);
 };
 
 // Runs exactly once with the outcome of a call.
@@ -40,6 +52,8 @@ class LocalServices {
  public:
   virtual ~LocalServices() = default;
   virtual bool serves(const std::string& service) const = 0;
+  // The least role that may call `operation` of the local `service`.
+  virtual planet::Role required_role(const std::string& service, const std::string& operation) const = 0;
   // Never blocks the caller. Calls `done` exactly once, on any thread, possibly before returning;
   // for oneway requests `done` may be ignored.
   virtual void dispatch(const Caller& caller, const planet::Request& request, Completion done) = 0;
@@ -48,6 +62,9 @@ class LocalServices {
 struct RouterOptions {
   std::string space;
   std::chrono::milliseconds default_deadline{10000};
+  uint64_t max_deadline_ms = 86'400'000;       // a larger Request.deadline_ms is refused
+  size_t max_pending_calls = 10000;            // calls waiting for a reply, server-wide
+  size_t max_pending_calls_per_session = 1000; // of one connection
 };
 
 class Router {
@@ -59,7 +76,8 @@ class Router {
   Router(const Router&) = delete;
   Router& operator=(const Router&) = delete;
 
-  // A Request frame from `session`; the outcome is sent back as a Reply frame.
+  // A Request frame from `session`; the outcome is sent back as a Reply frame under the
+  // caller's call_id.
   void on_request(const planet::SessionPtr& session, planet::Request request);
   // A Reply frame from `session` (a provider answering a forwarded call).
   void on_reply(const planet::Session& session, planet::Reply reply);
@@ -75,23 +93,32 @@ class Router {
  private:
   struct Pending {
     uint64_t caller_session = 0;
+    uint64_t caller_call_id = 0;  // with caller_session: the caller's own id (Request frames only)
+    bool from_frame = false;
     Completion done;
     std::string service;
     std::string operation;
     uint64_t provider_session = 0;  // 0 for built-ins
     std::string provider;
-    uint32_t deadline_ms = 0;
+    uint64_t deadline_ms = 0;
     Scheduler::TimerId timer = 0;
   };
+  using PendingMap = std::unordered_map<uint64_t, Pending>;
+  // `caller_call_id` is set for Request frames (checked for duplicates and per-session limits).
+  void route(const Caller& caller, planet::Request request, Completion done, std::optional<uint64_t> caller_call_id);
   void complete(uint64_t call_id, planet::CallResult result);
   void expire(uint64_t call_id);
+  // Removes the entry and its caller index; returns its completion. Mutex held.
+  Completion erase_locked(PendingMap::iterator it);
 
   const RouterOptions options_;
   const Registry& registry_;
   LocalServices& local_;
   Scheduler& timers_;
   mutable std::mutex mutex_;
-  std::unordered_map<uint64_t, Pending> pending_;
+  PendingMap pending_;
+  // Connection -> (caller's call id -> server call id) of the calls it has pending.
+  std::unordered_map<uint64_t, std::unordered_map<uint64_t, uint64_t>> by_caller_;
   uint64_t next_call_id_ = 1;
   bool shut_down_ = false;
 };

@@ -23,14 +23,19 @@ class ServiceContainer {
   virtual ~ServiceContainer() = default;
   virtual bool hosts(const std::string& service) const = 0;
   // Never blocks; `done` runs exactly once (on a worker thread) unless the request is oneway.
+  // `caller` is the caller's authenticated identity (Caller::identity).
   virtual void dispatch(const planet::Request& request, const std::string& caller, Completion done) = 0;
 };
 
+// Who may call what of the built-ins: camus.registry Register/Unregister need role SAM;
+// camus.context Set/Delete and camus.tasks Define/Run/Cancel need OPERATOR; everything else
+// (List, Describe, Get, Status, services in the container) CLIENT.
 class BuiltinServices final : public LocalServices {
  public:
   BuiltinServices(RegistryService& registry, ServiceContainer& container)
       : registry_(registry), container_(container) {}
   bool serves(const std::string& service) const override;
+  planet::Role required_role(const std::string& service, const std::string& operation) const override;
   void dispatch(const Caller& caller, const planet::Request& request, Completion done) override;
 
  private:

@@ -10,6 +10,9 @@
 //   resent after a reconnect (at-least-once; the server drops duplicates within its lifetime).
 // - Heartbeats: the server's Welcome sets the interval and timeout; a silent server is declared
 //   dead after heartbeat_timeout and the client reconnects.
+// - Identity: `token` names the client's credential to the server. The server's Welcome carries a
+//   session secret that the client presents on every reconnect to resume its session (its
+//   registrations and publish de-duplication carry over); the secret is never logged.
 //
 // Threading: every callback (reply, event, request, connected) runs on the client's I/O thread
 // and must not block; call() blocks and must not be used from a callback.
@@ -29,9 +32,9 @@ namespace urs::planet {
 struct ClientOptions {
   std::string host = "127.0.0.1";
   uint16_t port = 0;
-  std::string token;
-  std::string peer_name = "client";
-  Role role = CLIENT;
+  std::string token;                  // the credential's token (e.g. read from --token-file)
+  std::string peer_name = "client";   // for display only; the server acts on the credential
+  Role role = CLIENT;                 // the least role needed: SAM to register services
   std::chrono::milliseconds connect_timeout{2000};
   std::chrono::milliseconds reconnect_min{50};
   std::chrono::milliseconds reconnect_max{2000};
@@ -88,7 +91,9 @@ class Client {
   bool wait_connected(std::chrono::milliseconds timeout) const;
   // Why the last connection attempt or session failed (e.g. "refused: wrong token"); empty if none.
   std::string last_error() const;
-  Welcome welcome() const;  // of the current (or last) session
+  // Of the current (or last) session: identity() and role() say who the server takes this client
+  // for. session_secret is cleared (the client keeps it to resume, and never logs it).
+  Welcome welcome() const;
 
   // Request/reply. The handler runs exactly once. `deadline` > 0 bounds the whole call (queueing
   // included) and the rest of it is sent with the request. `deadline` 0 gives none: the request

@@ -3,6 +3,11 @@
 // handshake, answers heartbeats, reassembles chunked messages and hands every other frame to a
 // SessionHandler. It knows nothing of services, events or routing (that is the CAMUS server's).
 //
+// Identity: the Authenticator decides who each Hello speaks for (Session::identity()); the peer's
+// own Hello.peer_name is for display only. The server issues each new session a random secret in
+// Welcome; a Hello presenting it with the same credential resumes that session (same
+// Identity::session). The secret is never logged.
+//
 // Threading: all handler callbacks run on the server's I/O threads and must not block; hand slow
 // work to another thread and answer later through Session::send, which is thread-safe.
 
@@ -12,6 +17,7 @@
 #include <string>
 
 #include "planet.pb.h"
+#include "urs/planet/authenticator.hpp"
 
 namespace urs::planet {
 
@@ -19,7 +25,11 @@ struct ServerOptions {
   std::string host = "0.0.0.0";
   uint16_t port = 0;  // 0 = ephemeral; read back with Server::port()
   std::string space;  // announced in Welcome
-  std::string token;  // required in Hello when non-empty
+  // Who may connect (e.g. planet::Credentials). Null: an open server, where every peer is
+  // admitted as kAnonymousIdentity with role OPERATOR.
+  std::shared_ptr<const Authenticator> authenticator;
+  std::chrono::milliseconds session_resume_window{600000};  // a closed session stays resumable this long
+  size_t max_resumable_sessions = 10000;                    // sessions remembered, open ones included
   std::chrono::milliseconds heartbeat_interval{1000};
   std::chrono::milliseconds heartbeat_timeout{3000};    // silent peer is closed after this
   std::chrono::milliseconds handshake_timeout{5000};    // Hello must arrive within this
@@ -33,8 +43,9 @@ struct ServerOptions {
 class Session {
  public:
   virtual ~Session() = default;
-  virtual uint64_t id() const = 0;                   // unique within this server process
-  virtual const Hello& hello() const = 0;     // peer_name, role, session_id (token cleared)
+  virtual uint64_t id() const = 0;                   // of this connection, unique within this server process
+  virtual const Hello& hello() const = 0;     // peer_name and role as declared (token and secret cleared)
+  virtual const Identity& identity() const = 0;      // who the session speaks for, as authenticated
   virtual std::string remote_address() const = 0;    // "127.0.0.1:53122"
   // Queue a frame; never blocks. Frames larger than chunk_bytes are chunked and interleaved with
   // other traffic. Returns false if the session is already closed (the frame is dropped).
@@ -66,6 +77,12 @@ class Server {
   uint16_t port() const;  // the bound port (useful with port 0)
   void start();           // starts the I/O threads
   void stop();            // closes every session (on_close called), joins the threads; idempotent
+
+  // Replaces the authenticator (e.g. credentials re-read on SIGHUP) for the handshakes that
+  // follow. Open sessions whose credential is gone or changed are closed with Goodbye
+  // UNAUTHENTICATED and their sessions are no longer resumable; the others keep going. Returns
+  // how many sessions were closed. Thread-safe; not from an I/O thread.
+  size_t set_authenticator(std::shared_ptr<const Authenticator> authenticator);
 
  private:
   struct Impl;

@@ -3,6 +3,7 @@
 // Each throws urs::util::ConfigError with a message naming the flag or file and the bad value.
 
 #include <cstdint>
+#include <functional>
 #include <stdexcept>
 #include <string>
 
@@ -31,10 +32,12 @@ Endpoint parse_endpoint(const std::string& text, const std::string& what);
 // The token in FILE (surrounding white space removed). Empty path gives "".
 std::string read_token_file(const std::string& path);
 
-// Blocks SIGINT/SIGTERM in the calling thread (call first in main, before threads start) and
-// returns a waiter: wait_for_shutdown() then blocks until one of them arrives.
-void block_shutdown_signals();
-int wait_for_shutdown();  // returns the signal number
+// Blocks SIGINT/SIGTERM (and SIGHUP if `with_reload`) in the calling thread (call first in main,
+// before threads start); wait_for_shutdown() then blocks until SIGINT or SIGTERM arrives and
+// returns its number. With `on_reload`, each SIGHUP meanwhile runs it (on the waiting thread;
+// block_shutdown_signals(true) must have been called).
+void block_shutdown_signals(bool with_reload = false);
+int wait_for_shutdown(const std::function<void()>& on_reload = {});
 
 // This machine's host name ("localhost" if it cannot be read); names replicas and RT contexts.
 std::string host_name();
