@@ -3,7 +3,8 @@
 # programs load the package's libraries from the prefix (RUNPATH $ORIGIN/../lib) and not from the
 # build tree, builds examples/cpp/minimal against the prefix with find_package(urslink), hosts its
 # Greeter agent on the installed urs-camus-server and calls it with the installed urs: a greeting,
-# the declared exception, and the count.
+# the declared exception, and the count. As root, also checks that the installed urs-bridge loads
+# IDL at run time with the installed omniidl back-end while the sources' one is hidden.
 set -uo pipefail
 root=$1
 build=$2
@@ -74,4 +75,23 @@ rc=$?
   fail "greet with an empty name: exit $rc, '$refusal' (expected the EmptyName exception)"
 count=$("$prefix/bin/urs" call greeter count 2>>"$work/call.log") || fail "count failed"
 [[ "$count" == '{"result":1}' ]] || fail "count answered '$count'"
+# Run-time IDL loading by an installed program finds the installed omniidl back-end: the sources'
+# back-end (the build tree's default) is hidden by a bind mount in a private mount namespace.
+if [[ $(id -u) -eq 0 ]] && unshare -m true 2>/dev/null; then
+  printf 'name: package-bridge\nidl: [%s]\n' "$root/examples/cpp/minimal/idl/Greeter.idl" >"$work/bridge.yaml"
+  mkdir -p "$work/empty"
+  env -u URS_OMNIIDL_BACKEND_DIR unshare -m sh -c 'mount --bind "$1" "$2" && exec "$3" --space example --server "$4" --config "$5"' \
+    sh "$work/empty" "$root/idl/omniidl_planet" "$prefix/bin/urs-bridge" "$URS_SERVER" "$work/bridge.yaml" \
+    >"$work/bridge.log" 2>&1 &
+  bridge=$!
+  pids+=($bridge)
+  loaded() {
+    grep -q 'interface Example.Greeter loaded' "$work/bridge.log" && return 0
+    kill -0 "$bridge" 2>/dev/null || fail "the installed urs-bridge could not load Greeter.idl"
+    return 1
+  }
+  wait_for "the installed urs-bridge did not load Greeter.idl" loaded
+else
+  echo "package_example: not root: run-time IDL loading from the install tree not checked"
+fi
 echo "package_example: installed, example built against $prefix, greeter called through the installed server and urs"
