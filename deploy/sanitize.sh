@@ -8,8 +8,9 @@
 #   URS_SANITIZE_TESTS      test programs to run (default: the list below)
 #   URS_JOBS                parallel compile jobs (default: nproc)
 # Every instrumented process (a test and each program it starts) writes its reports to
-# <build>/sanitizer-logs/<program>.<pid>, so reports from child processes are kept too. The script
-# prints each report's first lines and exits 1 when any report was written, 0 when none was.
+# <build>/sanitizer-logs/<tsan|asan|ubsan>.<program>.<pid>, so reports from child processes are
+# kept too. The script prints how often each kind of report occurred (its SUMMARY line) and in
+# which programs, and exits 1 when any report was written or a test failed, 0 otherwise.
 # omniORB and Fast DDS are not instrumented: tests/sanitizers/ holds the suppressions for them.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
@@ -36,10 +37,11 @@ logs=$build/sanitizer-logs
 rm -rf "$logs"
 mkdir -p "$logs"
 supp=$root/tests/sanitizers
-export TSAN_OPTIONS="suppressions=$supp/tsan.supp log_path=$logs/tsan exitcode=0 second_deadlock_stack=1 history_size=4 ${TSAN_OPTIONS:-}"
-export ASAN_OPTIONS="log_path=$logs/asan detect_leaks=1 ${ASAN_OPTIONS:-}"
-export LSAN_OPTIONS="suppressions=$supp/lsan.supp ${LSAN_OPTIONS:-}"
-export UBSAN_OPTIONS="log_path=$logs/ubsan print_stacktrace=1 ${UBSAN_OPTIONS:-}"
+common="log_exe_name=1 ${URS_SANITIZER_OPTIONS:-}"
+export TSAN_OPTIONS="suppressions=$supp/tsan.supp log_path=$logs/tsan exitcode=0 second_deadlock_stack=1 history_size=4 $common"
+export ASAN_OPTIONS="log_path=$logs/asan detect_leaks=1 $common"
+export LSAN_OPTIONS="suppressions=$supp/lsan.supp"
+export UBSAN_OPTIONS="log_path=$logs/ubsan print_stacktrace=1 $common"
 
 failed=()
 for test in "${tests[@]}"; do
@@ -54,12 +56,14 @@ for test in "${tests[@]}"; do
   fi
 done
 
-reports=("$logs"/tsan.* "$logs"/asan.* "$logs"/ubsan.*)
 found=()
-for report in "${reports[@]}"; do [[ -s "$report" ]] && found+=("$report"); done
+for report in "$logs"/tsan.* "$logs"/asan.* "$logs"/ubsan.*; do [[ -s "$report" ]] && found+=("$report"); done
 echo "sanitize: $sanitizer, ${#tests[@]} test programs, ${#failed[@]} failed, ${#found[@]} process(es) reported"
-for report in "${found[@]}"; do
-  echo "---- $report"
-  grep -E '^(WARNING|ERROR|SUMMARY|    #[0-3] )|runtime error' "$report" | head -40
-done
+if ((${#found[@]})); then
+  echo "sanitize: reports by kind and place (count, SUMMARY line), full stacks in $logs:"
+  cat "${found[@]}" | sed -n 's/^SUMMARY: //p' | sed -E 's/ \(pid=[0-9]+\)//; s/\+0x[0-9a-f]+//g' |
+    sort | uniq -c | sort -rn || true
+  echo "sanitize: programs that reported:"
+  printf '%s\n' "${found[@]##*/}" | sed -E 's/^[a-z]+\.//; s/\.[0-9]+$//' | sort | uniq -c || true
+fi
 ((${#found[@]} == 0 && ${#failed[@]} == 0))
