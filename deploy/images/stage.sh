@@ -41,22 +41,27 @@ base_packages=" libc6 libgcc-s1 libstdc++6 zlib1g "
 listed=" $(sed 's/#.*//' "$here/runtime-packages.txt" | tr -s ' \n' ' ') "
 missing=()
 programs=()
+own_lib=$(cd "$prefix/lib" && pwd -P)
+declare -A owner  # library path -> Debian package (dpkg -S is slow)
 for file in "$prefix"/bin/* "$prefix"/lib/*.so*; do
   [[ -L "$file" ]] && continue
   readelf -h "$file" >/dev/null 2>&1 || continue  # the entry-point scripts
   [[ "$file" == "$prefix"/bin/* ]] && programs+=("$(basename "$file")")
   name=${file#"$prefix"/}
-  while read -r lib path; do
+  resolved=$(ldd "$file")
+  while read -r lib; do
+    [[ "$lib" == ld-linux-* ]] && continue  # the dynamic loader, from libc6
+    path=$(awk -v so="$lib" '$1 == so {print $3; exit}' <<<"$resolved")
     [[ -n "$path" && "$path" != "not" ]] || { missing+=("$name: $lib not found"); continue; }
-    [[ "$path" == "$prefix"/lib/* ]] && continue
-    pkg=$(dpkg -S "$path" 2>/dev/null || dpkg -S "$(readlink -f "$path")" 2>/dev/null || true)
-    pkg=${pkg%%:*}
+    [[ "$(cd "$(dirname "$path")" && pwd -P)" == "$own_lib" ]] && continue  # the package's own
+    if [[ -z "${owner[$path]+set}" ]]; then
+      pkg=$(dpkg -S "$path" 2>/dev/null || dpkg -S "$(readlink -f "$path")" 2>/dev/null || true)
+      owner[$path]=${pkg%%:*}
+    fi
+    pkg=${owner[$path]}
     [[ -n "$pkg" ]] || { missing+=("$name: $lib ($path) belongs to no Debian package"); continue; }
     [[ "$listed$base_packages" == *" $pkg "* ]] || missing+=("$name: $lib is in package $pkg")
-  done < <(readelf -d "$file" | awk '/NEEDED/ {gsub(/[\[\]]/, "", $5); print $5}' |
-           while read -r so; do
-             echo "$so $(ldd "$file" | awk -v so="$so" '$1 == so {print $3; exit}')"
-           done)
+  done < <(readelf -d "$file" | awk '/NEEDED/ {gsub(/[\[\]]/, "", $5); print $5}')
 done
 if ((${#missing[@]})); then
   printf 'stage: add to deploy/images/runtime-packages.txt:\n' >&2
