@@ -2,7 +2,7 @@
 #
 # urs_dds_idl_library(<target> IDLS <file.idl>... [LINK <target>...])
 #   Compiles DDS IDL files (IDL 4, e.g. @key annotations) with eProsima's fastddsgen into one
-#   static library <target> (alias urs::<target>) linking fastrtps and fastcdr. Per IDL file
+#   shared library <target> (alias urs::<target>) linking fastrtps and fastcdr. Per IDL file
 #   <name>.idl, ${CMAKE_CURRENT_BINARY_DIR}/<target>/ receives <name>.h (the C++ types),
 #   <name>PubSubTypes.h (the TopicDataType to register with a participant) and their .cxx files.
 #   Code includes "<name>.h" / "<name>PubSubTypes.h"; the folder is a SYSTEM include directory so
@@ -47,10 +47,10 @@ function(urs_dds_idl_library target)
     list(APPEND hdrs ${out_dir}/${name}.h ${out_dir}/${name}PubSubTypes.h)
     list(APPEND srcs ${out_dir}/${name}.cxx ${out_dir}/${name}PubSubTypes.cxx)
   endforeach()
-  add_library(${target} STATIC ${srcs} ${hdrs})
+  add_library(${target} SHARED ${srcs} ${hdrs})
   add_library(urs::${target} ALIAS ${target})
-  set_target_properties(${target} PROPERTIES POSITION_INDEPENDENT_CODE ON URS_DDS_IDL_DIR ${out_dir})
-  target_include_directories(${target} SYSTEM PUBLIC ${out_dir})
+  set_target_properties(${target} PROPERTIES URS_DDS_IDL_DIR ${out_dir} URS_GENERATED_HEADERS "${hdrs}")
+  target_include_directories(${target} SYSTEM PUBLIC $<BUILD_INTERFACE:${out_dir}>)
   target_link_libraries(${target} PUBLIC fastrtps fastcdr ${ARG_LINK})
   target_compile_options(${target} PRIVATE -w)
 endfunction()

@@ -1,15 +1,20 @@
 # Code generation for URSLink's schemas.
 #
+# These functions are part of the installed package too: find_package(urslink) includes this file
+# (installed in lib/cmake/urslink) after setting URS_IDL_DIR to the installed share/urslink/idl, so
+# a project of its own turns its IDL into a library the same way (examples/cpp/minimal).
+#
 # urs_proto_library(<target> PROTOS <file.proto>... [IMPORT_DIRS <dir>...] [LINK <target>...])
-#   Compiles .proto files with protoc into one static library <target> (alias urs::<target>).
+#   Compiles .proto files with protoc into one shared library <target> (alias urs::<target>).
 #   Also writes, next to the generated C++:
 #     <target>.desc   a FileDescriptorSet with every file and its imports (run-time descriptions)
 #     python/         Python modules (for clients written in Python)
-#   The library's include directory is the generated folder, so code includes "<name>.pb.h".
+#   The library's include directory is the generated folder, so code includes "<name>.pb.h";
+#   property URS_GENERATED_HEADERS lists the headers (urs_install_library installs them).
 
 find_program(URS_PROTOC NAMES protoc)
 if(NOT URS_PROTOC)
-  message(FATAL_ERROR "protoc not found: run deploy/install-deps.sh (Debian package protobuf-compiler)")
+  message(FATAL_ERROR "protoc not found: install the Debian package protobuf-compiler (deploy/install-deps.sh)")
 endif()
 
 function(urs_proto_library target)
@@ -45,11 +50,11 @@ function(urs_proto_library target)
     DEPENDS ${abs_protos} ${URS_PROTOC}
     COMMENT "protoc ${target}"
     VERBATIM)
-  add_library(${target} STATIC ${srcs} ${hdrs})
+  add_library(${target} SHARED ${srcs} ${hdrs})
   add_library(urs::${target} ALIAS ${target})
-  set_target_properties(${target} PROPERTIES POSITION_INDEPENDENT_CODE ON
-                        URS_DESCRIPTOR_SET ${desc} URS_PYTHON_DIR ${py_dir})
-  target_include_directories(${target} PUBLIC ${out_dir})
+  set_target_properties(${target} PROPERTIES URS_DESCRIPTOR_SET ${desc} URS_PYTHON_DIR ${py_dir}
+                        URS_GENERATED_HEADERS "${hdrs}")
+  target_include_directories(${target} PUBLIC $<BUILD_INTERFACE:${out_dir}>)
   target_link_libraries(${target} PUBLIC protobuf::libprotobuf ${ARG_LINK})
   target_compile_options(${target} PRIVATE -w)
 endfunction()
@@ -91,18 +96,20 @@ endfunction()
 #   Translates CORBA IDL files into the Planet schema with omniidl and the planet_proto back-end
 #   (idl/omniidl_planet; rules in docs/idl-mapping.md), one <name>.proto per IDL file in
 #   ${CMAKE_CURRENT_BINARY_DIR}/<target>_proto/, then compiles them with urs_proto_library into one
-#   static library <target> (alias urs::<target>): "<name>.pb.h" headers, the <target>.desc
+#   shared library <target> (alias urs::<target>): "<name>.pb.h" headers, the <target>.desc
 #   FileDescriptorSet (property URS_DESCRIPTOR_SET) and Python modules (property URS_PYTHON_DIR).
 #   - An IDL file #included by another must be listed too (each IDL file yields its own .proto,
 #     imported by the includers); IDL base names must be unique within one library.
 #   - The directory of every IDL file is on the include path; INCLUDE_DIRS adds more.
 #   - urs_options.proto (the custom options every schema imports) is compiled once, in
-#     urs::idl_options, which the library links: never list it in PROTOS of another library.
+#     urslink::idl_options, which the library links: never list it in PROTOS of another library.
 #   - A refused IDL construct fails the build with "<file>:<line>: error: ..." from omniidl.
 
 find_program(URS_OMNIIDL NAMES omniidl DOC "omniidl, the omniORB IDL compiler (Debian package omniidl)")
-set(URS_IDL_DIR ${CMAKE_CURRENT_LIST_DIR} CACHE INTERNAL "Folder of urs_options.proto")
-set(URS_PLANET_BACKEND_DIR ${CMAKE_CURRENT_LIST_DIR}/omniidl_planet CACHE INTERNAL
+if(NOT URS_IDL_DIR)  # set by urslinkConfig.cmake in a project using the installed package
+  set(URS_IDL_DIR ${CMAKE_CURRENT_LIST_DIR} CACHE INTERNAL "Folder of urs_options.proto")
+endif()
+set(URS_PLANET_BACKEND_DIR ${URS_IDL_DIR}/omniidl_planet CACHE INTERNAL
     "Folder of the omniidl planet_proto back-end")
 set(URS_PLANET_BACKEND_FILES
     ${URS_PLANET_BACKEND_DIR}/planet_proto.py
@@ -136,7 +143,7 @@ function(urs_idl_library target)
     COMMENT "omniidl planet_proto ${target}"
     VERBATIM)
   urs_proto_library(${target} PROTOS ${protos} IMPORT_DIRS ${URS_IDL_DIR}
-                    LINK urs::idl_options ${ARG_LINK})
+                    LINK urslink::idl_options ${ARG_LINK})
   # Python clients import urs_options_pb2 from the same folder as the generated modules.
   get_target_property(py_dir ${target} URS_PYTHON_DIR)
   add_custom_command(
@@ -151,7 +158,7 @@ function(urs_idl_library target)
 endfunction()
 
 # urs_corba_idl_library(<target> IDLS <file.idl>... [INCLUDE_DIRS <dir>...] [LINK <target>...])
-#   Compiles CORBA IDL files with omniidl's C++ back-end (omniORB 4) into one static library
+#   Compiles CORBA IDL files with omniidl's C++ back-end (omniORB 4) into one shared library
 #   <target> (alias urs::<target>) linking omniORB4 and omniDynamic4 (pkg-config).
 #   Per IDL file <name>.idl, ${CMAKE_CURRENT_BINARY_DIR}/<target>/ receives <name>.hh (stubs and
 #   skeletons), <name>SK.cc and <name>DynSK.cc (TypeCodes and Any operators: -Wba). Code includes
@@ -196,11 +203,10 @@ function(urs_corba_idl_library target)
     list(APPEND hdrs ${out_dir}/${name}.hh)
     list(APPEND srcs ${out_dir}/${name}SK.cc ${out_dir}/${name}DynSK.cc)
   endforeach()
-  add_library(${target} STATIC ${srcs} ${hdrs})
+  add_library(${target} SHARED ${srcs} ${hdrs})
   add_library(urs::${target} ALIAS ${target})
-  set_target_properties(${target} PROPERTIES POSITION_INDEPENDENT_CODE ON
-                        URS_CORBA_IDL_DIR ${out_dir})
-  target_include_directories(${target} SYSTEM PUBLIC ${out_dir})
+  set_target_properties(${target} PROPERTIES URS_CORBA_IDL_DIR ${out_dir} URS_GENERATED_HEADERS "${hdrs}")
+  target_include_directories(${target} SYSTEM PUBLIC $<BUILD_INTERFACE:${out_dir}>)
   target_link_libraries(${target} PUBLIC PkgConfig::OMNIORB ${ARG_LINK})
   target_compile_options(${target} PRIVATE -w)
 endfunction()

@@ -715,9 +715,17 @@ TEST_F(TrustTest, CallFloodsAreBoundedAndMalformedCallsRefused) {
   EXPECT_THAT(replies[1].message(), HasSubstr("call_id 1 is already pending on this connection"));
   ASSERT_TRUE(replies.count(100));
   EXPECT_EQ(replies[100].message(), "deadline_ms 4294967301 exceeds the server's limit of 86400000 ms (max_deadline_ms)");
+  // The 50 admitted calls reach the provider (the refusals may be answered before all of them
+  // have arrived there); the refused ones never do.
+  EXPECT_TRUE(urs::test::wait_until(
+      [&] {
+        std::lock_guard<std::mutex> lock(held_mutex);
+        return held.size() >= 50u;
+      },
+      10s));
   {
     std::lock_guard<std::mutex> lock(held_mutex);
-    EXPECT_EQ(held.size(), 50u);  // the refused ones never reached the provider
+    EXPECT_EQ(held.size(), 50u);
   }
   end_attack("call_flood");
   sink->stop();

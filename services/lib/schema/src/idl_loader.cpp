@@ -1,6 +1,7 @@
 // load_idl(): omniidl + the planet_proto back-end into a private temporary folder, then the
 // generated .proto parsed with compiler::Importer. urs_options.proto and descriptor.proto are
 // served from the descriptors compiled into this program, so no .proto file needs to be installed.
+#include <dlfcn.h>
 #include <fcntl.h>
 #include <spawn.h>
 #include <sys/wait.h>
@@ -33,6 +34,18 @@ constexpr std::size_t kMaxToolOutput = 256 * 1024;  // omniidl's messages kept f
 std::string env_or(const char* name, const char* fallback) {
   const char* value = std::getenv(name);
   return value != nullptr && *value != '\0' ? value : fallback;
+}
+
+// The back-end installed with this library (URS_LIB_TO_PLANET_BACKEND from the library's folder,
+// share/urslink/idl/omniidl_planet of the package) when it is there; else the sources' folder.
+std::string default_backend_dir() {
+  Dl_info self{};
+  if (::dladdr(reinterpret_cast<const void*>(&default_backend_dir), &self) != 0 && self.dli_fname != nullptr) {
+    const fs::path installed = fs::path(self.dli_fname).parent_path() / URS_LIB_TO_PLANET_BACKEND;
+    std::error_code ec;
+    if (fs::is_regular_file(installed / "planet_proto.py", ec)) return installed.lexically_normal().string();
+  }
+  return URS_DEFAULT_PLANET_BACKEND_DIR;
 }
 
 // omniidl hands paths to its preprocessor through a shell, inside double quotes.
@@ -174,7 +187,7 @@ IdlLoad load_idl(const std::string& idl_path, const std::vector<std::string>& in
   }
 
   const std::string omniidl = env_or("URS_OMNIIDL", URS_DEFAULT_OMNIIDL);
-  const std::string backend = env_or("URS_OMNIIDL_BACKEND_DIR", URS_DEFAULT_PLANET_BACKEND_DIR);
+  const std::string backend = env_or("URS_OMNIIDL_BACKEND_DIR", default_backend_dir().c_str());
   std::vector<std::string> args = {omniidl, "-p", backend, "-b", "planet_proto", "-Wball", "-C", temp.path()};
   const fs::path idl_dir = fs::path(idl_path).parent_path();
   args.push_back("-I" + (idl_dir.empty() ? std::string(".") : idl_dir.string()));

@@ -5,7 +5,9 @@
 //
 // Tools, compiled-in defaults overridable by environment variables (read at each call):
 //   URS_OMNIIDL               the omniidl executable (default: the one found at configure time)
-//   URS_OMNIIDL_BACKEND_DIR   folder of planet_proto.py (default: idl/omniidl_planet of the sources)
+//   URS_OMNIIDL_BACKEND_DIR   folder of planet_proto.py (default: share/urslink/idl/omniidl_planet of
+//                             the installed package, found relative to the installed library;
+//                             idl/omniidl_planet of the sources for the library of a build tree)
 
 #include <string>
 #include <vector>
