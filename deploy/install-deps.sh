@@ -18,8 +18,10 @@ PACKAGES=(
   libasio-dev libcli11-dev libyaml-cpp-dev libsqlite3-dev
   libespeak-ng-dev libpocketsphinx-dev libsphinxbase-dev pocketsphinx-en-us  # speech devices
   libqrencode-dev libzbar-dev libpng-dev  # camera device: QR markers, their recognition, PNG frames
+  libboost-dev  # urs-gateway: Boost.Beast (HTTP and WebSocket, header-only)
   # tools used by tests and scripts
   python3 procps iproute2 nftables  # nftables: the two-hosts test's sites pass no multicast
+  python3-websockets python3-selenium chromium chromium-driver  # the gateway's protocol and browser tests
   # containers: the engine, compose, and debootstrap for the base image made from Debian packages
   docker.io docker-compose debootstrap
 )

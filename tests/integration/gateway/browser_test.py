@@ -1,0 +1,193 @@
+#!/usr/bin/env python3
+"""The dashboard in a real browser (headless Chromium driven by Selenium, Debian's chromium,
+chromium-driver and python3-selenium) against a real local space (space.py): it logs in, finds
+every service of the space, sees the robot's marker move while the square-path task runs and the
+square's plot fill, activates and deactivates a component and sees its state change, calls an
+operation from the generated form and reads the reply and a typed error, and a viewer's login
+cannot act. Screenshots are written to OUT_DIR.
+
+    browser_test.py BUILD_DIR SOURCE_DIR OUT_DIR
+"""
+import json
+import os
+import sys
+import time
+
+from selenium import webdriver
+from selenium.common.exceptions import StaleElementReferenceException, WebDriverException
+from selenium.webdriver.chrome.options import Options
+from selenium.webdriver.chrome.service import Service
+from selenium.webdriver.common.by import By
+from selenium.webdriver.support.ui import Select
+
+from space import Space, TOKEN, VIEWER_TOKEN
+
+RT_PROVIDERS = ["labpc.host_cxt/Camera0.rtc:imagerecognition", "labpc.host_cxt/Diagnostic0.rtc:diagnostic",
+                "labpc.host_cxt/camus_diag.rtc:diagnostic"]
+
+
+def until(what, condition, timeout=30):
+    deadline = time.monotonic() + timeout
+    last_error = None
+    while time.monotonic() < deadline:
+        try:
+            value = condition()
+            if value:
+                return value
+        except (StaleElementReferenceException, WebDriverException) as e:  # the page redraws as data arrives
+            last_error = e
+        time.sleep(0.1)
+    raise AssertionError("%s did not happen within %s s%s" % (what, timeout, " (%s)" % last_error if last_error else ""))
+
+
+def browser():
+    options = Options()
+    for argument in ["--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage",
+                     "--window-size=1500,2300", "--disable-extensions", "--no-first-run"]:
+        options.add_argument(argument)
+    options.set_capability("goog:loggingPrefs", {"browser": "ALL"})
+    return webdriver.Chrome(service=Service("/usr/bin/chromedriver"), options=options)
+
+
+# Read in the page in one step: the map and the tables are redrawn as data arrives.
+def robot_position(driver):
+    found = driver.execute_script(
+        'const g = document.querySelector(\'g.robot[data-robot="lab/robot1"]\');'
+        'return g ? [g.dataset.x, g.dataset.y] : null;')
+    return (float(found[0]), float(found[1])) if found else None
+
+
+def component_state(driver, name):
+    return driver.execute_script(
+        'const td = document.querySelector(\'#components tr[data-component="\' + arguments[0] + \'"] td.state\');'
+        'return td ? td.textContent : null;', name)
+
+
+def click(driver, selector):
+    """Clicks the element now under `selector` (found and clicked in one step in the page)."""
+    return driver.execute_script("const e = document.querySelector(arguments[0]); if (e) e.click(); return !!e;", selector)
+
+
+def log_in(driver, url, credential):
+    driver.get(url)
+    until("the login form", lambda: driver.find_element(By.ID, "login-form").is_displayed())
+    field = driver.find_element(By.ID, "credential")
+    field.clear()
+    field.send_keys(credential)
+    driver.find_element(By.ID, "login-button").click()
+    until("the live badge", lambda: driver.find_element(By.ID, "connection").text == "live")
+
+
+def call_from_form(driver, operation, fields):
+    Select(driver.find_element(By.ID, "operation")).select_by_value(operation)
+    for name, value in fields.items():
+        field = until("field %s of %s" % (name, operation),
+                      lambda: driver.find_element(By.CSS_SELECTOR, '#call-form [data-field="%s"]' % name))
+        field.clear()
+        field.send_keys(str(value))
+    driver.find_element(By.ID, "call-button").click()
+    return until("the reply of %s" % operation,
+                 lambda: (lambda t: t if t and not t.startswith("calling") else None)(
+                     driver.find_element(By.ID, "call-result").text))
+
+
+def scenario(space, out):
+    driver = browser()
+    shot = lambda name: driver.save_screenshot(os.path.join(out, name + ".png"))
+    try:
+        log_in(driver, space.http_url, TOKEN)
+        until("role operator", lambda: driver.find_element(By.ID, "role").text == "operator")
+        foxglove = driver.find_element(By.ID, "foxglove-url").text
+        assert foxglove.startswith(space.gateway_url + "?session="), foxglove
+
+        # Every service of the space: the CAMUS registry's (as the CLI lists it) and the RT providers.
+        listed = space.urs("ls", "--json")
+        assert listed.returncode == 0, listed.stderr
+        camus = [s["name"] for s in json.loads(listed.stdout).get("services", [])]
+        assert "diag" in camus and "robot1.navigation" in camus, camus
+        expected = ["lab/" + name for name in camus + RT_PROVIDERS]
+        def shown():
+            rows = {row.get_attribute("data-service") for row in driver.find_elements(By.CSS_SELECTOR, "#services tr[data-service]")}
+            return all(name in rows for name in expected)
+        until("every service in the table: %s" % expected, shown, 40)
+        until("the space drawn", lambda: driver.find_elements(By.CSS_SELECTOR, '#spaces g[data-space="lab"]'))
+        until("the RT view", lambda: len(driver.find_elements(By.CSS_SELECTOR, "#rtview g.rtc")) >= 5)
+        until("a connection drawn", lambda: driver.find_elements(By.CSS_SELECTOR, "#rtview path.connection"))
+        start = until("the robot's marker", lambda: robot_position(driver))
+        shot("dashboard-overview")
+
+        # The square path: the marker moves, the plot and its waypoints fill.
+        driver.find_element(By.ID, "run-square").click()
+        until("the task started", lambda: "run" in driver.find_element(By.ID, "experiment-status").text)
+        until("the robot's marker moving north", lambda: robot_position(driver)[1] > start[1] + 0.5, 60)
+        moved = robot_position(driver)
+        assert abs(moved[0] - 1.5) < 0.2, "on the first leg x stays 1.5: %s" % (moved,)
+        shot("dashboard-square-running")
+        def square_done():
+            cells = driver.find_elements(By.CSS_SELECTOR, "#waypoints tbody td:nth-child(2)")
+            values = [float(c.text) for c in cells if c.text]
+            return len(values) == 4 and max(values) < 100 and values
+        closest = until("every waypoint reached within 100 mm", square_done, 120)
+        print("browser: closest approach to the waypoints (mm):", closest, flush=True)
+        shot("dashboard-square-done")
+
+        # Lifecycle: activate and deactivate the camera RTC.
+        camera = "labpc.host_cxt/Camera0.rtc"
+        until("the camera listed", lambda: component_state(driver, camera) == "Inactive")
+        assert click(driver, '#components tr[data-component="%s"] button[data-transition="activate"]' % camera)
+        until("the camera Active", lambda: component_state(driver, camera) == "Active", 20)
+        until("the RT view shows it Active", lambda: driver.execute_script(
+            'const g = document.querySelector(\'#rtview g[data-component="\' + arguments[0] + \'"]\');'
+            'return g && g.textContent.includes("Active");', camera))
+        shot("dashboard-component-active")
+        assert click(driver, '#components tr[data-component="%s"] button[data-transition="deactivate"]' % camera)
+        until("the camera Inactive again", lambda: component_state(driver, camera) == "Inactive", 20)
+
+        # A call from the generated form, its reply; and a typed error.
+        reply = call_from_form(driver, "diag/echo", {"text": "hello from the browser"})
+        assert json.loads(reply) == {"result": "hello from the browser"}, reply
+        reply = call_from_form(driver, "labpc.host_cxt/Diagnostic0.rtc:diagnostic/add", {"a": 2, "b": 40})
+        assert json.loads(reply) == {"result": 42}, reply
+        failure = call_from_form(driver, "diag/fail", {"reason": "shown as typed", "code": 3})
+        assert failure.startswith("USER_EXCEPTION URS.Failure") and "shown as typed" in failure, failure
+        assert "failure" in driver.find_element(By.ID, "call-result").get_attribute("class")
+        call_from_form(driver, "diag/echo", {"text": "hello from the browser"})
+        driver.execute_script("document.getElementById('call-panel').scrollIntoView()")
+        shot("dashboard-call")
+
+        # The event and context log, filtered.
+        Select(driver.find_element(By.ID, "log-kind")).select_by_value("event")
+        until("task events in the log", lambda: driver.execute_script(
+            'return [...document.querySelectorAll("#log tbody tr")].some((r) => r.textContent.includes("task/square-path"));'))
+        driver.execute_script("document.getElementById('log-panel').scrollIntoView()")
+        shot("dashboard-log")
+
+        # A viewer sees, and cannot act.
+        driver.find_element(By.ID, "logout-button").click()
+        until("logged out", lambda: driver.find_element(By.ID, "login-form").is_displayed())
+        log_in(driver, space.http_url, VIEWER_TOKEN)
+        until("role viewer", lambda: driver.find_element(By.ID, "role").text == "viewer")
+        until("the services again", lambda: driver.find_elements(By.CSS_SELECTOR, '#services tr[data-service="lab/diag"]'))
+        assert not driver.find_element(By.ID, "call-button").is_enabled(), "a viewer's call button is disabled"
+        buttons = until("lifecycle buttons", lambda: driver.find_elements(By.CSS_SELECTOR, "#components button.lifecycle"))
+        assert all(not b.is_enabled() for b in buttons), "a viewer's lifecycle buttons are disabled"
+        severe = [e for e in driver.get_log("browser") if e["level"] == "SEVERE"]
+        assert not severe, "the page logged errors: %s" % severe
+    except BaseException:
+        shot("dashboard-failure")
+        print("browser log:", driver.get_log("browser"))
+        raise
+    finally:
+        driver.quit()
+
+
+def main():
+    build, source, out = sys.argv[1], sys.argv[2], sys.argv[3]
+    os.makedirs(out, exist_ok=True)
+    with Space(build, source, "lab") as space:
+        scenario(space, out)
+    print("browser: every check passed; screenshots in %s" % out)
+
+
+if __name__ == "__main__":
+    main()
