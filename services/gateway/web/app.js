@@ -18,6 +18,7 @@ const LAB = {
 const ROBOT_COLORS = ["#d9480f", "#2f6fd6", "#2e9d3a", "#9c36b5", "#e8590c", "#0b7285"];
 const KEEP_SECONDS = 120;   // recent poses kept per robot for the plots
 const LOG_ROWS = 400;
+const TRAIL_SPACING = 0.1;  // m, as the gateway's trails: more than a localizer's noise
 
 const state = {
   client: null,
@@ -171,7 +172,7 @@ function onPose(pose) {
   const robot = robotOf(pose.space, pose.robot);
   robot.pose = pose;
   const last = robot.trail[robot.trail.length - 1];
-  if (!last || Math.hypot(last[0] - pose.x, last[1] - pose.y) >= 0.01) {
+  if (!last || Math.hypot(last[0] - pose.x, last[1] - pose.y) >= TRAIL_SPACING) {
     robot.trail.push([pose.x, pose.y, pose.stamp]);
     if (robot.trail.length > 2000) robot.trail.shift();
   }
@@ -412,8 +413,11 @@ function renderMap() {
   const markers = new Map(LAB.markers.map(([id, x, y]) => [x.toFixed(1) + "," + y.toFixed(1), { id, x, y }]));
   for (const seen of state.seenMarkers.values()) markers.set(seen.x.toFixed(1) + "," + seen.y.toFixed(1), seen);
   for (const [key, m] of markers) {
-    const seen = [...state.seenMarkers.values()].some((s) => s.x.toFixed(1) + "," + s.y.toFixed(1) === key && now - s.at < 3000);
-    svg("rect", { x: m.x - 0.1, y: -m.y - 0.1, width: 0.2, height: 0.2, class: "marker" + (seen ? " seen" : ""),
+    // Lit while the camera sees it (3 s after its last recognition), tinted once it has been seen.
+    const sighting = [...state.seenMarkers.values()].find((s) => s.x.toFixed(1) + "," + s.y.toFixed(1) === key);
+    const seen = sighting && now - sighting.at < 3000;
+    svg("rect", { x: m.x - 0.1, y: -m.y - 0.1, width: 0.2, height: 0.2,
+                  class: "marker" + (sighting ? " recognised" : "") + (seen ? " seen" : ""),
                   "data-marker": m.id }, world);
   }
   const body = $("robots").tBodies[0];
@@ -458,8 +462,10 @@ function renderPlots() {
   if (!robot) return;
   if (robot.trail.length > 1) svg("polyline", { points: robot.trail.map(([x, y]) => `${sx(x)},${sy(y)}`).join(" "), class: "series" }, square);
   for (const [wx, wy] of LAB.square.slice(0, 4)) {
+    // Over the trail and every pose kept (the trail's points are 10 cm apart).
     let best = Infinity;
     for (const [x, y] of robot.trail) best = Math.min(best, Math.hypot(x - wx, y - wy));
+    for (const [, x, y] of robot.recent) best = Math.min(best, Math.hypot(x - wx, y - wy));
     const tr = el("tr", {}, body);
     el("td", {}, tr, `(${wx}, ${wy})`);
     el("td", {}, tr, isFinite(best) ? (best * 1000).toFixed(0) : "");
@@ -475,12 +481,16 @@ function renderPlots() {
       points.push([b[0], (Math.hypot(b[1] - a[1], b[2] - a[2]) / (b[0] - a[0])) * 1000]);
     }
   }
-  const SH = 200, end = recent.length ? recent[recent.length - 1][0] : 0, startT = end - KEEP_SECONDS;
+  // The time axis spans what is kept: from the first pose kept (at most KEEP_SECONDS ago) to now.
+  const SH = 200, end = recent.length ? recent[recent.length - 1][0] : 0;
+  const startT = recent.length ? Math.min(recent[0][0], end - 10) : end - KEEP_SECONDS, span = end - startT;
   const maxV = Math.max(1000, ...points.map((p) => p[1]));
-  const tx = (t) => pad + ((t - startT) / KEEP_SECONDS) * (W - 2 * pad), vy = (v) => SH - pad - (v / maxV) * (SH - 2 * pad);
+  const tx = (t) => pad + ((t - startT) / span) * (W - 2 * pad), vy = (v) => SH - pad - (v / maxV) * (SH - 2 * pad);
   svg("line", { x1: pad, y1: SH - pad, x2: W - pad, y2: SH - pad, class: "axis" }, speed);
   svg("line", { x1: pad, y1: pad, x2: pad, y2: SH - pad, class: "axis" }, speed);
-  svg("text", { x: pad, y: 14 }, speed, "speed (mm/s) over the last " + KEEP_SECONDS + " s");
+  svg("text", { x: pad, y: 14 }, speed, "speed (mm/s) over the last " + Math.round(span) + " s (at most " + KEEP_SECONDS + ")");
+  svg("text", { x: pad, y: SH - pad + 14, class: "small" }, speed, "-" + Math.round(span) + " s");
+  svg("text", { x: W - pad, y: SH - pad + 14, class: "small", "text-anchor": "end" }, speed, "now");
   for (const v of [0, 200, 500, 800]) {
     svg("line", { x1: pad, y1: vy(v), x2: W - pad, y2: vy(v), class: "grid-line", stroke: "#e6e9ec" }, speed);
     svg("text", { x: pad - 4, y: vy(v) + 3, class: "small", "text-anchor": "end" }, speed, String(v));

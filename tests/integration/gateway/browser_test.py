@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
 """The dashboard in a real browser (headless Chromium driven by Selenium, Debian's chromium,
 chromium-driver and python3-selenium) against a real local space (space.py): it logs in, finds
-every service of the space, sees the robot's marker move while the square-path task runs and the
-square's plot fill, activates and deactivates a component and sees its state change, calls an
+every service of the space, sees the robot's marker move while the square-path task runs, the
+square's plot fill and the markers the camera riding on the robot recognises lit on the map, activates and deactivates a component and sees its state change, calls an
 operation from the generated form and reads the reply and a typed error, and a viewer's login
 cannot act. Screenshots are written to OUT_DIR.
 
@@ -116,7 +116,10 @@ def scenario(space, out):
         start = until("the robot's marker", lambda: robot_position(driver))
         shot("dashboard-overview")
 
-        # The square path: the marker moves, the plot and its waypoints fill.
+        # The square path: the marker moves, the plot and its waypoints fill; the camera riding on
+        # the robot (opened from the form) recognises wall markers on the way, lit on the map.
+        reply = call_from_form(driver, "camera1/openCamera", {"device": 0})
+        assert json.loads(reply) == {}, reply
         driver.find_element(By.ID, "run-square").click()
         until("the task started", lambda: "run" in driver.find_element(By.ID, "experiment-status").text)
         until("the robot's marker moving north", lambda: robot_position(driver)[1] > start[1] + 0.5, 60)
@@ -128,6 +131,8 @@ def scenario(space, out):
             values = [float(c.text) for c in cells if c.text]
             return len(values) == 4 and max(values) < 100 and values
         closest = until("every waypoint reached within 100 mm", square_done, 120)
+        until("a wall marker recognised by the camera, lit on the map",
+              lambda: driver.execute_script('return document.querySelectorAll("#map rect.marker.recognised").length > 0;'), 30)
         print("browser: closest approach to the waypoints (mm):", closest, flush=True)
         shot("dashboard-square-done")
 

@@ -1,6 +1,7 @@
 """A local space holding both middlewares, as real processes on loopback, with urs-gateway attached:
 omniNames, urs-camus-server (with a token and the square-path task), urs-sam (the diagnostic agent,
-and the robot and its localizer as CAMUS agents, so the square-path task's events reach CAMUS),
+and the robot, its localizer and a camera riding on it as CAMUS agents, so the square-path task's
+and the camera's events reach CAMUS),
 urs-rtc-manager (camera, Diagnostic provider and caller wired by a connector), urs-bridge (the
 camera RTC as a CAMUS service, the diagnostic agent as an RTC) and urs-gateway. Every wait is bounded; stop() ends every process this fixture started (and only them).
 
@@ -164,6 +165,9 @@ components:
   - name: robot1.localizer
     type: localizer
     params: {robot: robot1, prefix: loc1, domain: %(domain)d, time_scale: %(scale)s, rate: %(rate)s}
+  - name: camera1
+    type: camera
+    params: {event_prefix: camera1, scan_hz: 2, world: {domain: %(domain)d, robot: robot1}}
 """ % params)
         bridge_yaml = os.path.join(d, "bridge.yaml")
         with open(bridge_yaml, "w") as f:

@@ -35,7 +35,9 @@ struct GatewayOptions {
   bool dds = false;                           // it reads the DDS link
   uint32_t dds_domain = 0;
   std::size_t trail_points = 600;             // per robot
-  double trail_spacing_m = 0.01;              // a trail point only when the robot moved this far
+  // A trail point only when the robot moved this far from the last one: more than a localizer's
+  // noise (2 cm standard deviation by default), so a robot standing still keeps its path.
+  double trail_spacing_m = 0.1;
   std::chrono::milliseconds trail_period{1000};  // /trails is published at most this often per robot
   std::size_t event_history = 200;            // events kept for clients that subscribe later
   std::size_t max_robots = 64;                // robots with a channel of their own
