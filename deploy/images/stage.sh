@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Fills the image build context with what the URSLink images run: the host-built binaries from
 # ${URS_BUILD_DIR:-build} (stripped of debug info), the IDL files and the omniidl Planet back-end
-# (run-time IDL loading), example configurations, task files, the Fast DDS profile and the
-# entry-point scripts. Nothing is compiled in an image.
+# (run-time IDL loading), example configurations, task files, the Fast DDS profile, the gateway's
+# dashboard and the entry-point scripts. Nothing is compiled in an image.
 #   deploy/images/stage.sh [CONTEXT_DIR]     (default ${URS_IMAGE_CONTEXT:-$URS_BUILD_DIR/image-context})
 # Also checks that every shared library the binaries link comes from a package of
 # runtime-packages.txt (or the base image), so an image never misses a library at run time.
@@ -20,6 +20,7 @@ declare -A binaries=(
   [urs]=services/cli/urs
   [urs-bridge]=services/bridge/urs-bridge
   [urs-lab]=services/lab/urs-lab
+  [urs-gateway]=services/gateway/urs-gateway
 )
 
 for name in "${!binaries[@]}"; do
@@ -53,6 +54,9 @@ install -m 644 "$root/services/rtc-manager/example.yaml" "$share/config/rtc-exam
 install -m 644 "$root"/services/camus-server/tasks/*.yaml "$share/tasks/"
 install -m 644 "$root/compose/fastdds-udp.xml" "$share/fastdds-udp.xml"
 install -m 644 "$here/runtime-packages.txt" "$ctx/runtime-packages.txt"
+# urs-gateway's dashboard (static files; the program finds them in ../share/urslink/web).
+mkdir -p "$share/web"
+install -m 644 "$root"/services/gateway/web/* "$share/web/"
 
 # Every NEEDED library must come from a listed package or the base image.
 base_packages=" libc6 libgcc-s1 libstdc++6 zlib1g "
