@@ -54,7 +54,11 @@ def lock_dds_domain():
 
 
 class Space:
-    def __init__(self, build, source, name, time_scale=4, localizer_rate=10, extra_gateway_args=()):
+    def __init__(self, build, source, name, time_scale=4, localizer_rate=10, extra_gateway_args=(), link_domain=None):
+        """link_domain: a DDS domain shared with other spaces; the bridge links the space there
+        (exporting everything, importing the others' services as CAMUS services <space>/<name>,
+        sharing its components, robot poses and events) and the gateway reads it."""
+        self.link_domain = link_domain
         self.build = build
         self.source = source
         self.name = name
@@ -181,6 +185,17 @@ camus_to_rt:
   services:
     - {match: diag, instance: "camus_{service}"}
 """)
+            if self.link_domain is not None:
+                f.write("""dds:
+  domain: %(link)d
+  lease_ms: 3000
+  export: {allow: ["*"], deny: ["camus.*"]}
+  import: {as_camus: "{space}/{service}", as_rtc: ""}
+  state:
+    components: true
+    poses: {domain: %(domain)d, source: localizer, robots: [robot1], period_ms: 100}
+    events: ["robot1.navigation/#"]
+""" % dict(params, link=self.link_domain))
         self.start("rtc-manager", [self.bin("rtc-manager/urs-rtc-manager"), "--space", self.name, "--naming",
                                    self.naming, "--host", "labpc", "--config", rtc_yaml, "--ready-file",
                                    os.path.join(d, "rtc.ready")])
@@ -195,6 +210,7 @@ camus_to_rt:
                                os.path.join(d, "gateway.port"), "--token-file", os.path.join(d, "token"),
                                "--viewer-token-file", os.path.join(d, "viewer-token"), "--devices-domain",
                                str(self.domain), "--robots", "robot1", "--rt-poll-ms", "500"]
+                   + (["--dds-domain", str(self.link_domain)] if self.link_domain is not None else [])
                    + self.extra_gateway_args)
         wait_for("urs-gateway listening", lambda: os.path.exists(os.path.join(d, "gateway.port")), 20)
         self.gateway_port = int(open(os.path.join(d, "gateway.port")).read().strip())
@@ -227,14 +243,21 @@ camus_to_rt:
 
 
 if __name__ == "__main__":
-    # By hand: space.py BUILD_DIR SOURCE_DIR [SECONDS] — a local space with its gateway, left
-    # running for SECONDS (default 600) or until Ctrl-C.
+    # By hand: space.py BUILD_DIR SOURCE_DIR [SECONDS [SPACE...]] — local spaces with their
+    # gateways (one named "lab" by default; several are linked over a DDS domain of their own),
+    # left running for SECONDS (default 600) or until Ctrl-C.
+    import contextlib
     seconds = float(sys.argv[3]) if len(sys.argv) > 3 else 600
-    with Space(sys.argv[1], sys.argv[2], "lab") as space:
-        print("dashboard: %s   Foxglove WebSocket: %s   credential: %s (viewer: %s)" %
-              (space.http_url, space.gateway_url, TOKEN, VIEWER_TOKEN), flush=True)
-        print("space: --server %s --naming %s (DDS devices domain %d); logs in %s" %
-              (space.server, space.naming, space.domain, space.dir), flush=True)
+    names = sys.argv[4:] or ["lab"]
+    link, link_lock = lock_dds_domain() if len(names) > 1 else (None, None)
+    with contextlib.ExitStack() as stack:
+        for name in names:
+            space = stack.enter_context(Space(sys.argv[1], sys.argv[2], name, link_domain=link))
+            print("%s: dashboard %s   Foxglove WebSocket %s   credential %s (viewer: %s)" %
+                  (name, space.http_url, space.gateway_url, TOKEN, VIEWER_TOKEN), flush=True)
+            print("%s: --server %s --naming %s (devices domain %d%s); logs in %s" %
+                  (name, space.server, space.naming, space.domain,
+                   ", link domain %d" % link if link is not None else "", space.dir), flush=True)
         try:
             time.sleep(seconds)
         except KeyboardInterrupt:
