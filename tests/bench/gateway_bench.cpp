@@ -51,6 +51,7 @@ long rss_kib(pid_t pid) {
 }
 
 struct ClientResult {
+  std::atomic<bool> receiving{false};  // a first pose arrived
   std::vector<double> latencies_ms;
   uint64_t poses = 0;
   bool dropped = false;
@@ -97,6 +98,7 @@ void run_client(uint16_t port, const std::atomic<bool>& stop, const std::atomic<
       const std::string message = beast::buffers_to_string(buffer.data());
       const auto stamp = message.find("\"stamp\":");
       if (message.size() < 13 || message[0] != 0x01 || stamp == std::string::npos) continue;
+      out.receiving = true;
       if (!measuring) continue;
       ++out.poses;
       out.latencies_ms.push_back((arrived - std::strtod(message.c_str() + stamp + 8, nullptr)) * 1000.0);
@@ -181,8 +183,11 @@ int main(int argc, char** argv) {
   for (int i = 0; i < clients; ++i) {
     threads.emplace_back([&, i] { run_client(port, stop, measuring, results[static_cast<std::size_t>(i)]); });
   }
-  // Warm up until the first poses arrive (discovery in the devices' domain), then measure.
-  std::this_thread::sleep_for(3s);
+  // Until every client receives poses (discovery in the devices' domain), then measure.
+  const bool ready = urs::test::wait_until(
+      [&] { return std::all_of(results.begin(), results.end(), [](const ClientResult& r) { return r.receiving.load(); }); },
+      30s);
+  if (!ready) std::cerr << "urs-gateway-bench: not every client received a pose within 30 s; measuring anyway\n";
   measuring = true;
   std::vector<long> rss;
   const auto started = std::chrono::steady_clock::now();

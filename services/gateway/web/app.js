@@ -35,6 +35,7 @@ const state = {
   seenMarkers: new Map(),  // "x,y" -> {id, x, y, at}
   dirty: new Set(),
   selectedComponent: null,
+  plotted: 0,         // when the plots were last drawn
 };
 
 function el(tag, attrs = {}, parent = null, text = null) {
@@ -238,7 +239,15 @@ function frame() {
     if (dirty.has("services")) renderServices();
     if (dirty.has("components")) renderComponents();
     if (dirty.has("map")) renderMap();
-    if (dirty.has("plots")) renderPlots();
+    // The plots and their table follow poses a few times a second, not at every frame.
+    if (dirty.has("plots")) {
+      if (performance.now() - state.plotted >= 250) {
+        renderPlots();
+        state.plotted = performance.now();
+      } else {
+        state.dirty.add("plots");
+      }
+    }
     if (dirty.has("log")) renderLog();
     if (dirty.has("call")) renderOperations();
   } finally {

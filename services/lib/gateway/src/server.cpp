@@ -200,7 +200,7 @@ class WsSession : public Outbox, public std::enable_shared_from_this<WsSession> 
     if (queued_bytes_ + frame.size() > max_queue_bytes_) {
       // Slower than what it subscribed to: dropped, and what waited for it freed at once.
       dropping_ = true;
-      spdlog::warn("gateway: client {} is too slow ({} bytes waiting, at most {}); dropping it", client_,
+      spdlog::warn("gateway: client {} is too slow ({} bytes waiting, at most {}); dropping it", client_.load(),
                    queued_bytes_, max_queue_bytes_);
       queue_.clear();
       queued_bytes_ = 0;
@@ -289,7 +289,7 @@ class WsSession : public Outbox, public std::enable_shared_from_this<WsSession> 
   const std::size_t max_queue_bytes_;
   std::atomic<std::size_t>& clients_;
   beast::flat_buffer buffer_;
-  uint64_t client_ = 0;
+  std::atomic<uint64_t> client_{0};  // set on the I/O thread, named in other threads' warnings
   bool connected_ = false;  // I/O thread's own
   bool in_flight_ = false;  // I/O thread's own: a write is under way
 
