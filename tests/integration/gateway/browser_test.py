@@ -7,6 +7,13 @@ operation from the generated form and reads the reply and a typed error, and a v
 cannot act. Screenshots are written to OUT_DIR.
 
     browser_test.py BUILD_DIR SOURCE_DIR OUT_DIR
+
+Against spaces already running (the compose spaces, say), a generic scenario: log in, every space
+of the graph drawn with services, a robot's marker moving after a moveTo called from the form, a
+component activated and deactivated where one can be, an echo called from the form:
+
+    browser_test.py --url http://localhost:8765/ --credential-file compose/config/kr.token \
+        --out DIR [--spaces kr,jp]
 """
 import json
 import os
@@ -189,7 +196,81 @@ def scenario(space, out):
         driver.quit()
 
 
+def remote_scenario(url, credential, out, spaces):
+    driver = browser()
+    shot = lambda name: driver.save_screenshot(os.path.join(out, name + ".png"))
+    js = driver.execute_script
+    try:
+        log_in(driver, url, credential)
+        until("role operator", lambda: driver.find_element(By.ID, "role").text == "operator")
+        drawn = until("every space drawn: %s" % spaces, lambda: (lambda names: names if set(spaces) <= set(names) else None)(
+            js('return [...document.querySelectorAll("#spaces g[data-space]")].map((g) => g.dataset.space);')), 60)
+        for space in drawn:
+            until("services of %s listed" % space, lambda: js(
+                'return [...document.querySelectorAll("#services tr[data-service]")]'
+                '.some((r) => r.dataset.service.startsWith(arguments[0] + "/"));', space), 60)
+        robot = until("a robot on the map", lambda: js(
+            'const g = document.querySelector("g.robot"); return g ? [g.dataset.robot, +g.dataset.x, +g.dataset.y] : null;'), 60)
+        shot("remote-overview")
+        space, name = robot[0].split("/", 1)
+        operations = js('return [...document.querySelectorAll("#operation option")].map((o) => o.value);')
+        # The robot's navigation as this space calls it: imported from its space ("jp/robot1.navigation")
+        # or its own ("robot1.navigation").
+        local = driver.find_element(By.ID, "space-name").text
+        wanted = ("" if space == local else space + "/") + name + ".navigation/moveTo"
+        move = [o for o in operations if o == wanted]
+        assert move, "no %s among %d operations" % (wanted, len(operations))
+        target_x = 4.0 if robot[1] < 3.0 else 2.0
+        reply = call_from_form(driver, move[0], {"x": target_x, "y": 2.0})
+        assert not driver.find_element(By.ID, "call-result").get_attribute("class") == "failure", reply
+        until("%s's marker moving towards (%s, 2.0)" % (robot[0], target_x), lambda: js(
+            'const g = document.querySelector(\'g.robot[data-robot="\' + arguments[0] + \'"]\');'
+            'return g && Math.hypot(+g.dataset.x - arguments[1], +g.dataset.y - arguments[2]) > 0.3;',
+            robot[0], robot[1], robot[2]), 60)
+        shot("remote-robot-moving")
+        inactive = js('const rows = [...document.querySelectorAll("#components tr[data-component]")]'
+                      '.filter((r) => r.querySelector("td.state").textContent === "Inactive" &&'
+                      ' r.querySelector(\'button[data-transition="activate"]:not([disabled])\'));'
+                      'return rows.length ? rows[0].dataset.component : null;')
+        if inactive:
+            # Only the gateway's own space's components can be driven: the row with the buttons.
+            row = '#components tr[data-space="%s"][data-component="%s"]' % (local, inactive)
+            state = lambda: js('const td = document.querySelector(arguments[0] + " td.state");'
+                               'return td ? td.textContent : null;', row)
+            assert click(driver, row + ' button[data-transition="activate"]')
+            until("%s Active" % inactive, lambda: state() == "Active", 30)
+            shot("remote-component-active")
+            assert click(driver, row + ' button[data-transition="deactivate"]')
+            until("%s Inactive again" % inactive, lambda: state() == "Inactive", 30)
+        echo = [o for o in operations if o.endswith("/echo")]
+        if echo:
+            reply = call_from_form(driver, echo[0], {"text": "hello from the browser"})
+            assert json.loads(reply) == {"result": "hello from the browser"}, reply
+            shot("remote-call")
+        print("browser: %s: spaces %s, %s moved, %s, %s" % (url, drawn, robot[0],
+              "%s activated and deactivated" % inactive if inactive else "no component to activate",
+              "%s answered" % echo[0] if echo else "no echo operation"), flush=True)
+    except BaseException:
+        shot("remote-failure")
+        raise
+    finally:
+        driver.quit()
+
+
 def main():
+    if "--url" in sys.argv:
+        import argparse
+        parser = argparse.ArgumentParser()
+        parser.add_argument("--url", required=True)
+        parser.add_argument("--credential-file", required=True)
+        parser.add_argument("--out", required=True)
+        parser.add_argument("--spaces", default="")
+        args = parser.parse_args()
+        os.makedirs(args.out, exist_ok=True)
+        credential = open(args.credential_file).read().strip()
+        remote_scenario(args.url, credential, args.out, [s for s in args.spaces.split(",") if s])
+        print("browser: every check passed; screenshots in %s" % args.out)
+        return
     build, source, out = sys.argv[1], sys.argv[2], sys.argv[3]
     os.makedirs(out, exist_ok=True)
     for old in os.listdir(out):  # this run's screenshots only
