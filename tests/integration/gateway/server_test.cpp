@@ -292,8 +292,8 @@ TEST(DdsSource, SeesAnotherSpacesBridgeAndLosesIt) {
   options.space = "kr";
   options.link.domain = domains[0];
   options.link.lease = 1000ms;
+  RecordingSink sink;  // before the source: it outlives what the source reports into it
   gw::DdsSource source(options);
-  RecordingSink sink;
   source.start(sink);
 
   const auto* diagnostic = URS::Diagnostic_echo_Request::descriptor()->file()->FindServiceByName("Diagnostic");
@@ -356,16 +356,19 @@ TEST(DdsSource, LeavesOutWhatTheOwnSpacesNativeSourcesShow) {
   gw::DdsSourceOptions options;
   options.space = "kr";
   options.link.domain = domains[0];
-  gw::DdsSource everything(options);  // a gateway of kr that reads kr's entries on the link too
-  options.own_services = false;       // one whose CAMUS server shows kr's services
+  RecordingSink all_sink, others_sink;  // before the sources, which report into them
+  gw::DdsSource everything(options);     // a gateway of kr that reads kr's entries on the link too
+  options.own_services = false;          // one whose CAMUS server shows kr's services
   gw::DdsSource others(options);
-  RecordingSink all_sink, others_sink;
   everything.start(all_sink);
   others.start(others_sink);
-  ASSERT_TRUE(wait_until([&] { return all_sink.services("dds").size() == 2; }, 20s));
-  // Both entries were in the domain by then: two more reads of the other source saw them too.
+  ASSERT_TRUE(wait_until([&] { return all_sink.services("dds").size() == 2 && !others_sink.services("dds").empty(); },
+                         20s));
+  // Both entries were in the domain and each source had matched the writers by then: three more
+  // reads of the other source saw them too (each participant discovers the others at its own pace,
+  // so it is the other source's own arrival of jp's entry that says it has).
   const int reads = others_sink.reads;
-  ASSERT_TRUE(wait_until([&] { return others_sink.reads >= reads + 2; }, 20s));
+  ASSERT_TRUE(wait_until([&] { return others_sink.reads >= reads + 3; }, 20s));
   const auto seen = others_sink.services("dds");
   ASSERT_EQ(seen.size(), 1u);
   EXPECT_EQ(seen.front().space(), "jp");
