@@ -8,10 +8,11 @@
 #   share/urslink/config/         example configurations of urs-sam, urs-rtc-manager and urs-bridge
 #   share/urslink/tasks/          the CAMUS server's task files
 #   share/urslink/fastdds-udp.xml the Fast DDS profile for spaces on networks without shared memory
+#   share/urslink/web/            urs-gateway's dashboard (static files)
 #   share/doc/urslink/examples/   the out-of-tree example project
 
 # Programs. A new program joins this list (and so the package, the .deb and the images).
-set(URS_INSTALLED_PROGRAMS urs-camus-server urs-sam urs-rtc-manager urs urs-bridge urs-lab)
+set(URS_INSTALLED_PROGRAMS urs-camus-server urs-sam urs-rtc-manager urs urs-bridge urs-lab urs-gateway)
 foreach(program IN LISTS URS_INSTALLED_PROGRAMS)
   if(NOT TARGET ${program})
     message(FATAL_ERROR "cmake/UrsPackage.cmake: program ${program} is not a target: update URS_INSTALLED_PROGRAMS")
@@ -32,6 +33,7 @@ install(FILES ${PROJECT_SOURCE_DIR}/services/bridge/example.yaml DESTINATION ${U
 install(DIRECTORY ${PROJECT_SOURCE_DIR}/services/camus-server/tasks/ DESTINATION ${URS_INSTALL_DATADIR}/tasks
         FILES_MATCHING PATTERN "*.yaml")
 install(FILES ${PROJECT_SOURCE_DIR}/compose/fastdds-udp.xml DESTINATION ${URS_INSTALL_DATADIR})
+install(DIRECTORY ${PROJECT_SOURCE_DIR}/services/gateway/web/ DESTINATION ${URS_INSTALL_DATADIR}/web)
 install(DIRECTORY ${PROJECT_SOURCE_DIR}/examples/ DESTINATION ${CMAKE_INSTALL_DOCDIR}/examples)
 
 # find_package(urslink): the exported libraries as urslink::<name>, their dependencies, and the

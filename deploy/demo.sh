@@ -9,7 +9,8 @@
 #   2. an RT consumer in jp makes kr's TTS speak and kr's voice recognition hear it (through the
 #      RTCs bridge-jp made for them) and reads jp's camera;
 #   3. shows the state the spaces share over DDS: jp's robot pose and RTC states in kr's context;
-# and prints a summary. Outputs in ${URS_DEMO_OUT:-build/demo}: experiments.md, square.svg, CSV.
+# and prints a summary. Each space's dashboard (urs-gateway, docs/dashboard.md) is on the host while
+# the demo runs: its URLs are printed first, so the square path can be watched in kr's view of jp. Outputs in ${URS_DEMO_OUT:-build/demo}: experiments.md, square.svg, CSV.
 # The spaces are taken down at the end unless URS_DEMO_KEEP=1 (then: cd compose; docker-compose ps).
 # The local, single-machine demo of every piece is deploy/demo-local.sh.
 set -euo pipefail
@@ -55,6 +56,12 @@ retry 180 healthy || { dc ps; echo "demo: the spaces did not become healthy" >&2
 dc ps
 robot_listed() { kr ls 'jp/robot1.navigation' | grep -q '^jp/robot1.navigation '; }
 retry 60 robot_listed || { echo "demo: jp's robot did not appear in kr" >&2; exit 1; }
+
+host=$(hostname -f 2>/dev/null || hostname)
+step "the dashboards (log in with the space's credential; URS_DEMO_KEEP=1 keeps them up afterwards)"
+echo "kr: http://$host:${URS_KR_DASHBOARD_PORT:-8765}/  credential: the content of ${URS_KR_TOKEN_FILE:-$root/compose/config/kr.token}"
+echo "jp: http://$host:${URS_JP_DASHBOARD_PORT:-8766}/  credential: the content of ${URS_JP_TOKEN_FILE:-$root/compose/config/jp.token}"
+echo "Foxglove / Lichtblick: Open connection -> Foxglove WebSocket -> the ws://...?session=... URL each dashboard shows after login"
 
 step "kr sees jp's RT providers as CAMUS services, jp sees kr's agents as RTCs"
 kr ls

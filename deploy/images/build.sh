@@ -17,7 +17,7 @@ base=${URS_IMAGE_BASE:-urslink/base:bookworm}
 tag=${URS_IMAGE_TAG:-dev}
 ctx=${URS_IMAGE_CONTEXT:-$URS_BUILD_DIR/image-context}
 services=("$@")
-((${#services[@]})) || services=(rtc-naming camus-server sam-host rtc-manager cli bridge)
+((${#services[@]})) || services=(rtc-naming camus-server sam-host rtc-manager cli bridge gateway)
 
 command -v docker >/dev/null || { echo "images: docker is not installed" >&2; exit 1; }
 docker info >/dev/null 2>&1 || { echo "images: the docker daemon does not answer (is it running? may this user use it?)" >&2; exit 1; }
@@ -32,6 +32,8 @@ t_base=$((SECONDS - t0))
 
 "$here/stage.sh" "$ctx"
 "$root/compose/make-token.sh"  # the Planet token compose gives space kr (a secret, not in an image)
+# jp's gateway: the credential its operators log in with (jp has no CAMUS server to check one).
+"$root/compose/make-token.sh" "${URS_JP_TOKEN_FILE:-$root/compose/config/jp.token}"
 
 for service in "${services[@]}"; do
   if [[ $service == bridge && ! -x "$ctx/opt/urslink/bin/urs-bridge" ]]; then

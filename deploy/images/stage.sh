@@ -2,7 +2,7 @@
 # Fills the image build context from the install tree of the host build in ${URS_BUILD_DIR:-build}:
 #   cmake --install <build> --prefix <context>/opt/urslink --strip
 # gives the programs, the libraries (RUNPATH $ORIGIN/../lib), the IDL files and the omniidl Planet
-# back-end (run-time IDL loading), example configurations, task files and the Fast DDS profile;
+# back-end (run-time IDL loading), example configurations, task files, the Fast DDS profile and the gateway's dashboard;
 # the entry-point scripts are added to bin/. Headers and the CMake package, which no image uses,
 # are left out. Nothing is compiled in an image.
 #   deploy/images/stage.sh [CONTEXT_DIR]     (default ${URS_IMAGE_CONTEXT:-$URS_BUILD_DIR/image-context})

@@ -2,56 +2,12 @@
 
 #include <google/protobuf/descriptor.pb.h>
 
-#include <cstdio>
-
 #include "camus.pb.h"
 
 namespace urs::cli {
 
 namespace gp = google::protobuf;
 using planet::CallResult;
-
-namespace {
-
-std::string base64(const std::string& data) {
-  static const char* alphabet = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-  std::string out;
-  out.reserve((data.size() + 2) / 3 * 4);
-  std::size_t i = 0;
-  for (; i + 2 < data.size(); i += 3) {
-    uint32_t n = (uint8_t(data[i]) << 16) | (uint8_t(data[i + 1]) << 8) | uint8_t(data[i + 2]);
-    for (int s = 18; s >= 0; s -= 6) out += alphabet[(n >> s) & 63];
-  }
-  if (i < data.size()) {
-    uint32_t n = uint8_t(data[i]) << 16;
-    if (i + 1 < data.size()) n |= uint8_t(data[i + 1]) << 8;
-    out += alphabet[(n >> 18) & 63];
-    out += alphabet[(n >> 12) & 63];
-    out += i + 1 < data.size() ? alphabet[(n >> 6) & 63] : '=';
-    out += '=';
-  }
-  return out;
-}
-
-// A JSON string literal (RFC 8259 escaping).
-std::string quoted(const std::string& text) {
-  std::string out = "\"";
-  for (unsigned char c : text) {
-    if (c == '"' || c == '\\') {
-      out += '\\';
-      out += static_cast<char>(c);
-    } else if (c < 0x20) {
-      char escaped[8];
-      std::snprintf(escaped, sizeof(escaped), "\\u%04x", c);
-      out += escaped;
-    } else {
-      out += static_cast<char>(c);
-    }
-  }
-  return out + "\"";
-}
-
-}  // namespace
 
 CallResult DynamicCaller::load_interface_of(const std::string& service, std::string& interface_name) {
   auto known = interface_of_.find(service);
@@ -171,19 +127,15 @@ std::unique_ptr<gp::Message> DynamicCaller::new_message(const gp::Descriptor& ty
 }
 
 std::string DynamicCaller::event_payload_json(const std::string& content_type, const std::string& payload) {
-  if (content_type == "application/json") return payload.empty() ? "null" : payload;
-  if (const auto* type = find_type(content_type)) {
-    auto message = new_message(*type);
-    std::string json;
-    if (message->ParseFromString(payload) && schema::message_to_json(*message, json).empty()) return json;
-  }
-  return "{\"base64\":" + quoted(base64(payload)) + "}";
+  // A type neither compiled in nor described yet: ask the registry for it (Describe by type).
+  if (content_type != "application/json") find_type(content_type);
+  return schema::payload_to_json(&pool_, content_type, payload);
 }
 
 std::string DynamicCaller::event_json(const planet::Event& event) {
-  return "{\"seq\":" + std::to_string(event.seq()) + ",\"topic\":" + quoted(event.topic()) +
-         ",\"source\":" + quoted(event.source()) + ",\"time_unix_ns\":" + std::to_string(event.time_unix_ns()) +
-         ",\"content_type\":" + quoted(event.content_type()) +
+  return "{\"seq\":" + std::to_string(event.seq()) + ",\"topic\":" + schema::json_quote(event.topic()) +
+         ",\"source\":" + schema::json_quote(event.source()) + ",\"time_unix_ns\":" + std::to_string(event.time_unix_ns()) +
+         ",\"content_type\":" + schema::json_quote(event.content_type()) +
          ",\"payload\":" + event_payload_json(event.content_type(), event.payload()) + "}";
 }
 

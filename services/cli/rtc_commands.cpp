@@ -11,11 +11,11 @@
 #include "urs/agent/agent.hpp"
 #include "urs/bridge/interfaces.hpp"
 #include "urs/bridge/provider_port.hpp"
-#include "urs/corba_agent/corba_proxy.hpp"
 #include "urs/rtc/naming.hpp"
 #include "urs/rtc/nvlist.hpp"
 #include "urs/rtc/orb.hpp"
 #include "urs/rtc/tools.hpp"
+#include "urs/rt_call/rt_call.hpp"
 #include "urs/schema/json.hpp"
 #include "urs/util/cli.hpp"
 
@@ -402,15 +402,6 @@ int call(Session& session, const CallRequest& call) {
   if (!provides) {
     throw Failure(kFailed, call.target + ": provides no interface (a " + port_type(port_profile.in()) + " port)");
   }
-  std::vector<bridge::ProvidedInterface> offered;
-  for (auto& provided : calling(call.target, [&] { return bridge::offered_by(port); })) {
-    if (call.interface.empty() || provided.type_name == call.interface) offered.push_back(std::move(provided));
-  }
-  if (offered.size() != 1) {
-    throw Failure(kFailed, call.target + (offered.empty() ? ": provides no interface" : ": provides several interfaces") +
-                               (call.interface.empty() ? "" : " of type " + call.interface) +
-                               (offered.size() > 1 ? " (choose one with --interface)" : ""));
-  }
   bridge::InterfaceCatalog catalog;
   for (const auto& file : call.idl_files) {
     try {
@@ -419,16 +410,15 @@ int call(Session& session, const CallRequest& call) {
       throw Failure(kUsage, file + ": " + e.what());
     }
   }
-  const auto* interface = catalog.find_interface(bridge::ior_type_id(offered.front().ior), offered.front().type_name);
-  if (interface == nullptr) {
-    throw Failure(kFailed, call.target + " provides " + offered.front().type_name +
-                               ", whose IDL is not known here (give it with --idl FILE)");
-  }
+  const rt_call::ProviderTarget target =
+      calling(call.target, [&] { return rt_call::provider_target(port, catalog, call.interface, call.target); });
+  if (!target.error.empty()) throw Failure(kFailed, target.error);
+  const auto* interface = target.interface;
   const auto* method = interface->FindMethodByName(call.operation);
   if (method == nullptr) {
     std::string names;
     for (int i = 0; i < interface->method_count(); ++i) names += (i ? ", " : "") + interface->method(i)->name();
-    throw Failure(kUsage, offered.front().type_name + " has no operation '" + call.operation + "' (" + names + ")");
+    throw Failure(kUsage, target.type_name + " has no operation '" + call.operation + "' (" + names + ")");
   }
   google::protobuf::DynamicMessageFactory factory;
   std::unique_ptr<google::protobuf::Message> request(factory.GetPrototype(method->input_type())->New());
@@ -436,18 +426,8 @@ int call(Session& session, const CallRequest& call) {
   const std::string error = schema::json_to_message(call.arguments.empty() ? "{}" : call.arguments, *request);
   if (!error.empty()) throw Failure(kUsage, call.operation + ": " + error);
 
-  CORBA::Object_var target = session.orb().string_to_object(offered.front().ior);
-  corba_agent::CorbaProxyAgent consumer(session.orb().orb(), target, *interface,
-                                        corba_agent::CorbaProxyOptions{call.deadline, call.deadline});
-  class NoEvents : public agent::EventSink {
-   public:
-    planet::CallResult publish(const std::string&, const google::protobuf::Message&) override { return {}; }
-  } events;
-  agent::CallContext context;
-  context.service = call.target;
-  context.deadline = std::chrono::steady_clock::now() + call.deadline;
-  context.events = &events;
-  const agent::Outcome outcome = consumer.invoke(*method, *request, *reply, context);
+  const rt_call::ProviderOutcome outcome =
+      rt_call::call_provider(session.orb(), target, *method, *request, *reply, call.deadline, call.target);
   std::string json;
   if (outcome.status == planet::OK) {
     schema::message_to_json(*reply, json);
@@ -455,10 +435,7 @@ int call(Session& session, const CallRequest& call) {
     return kOk;
   }
   std::cerr << "urs: rtc call: " << call.target << "." << call.operation << ": " << planet::status_name(outcome.status);
-  if (outcome.exception) {
-    schema::message_to_json(*outcome.exception, json);
-    std::cerr << " " << outcome.exception->GetTypeName() << " " << json;
-  }
+  if (!outcome.exception_type.empty()) std::cerr << " " << outcome.exception_type << " " << outcome.exception_json;
   if (!outcome.message.empty()) std::cerr << ": " << outcome.message;
   std::cerr << "\n";
   return outcome.status == planet::BAD_ARGUMENTS ? kUsage : outcome.status == planet::UNAVAILABLE ? kUnreachable : kFailed;

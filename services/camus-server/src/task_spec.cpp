@@ -8,35 +8,13 @@
 #include <regex>
 #include <set>
 
+#include "urs/schema/json.hpp"
+
 namespace urs::camus_server {
 
 namespace gp = google::protobuf;
 
 namespace {
-
-void append_json_string(std::string& out, const std::string& text) {
-  out += '"';
-  for (unsigned char c : text) {
-    switch (c) {
-      case '"': out += "\\\""; break;
-      case '\\': out += "\\\\"; break;
-      case '\n': out += "\\n"; break;
-      case '\r': out += "\\r"; break;
-      case '\t': out += "\\t"; break;
-      case '\b': out += "\\b"; break;
-      case '\f': out += "\\f"; break;
-      default:
-        if (c < 0x20) {
-          char buf[8];
-          std::snprintf(buf, sizeof buf, "\\u%04x", c);
-          out += buf;
-        } else {
-          out += static_cast<char>(c);
-        }
-    }
-  }
-  out += '"';
-}
 
 void append_plain_scalar(std::string& out, const std::string& text) {
   static const std::set<std::string> nulls{"", "~", "null", "Null", "NULL"};
@@ -55,14 +33,14 @@ void append_plain_scalar(std::string& out, const std::string& text) {
   } else if (std::regex_match(text, decimal)) {
     double value = std::strtod(text.c_str(), nullptr);
     if (!std::isfinite(value)) {
-      append_json_string(out, text);
+      out += schema::json_quote(text);
       return;
     }
     char buf[64];
     auto [end, ec] = std::to_chars(buf, buf + sizeof buf, value);
     out.append(buf, ec == std::errc() ? end : buf);
   } else {
-    append_json_string(out, text);
+    out += schema::json_quote(text);
   }
 }
 
@@ -74,7 +52,7 @@ void append_json(std::string& out, const YAML::Node& node) {
       return;
     case YAML::NodeType::Scalar:
       if (node.Tag() == "!") {
-        append_json_string(out, node.Scalar());  // quoted: always a string
+        out += schema::json_quote(node.Scalar());  // quoted: always a string
       } else {
         append_plain_scalar(out, node.Scalar());
       }
@@ -96,7 +74,7 @@ void append_json(std::string& out, const YAML::Node& node) {
       for (const auto& item : node) {
         if (!first) out += ',';
         first = false;
-        append_json_string(out, item.first.Scalar());
+        out += schema::json_quote(item.first.Scalar());
         out += ':';
         append_json(out, item.second);
       }

@@ -73,6 +73,12 @@ class SchemaPool {
   std::mutex add_mutex_;  // serialises add_descriptor_set()
 };
 
+// A serialized message of type `type` (a Protobuf full name, e.g. an event's content type) as JSON
+// text: decoded with the program's compiled type of that name, else with `pool`'s description (if
+// `pool` is given); an "application/json" payload is JSON text already. An unknown type, or bytes
+// that do not parse as one, give {"base64": "<the bytes>"}. Thread-safe; never throws on bad input.
+std::string payload_to_json(const SchemaPool* pool, const std::string& type, const std::string& payload);
+
 // --- urs.options (idl/urs_options.proto) ---------------------------------------------------------
 // They work on descriptors from any pool. Absent options read as empty / false.
 

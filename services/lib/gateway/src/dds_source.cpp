@@ -1,0 +1,119 @@
+#include "urs/gateway/dds_source.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <set>
+
+#include "urs/gateway/gateway.hpp"
+
+namespace urs::gateway {
+
+namespace {
+constexpr const char* kSource = "dds";
+}
+
+DdsSource::DdsSource(DdsSourceOptions options) : options_(std::move(options)) {}
+
+DdsSource::~DdsSource() { stop(); }
+
+std::string DdsSource::reader_name(const std::string& space) { return "urs-gateway." + space; }
+
+void DdsSource::start(ViewSink& sink) {
+  sink_ = &sink;
+  bridge::DdsOptions link = options_.link;
+  link.space = reader_name(options_.space);
+  link.bridge = "urs-gateway";
+  link_ = std::make_unique<bridge::DdsLink>(
+      link,
+      [this] { poller_.wake(); },
+      [](bridge::IncomingCall call, std::function<void(planet::CallResult)> reply) {
+        // Nobody calls a gateway over DDS (it announces nothing); refuse whatever arrives.
+        if (reply) reply(planet::CallResult::error(planet::UNKNOWN_SERVICE, "urs-gateway serves no " + call.service));
+      });
+  bridge::StateHandlers handlers;
+  handlers.component = [this](const bridge::ComponentState& state, bool alive) { component(state, alive); };
+  handlers.pose = [this](const bridge::SpacePose& pose) {
+    if (!wanted(pose.space, options_.own_poses)) return;
+    sink_->pose(pose_of(pose.space, pose.robot, pose.x, pose.y, pose.theta, pose.stamp, "dds"));
+  };
+  handlers.context = [this](const bridge::ContextState& entry, bool alive) {
+    if (!wanted(entry.space, options_.own_state)) return;
+    ContextEntry out;
+    out.set_space(entry.space);
+    out.set_key(entry.key);
+    *out.mutable_value() = json_value(entry.value_json);
+    out.set_source(entry.source);
+    out.set_version(static_cast<double>(entry.version));
+    out.set_stamp(unix_seconds(entry.stamp));
+    out.set_removed(!alive);
+    sink_->context(out);
+  };
+  handlers.event = [this](const bridge::SpaceEvent& event) {
+    if (!wanted(event.space, options_.own_state)) return;
+    Event out;
+    out.set_space(event.space);
+    out.set_seq(static_cast<double>(event.seq));
+    out.set_topic(event.topic);
+    out.set_source(event.source);
+    out.set_content_type(event.content_type);
+    out.set_stamp(unix_seconds(event.stamp));
+    *out.mutable_payload() = decoder_.decode(event.content_type, event.payload);
+    sink_->event(out);
+  };
+  state_ = std::make_unique<bridge::StateLink>(*link_, std::move(handlers), std::nullopt);
+  poller_.start(options_.link.lease / 2, [this] { read_catalog(); });
+}
+
+void DdsSource::stop() {
+  poller_.stop();
+  state_.reset();
+  link_.reset();
+}
+
+void DdsSource::read_catalog() {
+  std::vector<Service> services;
+  std::set<std::string> described;
+  for (const bridge::ServiceEntry& entry : link_->catalog()) {
+    if (!wanted(entry.space, options_.own_services)) continue;
+    // The descriptions decode the spaces' events; each digest's bytes are added once.
+    if (described.insert(entry.interface_name).second && !decoder_.pool().find_service(entry.interface_name)) {
+      const std::string error = decoder_.pool().add_descriptor_set(entry.descriptor_set);
+      if (!error.empty()) spdlog::debug("gateway: the description of {} from {}: {}", entry.interface_name, entry.space, error);
+    }
+    Service service;
+    service.set_space(entry.space);
+    service.set_name(entry.name);
+    service.set_interface(entry.interface_name);
+    service.set_origin(entry.origin);
+    service.set_provider(entry.origin);
+    service.set_bridge(entry.bridge);
+    service.set_state("available");
+    service.set_seen_via("dds");
+    services.push_back(std::move(service));
+  }
+  sink_->services(kSource, std::move(services));
+}
+
+void DdsSource::component(const bridge::ComponentState& state, bool alive) {
+  if (!wanted(state.space, options_.own_services)) return;
+  std::vector<Component> now;
+  {
+    std::lock_guard lock(components_mutex_);
+    const auto key = std::make_pair(state.space, state.name);
+    if (!alive) {
+      components_.erase(key);
+    } else {
+      Component& component = components_[key];
+      component.set_space(state.space);
+      component.set_name(state.name);
+      component.set_kind(state.kind);
+      component.set_state(state.state);
+      component.set_type_name(state.type_name);
+      component.set_host(state.host);
+    }
+    for (const auto& [key_, component] : components_) now.push_back(component);
+  }
+  sink_->components(kSource, std::move(now));
+}
+
+}  // namespace urs::gateway

@@ -1,0 +1,275 @@
+#include "urs/gateway/protocol.hpp"
+
+#include <google/protobuf/struct.pb.h>
+#include <google/protobuf/util/json_util.h>
+
+#include <cmath>
+#include <cstring>
+
+#include "urs/gateway/json_writer.hpp"
+
+namespace urs::gateway::foxglove {
+
+namespace gp = google::protobuf;
+
+namespace {
+
+uint32_t read_u32(std::string_view bytes, std::size_t at) {
+  uint32_t value = 0;
+  for (int i = 3; i >= 0; --i) value = (value << 8) | static_cast<uint8_t>(bytes[at + i]);
+  return value;
+}
+
+void write_u32(std::string& out, uint32_t value) {
+  for (int i = 0; i < 4; ++i) out += static_cast<char>((value >> (8 * i)) & 0xff);
+}
+
+void write_u64(std::string& out, uint64_t value) {
+  for (int i = 0; i < 8; ++i) out += static_cast<char>((value >> (8 * i)) & 0xff);
+}
+
+// A field of `object` that must be an integer in 0 .. 2^32-1.
+std::optional<uint32_t> u32_field(const gp::Struct& object, const std::string& name) {
+  const auto it = object.fields().find(name);
+  if (it == object.fields().end() || it->second.kind_case() != gp::Value::kNumberValue) return std::nullopt;
+  const double number = it->second.number_value();
+  if (!(number >= 0 && number <= 4294967295.0) || std::floor(number) != number) return std::nullopt;
+  return static_cast<uint32_t>(number);
+}
+
+const gp::ListValue* list_field(const gp::Struct& object, const std::string& name) {
+  const auto it = object.fields().find(name);
+  if (it == object.fields().end() || it->second.kind_case() != gp::Value::kListValue) return nullptr;
+  return &it->second.list_value();
+}
+
+ClientMessage parse_subscribe(const gp::Struct& message) {
+  const gp::ListValue* list = list_field(message, "subscriptions");
+  if (list == nullptr) return ProtocolError{"subscribe: 'subscriptions' must be an array"};
+  if (static_cast<std::size_t>(list->values_size()) > kMaxIdsPerMessage) {
+    return ProtocolError{"subscribe: " + std::to_string(list->values_size()) + " subscriptions in one message (at most " +
+                         std::to_string(kMaxIdsPerMessage) + ")"};
+  }
+  Subscribe subscribe;
+  for (int i = 0; i < list->values_size(); ++i) {
+    const std::string where = "subscribe: subscriptions[" + std::to_string(i) + "]";
+    const gp::Value& item = list->values(i);
+    if (item.kind_case() != gp::Value::kStructValue) return ProtocolError{where + " must be an object"};
+    const auto id = u32_field(item.struct_value(), "id");
+    const auto channel = u32_field(item.struct_value(), "channelId");
+    if (!id) return ProtocolError{where + ".id must be an integer in 0..4294967295"};
+    if (!channel) return ProtocolError{where + ".channelId must be an integer in 0..4294967295"};
+    subscribe.subscriptions.push_back({*id, *channel});
+  }
+  return subscribe;
+}
+
+ClientMessage parse_unsubscribe(const gp::Struct& message) {
+  const gp::ListValue* list = list_field(message, "subscriptionIds");
+  if (list == nullptr) return ProtocolError{"unsubscribe: 'subscriptionIds' must be an array"};
+  if (static_cast<std::size_t>(list->values_size()) > kMaxIdsPerMessage) {
+    return ProtocolError{"unsubscribe: " + std::to_string(list->values_size()) + " ids in one message (at most " +
+                         std::to_string(kMaxIdsPerMessage) + ")"};
+  }
+  Unsubscribe unsubscribe;
+  for (int i = 0; i < list->values_size(); ++i) {
+    const gp::Value& item = list->values(i);
+    const double number = item.number_value();
+    if (item.kind_case() != gp::Value::kNumberValue || !(number >= 0 && number <= 4294967295.0) ||
+        std::floor(number) != number) {
+      return ProtocolError{"unsubscribe: subscriptionIds[" + std::to_string(i) + "] must be an integer in 0..4294967295"};
+    }
+    unsubscribe.subscription_ids.push_back(static_cast<uint32_t>(number));
+  }
+  return unsubscribe;
+}
+
+}  // namespace
+
+ClientMessage parse_text(std::string_view text) {
+  if (text.size() > kMaxTextMessage) {
+    return ProtocolError{"message of " + std::to_string(text.size()) + " bytes (at most " +
+                         std::to_string(kMaxTextMessage) + ")"};
+  }
+  gp::Value root;
+  const auto parsed = gp::util::JsonStringToMessage(gp::StringPiece(text.data(), text.size()), &root);
+  if (!parsed.ok()) return ProtocolError{"not JSON: " + std::string(parsed.message())};
+  if (root.kind_case() != gp::Value::kStructValue) return ProtocolError{"a message must be a JSON object"};
+  const gp::Struct& message = root.struct_value();
+  const auto op = message.fields().find("op");
+  if (op == message.fields().end() || op->second.kind_case() != gp::Value::kStringValue) {
+    return ProtocolError{"a message must have a string field 'op'"};
+  }
+  const std::string& name = op->second.string_value();
+  if (name == "subscribe") return parse_subscribe(message);
+  if (name == "unsubscribe") return parse_unsubscribe(message);
+  if (name == "subscribeConnectionGraph") return SubscribeConnectionGraph{};
+  if (name == "unsubscribeConnectionGraph") return UnsubscribeConnectionGraph{};
+  for (const char* known : {"advertise", "unadvertise", "getParameters", "setParameters", "subscribeParameterUpdates",
+                            "unsubscribeParameterUpdates", "fetchAsset"}) {
+    if (name == known) return Unsupported{name};
+  }
+  return ProtocolError{"unknown op '" + (name.size() > 64 ? name.substr(0, 64) + "..." : name) + "'"};
+}
+
+ClientMessage parse_binary(std::string_view bytes) {
+  if (bytes.empty()) return ProtocolError{"empty binary message"};
+  if (bytes.size() > kMaxBinaryMessage) {
+    return ProtocolError{"binary message of " + std::to_string(bytes.size()) + " bytes (at most " +
+                         std::to_string(kMaxBinaryMessage) + ")"};
+  }
+  const auto opcode = static_cast<uint8_t>(bytes[0]);
+  if (opcode == kOpClientMessageData) return Unsupported{"client message data (clientPublish)"};
+  if (opcode != kOpServiceCallRequest) {
+    return ProtocolError{"unknown binary opcode " + std::to_string(opcode)};
+  }
+  if (bytes.size() < 13) return ProtocolError{"service call request: " + std::to_string(bytes.size()) + " bytes (at least 13)"};
+  ServiceCallRequest call;
+  call.service_id = read_u32(bytes, 1);
+  call.call_id = read_u32(bytes, 5);
+  const uint32_t encoding_length = read_u32(bytes, 9);
+  if (encoding_length > kMaxEncodingLength || encoding_length > bytes.size() - 13) {
+    return ProtocolError{"service call request: encoding length " + std::to_string(encoding_length) +
+                         " exceeds the message or " + std::to_string(kMaxEncodingLength) + " bytes"};
+  }
+  call.encoding.assign(bytes.data() + 13, encoding_length);
+  call.payload.assign(bytes.data() + 13 + encoding_length, bytes.size() - 13 - encoding_length);
+  return call;
+}
+
+// ---- server -> client ------------------------------------------------------------------------
+
+std::string server_info(const std::string& name, const std::vector<std::string>& capabilities,
+                        const std::vector<std::string>& supported_encodings,
+                        const std::vector<std::pair<std::string, std::string>>& metadata, const std::string& session_id) {
+  JsonWriter out;
+  out.begin_object().key("op").value("serverInfo").key("name").value(name);
+  out.key("capabilities").begin_array();
+  for (const auto& capability : capabilities) out.value(capability);
+  out.end_array();
+  if (!supported_encodings.empty()) {
+    out.key("supportedEncodings").begin_array();
+    for (const auto& encoding : supported_encodings) out.value(encoding);
+    out.end_array();
+  }
+  out.key("metadata").begin_object();
+  for (const auto& [key, value] : metadata) out.key(key).value(value);
+  out.end_object();
+  out.key("sessionId").value(session_id);
+  return out.end_object().take();
+}
+
+std::string status(StatusLevel level, const std::string& message, const std::string& id) {
+  JsonWriter out;
+  out.begin_object().key("op").value("status").key("level").value(static_cast<int>(level));
+  out.key("message").value(message);
+  if (!id.empty()) out.key("id").value(id);
+  return out.end_object().take();
+}
+
+std::string advertise(const std::vector<const Channel*>& channels) {
+  JsonWriter out;
+  out.begin_object().key("op").value("advertise").key("channels").begin_array();
+  for (const Channel* channel : channels) {
+    out.begin_object();
+    out.key("id").value(channel->id).key("topic").value(channel->topic).key("encoding").value(channel->encoding);
+    out.key("schemaName").value(channel->schema_name).key("schema").value(channel->schema);
+    out.key("schemaEncoding").value(channel->schema_encoding);
+    out.end_object();
+  }
+  return out.end_array().end_object().take();
+}
+
+namespace {
+std::string id_list(const char* op, const char* field, const std::vector<uint32_t>& ids) {
+  JsonWriter out;
+  out.begin_object().key("op").value(op).key(field).begin_array();
+  for (uint32_t id : ids) out.value(id);
+  return out.end_array().end_object().take();
+}
+
+void message_schema(JsonWriter& out, const MessageSchema& schema) {
+  out.begin_object();
+  out.key("encoding").value(schema.encoding).key("schemaName").value(schema.schema_name);
+  out.key("schemaEncoding").value(schema.schema_encoding).key("schema").value(schema.schema);
+  out.end_object();
+}
+
+void topic_nodes(JsonWriter& out, const char* field, const char* ids_field, const std::vector<TopicNodes>& list) {
+  out.key(field).begin_array();
+  for (const TopicNodes& nodes : list) {
+    out.begin_object().key("name").value(nodes.name).key(ids_field).begin_array();
+    for (const auto& id : nodes.ids) out.value(id);
+    out.end_array().end_object();
+  }
+  out.end_array();
+}
+}  // namespace
+
+std::string unadvertise(const std::vector<uint32_t>& channel_ids) { return id_list("unadvertise", "channelIds", channel_ids); }
+
+std::string advertise_services(const std::vector<const Service*>& services) {
+  JsonWriter out;
+  out.begin_object().key("op").value("advertiseServices").key("services").begin_array();
+  for (const Service* service : services) {
+    out.begin_object();
+    out.key("id").value(service->id).key("name").value(service->name).key("type").value(service->type);
+    out.key("request");
+    message_schema(out, service->request);
+    out.key("response");
+    message_schema(out, service->response);
+    // The older clients' form of the same schemas (the encoding is the server's only one, json).
+    out.key("requestSchema").value(service->request.schema);
+    out.key("responseSchema").value(service->response.schema);
+    out.end_object();
+  }
+  return out.end_array().end_object().take();
+}
+
+std::string unadvertise_services(const std::vector<uint32_t>& service_ids) {
+  return id_list("unadvertiseServices", "serviceIds", service_ids);
+}
+
+std::string service_call_failure(uint32_t service_id, uint32_t call_id, const std::string& message) {
+  JsonWriter out;
+  out.begin_object().key("op").value("serviceCallFailure").key("serviceId").value(service_id);
+  out.key("callId").value(call_id).key("message").value(message);
+  return out.end_object().take();
+}
+
+std::string connection_graph_update(const GraphUpdate& update) {
+  JsonWriter out;
+  out.begin_object().key("op").value("connectionGraphUpdate");
+  topic_nodes(out, "publishedTopics", "publisherIds", update.published_topics);
+  topic_nodes(out, "subscribedTopics", "subscriberIds", update.subscribed_topics);
+  topic_nodes(out, "advertisedServices", "providerIds", update.advertised_services);
+  out.key("removedTopics").begin_array();
+  for (const auto& name : update.removed_topics) out.value(name);
+  out.end_array().key("removedServices").begin_array();
+  for (const auto& name : update.removed_services) out.value(name);
+  return out.end_array().end_object().take();
+}
+
+std::string message_data_header(uint32_t subscription_id, uint64_t receive_time_ns) {
+  std::string out;
+  out.reserve(13);
+  out += static_cast<char>(kOpMessageData);
+  write_u32(out, subscription_id);
+  write_u64(out, receive_time_ns);
+  return out;
+}
+
+std::string service_call_response(uint32_t service_id, uint32_t call_id, const std::string& encoding,
+                                  std::string_view payload) {
+  std::string out;
+  out.reserve(13 + encoding.size() + payload.size());
+  out += static_cast<char>(kOpServiceCallResponse);
+  write_u32(out, service_id);
+  write_u32(out, call_id);
+  write_u32(out, static_cast<uint32_t>(encoding.size()));
+  out += encoding;
+  out.append(payload.data(), payload.size());
+  return out;
+}
+
+}  // namespace urs::gateway::foxglove
