@@ -9,7 +9,7 @@ rc=$?
 fail() { echo "demo_test: $1"; echo "---- demo output"; echo "$out"; exit 1; }
 [[ $rc -eq 0 ]] || fail "demo exited with $rc"
 expect() { grep -qE -- "$1" <<<"$out" || fail "missing: $1"; }
-expect '^diag +URS\.Diagnostic +sam@'
+expect '^diag +URS\.Diagnostic +[^ ]+ +sam@'
 expect 'echo\(URS\.Diagnostic_echo_Request\) -> URS\.Diagnostic_echo_Reply'
 expect '^\{"result":"hello from the demo"\}$'
 expect 'USER_EXCEPTION URS\.Failure \{"reason":"battery low","code":7\}'
@@ -23,8 +23,8 @@ expect '^  Diagnostic0\.rtc +Inactive'
 expect 'DiagnosticCaller0: [1-9][0-9]* echo replies, 0 failures'
 expect 'urs: rtc deact: demo-host\.host_cxt/DiagnosticCaller0\.rtc: PRECONDITION_NOT_MET'
 expect 'Sink0: received [1-9][0-9]* counts'
-expect '^rt\.Diagnostic0 +URS\.Diagnostic +bridge-demo +available +rtc:demo-host\.host_cxt/Diagnostic0\.rtc:diagnostic'
-expect '^diag +URS\.Diagnostic +sam@.* native$'
+expect '^rt\.Diagnostic0 +URS\.Diagnostic +[^ ]+ +bridge-demo +available +rtc:demo-host\.host_cxt/Diagnostic0\.rtc:diagnostic'
+expect '^diag +URS\.Diagnostic +[^ ]+ +sam@.* native$'
 expect '^\{"result":"hello RT, from CAMUS"\}$'
 expect 'rt\.Diagnostic0\.fail: USER_EXCEPTION URS\.Failure \{"reason":"wheel stuck","code":3\}'
 expect 'camus_diag\.rtc'

@@ -90,12 +90,12 @@ wait_healthy() {
 # ---- images -----------------------------------------------------------------------------------
 step "images"
 if [[ "${URS_E2E_SKIP_IMAGE_BUILD:-0}" == 1 ]]; then
-  for s in rtc-naming camus-server sam-host rtc-manager cli bridge; do
+  for s in rtc-naming camus-server sam-host rtc-manager cli bridge gateway; do
     docker image inspect "urslink/$s:dev" >/dev/null 2>&1 || fail "image urslink/$s:dev is missing"
   done
 else
   t=$SECONDS
-  URS_BUILD_DIR=$build timeout 480 "$root/deploy/images/build.sh" rtc-naming camus-server sam-host rtc-manager cli bridge \
+  URS_BUILD_DIR=$build timeout 480 "$root/deploy/images/build.sh" rtc-naming camus-server sam-host rtc-manager cli bridge gateway \
     || fail "deploy/images/build.sh failed"
   say "images ready in $((SECONDS - t)) s"
 fi
@@ -157,7 +157,7 @@ lab_in() {  # urs-lab in a space's client container, writing to $tmp/out
 }
 mkdir -p "$tmp/out"
 step "link: jp's RT providers are services in kr, kr's agents are RTCs in jp"
-jp_listed() { kr ls "jp/$1" | grep -qE "^jp/$1 +\S+ +bridge-kr +available +dds:jp/$1\$"; }
+jp_listed() { kr ls "jp/$1" | grep -qE "^jp/$1 +\S+ +\S+ +bridge-kr +available +dds:jp/$1\$"; }
 eventually 60 jp_listed robot1.navigation || fail "jp/robot1.navigation not in kr: $(kr ls)"
 eventually 30 jp_listed "Diagnostic0.diagnostic@$mgr1" || fail "jp's Diagnostic0 not in kr: $(kr ls)"
 kr_bound() { jp rtc ls bridge-jp.host_cxt | grep -q "$1"; }
@@ -239,7 +239,7 @@ t=$SECONDS
 dc up -d --scale sam-host=2 --scale rtc-manager=2 >"$tmp/up.log" 2>&1 || { cat "$tmp/up.log"; fail "scale up failed"; }
 wait_healthy 90
 say "scaled and healthy in $((SECONDS - t)) s"
-diag_services() { kr ls | awk '$1 ~ /^diag-/ && $4 == "available" {print $1, $3}'; }
+diag_services() { kr ls | awk '$1 ~ /^diag-/ && $5 == "available" {print $1, $4}'; }
 two_diags() { [[ $(diag_services | sort -u | wc -l) -eq 2 ]]; }
 eventually 30 two_diags || fail "expected 2 diag services, got: $(diag_services | tr '\n' ';')"
 diags=$(diag_services)
@@ -257,7 +257,7 @@ diag_rtcs=$(awk '/^[^ ]/{c=$1} c == "rtc-manager.host_cxt/" && /^  Diagnostic[01
 [[ $contexts == "bridge-jp.host_cxt/ rtc-manager.host_cxt/ rtc-robot.host_cxt/ " && $diag_rtcs -eq 2 ]] \
   || fail "expected the contexts bridge-jp, rtc-manager and rtc-robot, and Diagnostic0 and Diagnostic1 in rtc-manager, got $contexts and $diag_rtcs"
 grep -q unreachable <<<"$out" && fail "a binding is unreachable"
-cameras() { kr ls 'jp/Camera*' | awk '$1 ~ /^jp\/Camera[01]\.imagerecognition@rtc-manager$/ && $4 == "available"' | wc -l; }
+cameras() { kr ls 'jp/Camera*' | awk '$1 ~ /^jp\/Camera[01]\.imagerecognition@rtc-manager$/ && $5 == "available"' | wc -l; }
 two_cameras() { [[ $(cameras) -eq 2 ]]; }
 eventually 30 two_cameras || fail "scaled jp managers: expected 2 cameras in kr, got: $(kr ls 'jp/*')"
 
