@@ -22,7 +22,7 @@ PACKAGES=(
   libboost-dev  # urs-gateway: Boost.Beast (HTTP and WebSocket, header-only)
   # tools used by tests and scripts
   python3 procps iproute2 nftables  # nftables: the two-hosts test's sites pass no multicast
-  python3-venv  # the rtshell test installs rtshell from PyPI into a venv under the build folder
+  python3-venv  # the rtshell and Cyclone DDS interoperability tests install their peers from PyPI into venvs
   python3-websockets python3-selenium chromium chromium-driver  # the gateway's protocol and browser tests
   # containers: the engine, compose, and debootstrap for the base image made from Debian packages
   docker.io docker-compose debootstrap

@@ -3,6 +3,7 @@
 #include <google/protobuf/descriptor.pb.h>
 
 #include "camus.pb.h"
+#include "urs/util/json_text.hpp"
 
 namespace urs::cli {
 
@@ -133,9 +134,9 @@ std::string DynamicCaller::event_payload_json(const std::string& content_type, c
 }
 
 std::string DynamicCaller::event_json(const planet::Event& event) {
-  return "{\"seq\":" + std::to_string(event.seq()) + ",\"topic\":" + schema::json_quote(event.topic()) +
-         ",\"source\":" + schema::json_quote(event.source()) + ",\"time_unix_ns\":" + std::to_string(event.time_unix_ns()) +
-         ",\"content_type\":" + schema::json_quote(event.content_type()) +
+  return "{\"seq\":" + std::to_string(event.seq()) + ",\"topic\":" + util::json_string(event.topic()) +
+         ",\"source\":" + util::json_string(event.source()) + ",\"time_unix_ns\":" + std::to_string(event.time_unix_ns()) +
+         ",\"content_type\":" + util::json_string(event.content_type()) +
          ",\"payload\":" + event_payload_json(event.content_type(), event.payload()) + "}";
 }
 

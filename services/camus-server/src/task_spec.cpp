@@ -9,6 +9,7 @@
 #include <set>
 
 #include "urs/schema/json.hpp"
+#include "urs/util/json_text.hpp"
 
 namespace urs::camus_server {
 
@@ -33,14 +34,14 @@ void append_plain_scalar(std::string& out, const std::string& text) {
   } else if (std::regex_match(text, decimal)) {
     double value = std::strtod(text.c_str(), nullptr);
     if (!std::isfinite(value)) {
-      out += schema::json_quote(text);
+      out += util::json_string(text);
       return;
     }
     char buf[64];
     auto [end, ec] = std::to_chars(buf, buf + sizeof buf, value);
     out.append(buf, ec == std::errc() ? end : buf);
   } else {
-    out += schema::json_quote(text);
+    out += util::json_string(text);
   }
 }
 
@@ -52,7 +53,7 @@ void append_json(std::string& out, const YAML::Node& node) {
       return;
     case YAML::NodeType::Scalar:
       if (node.Tag() == "!") {
-        out += schema::json_quote(node.Scalar());  // quoted: always a string
+        out += util::json_string(node.Scalar());  // quoted: always a string
       } else {
         append_plain_scalar(out, node.Scalar());
       }
@@ -74,7 +75,7 @@ void append_json(std::string& out, const YAML::Node& node) {
       for (const auto& item : node) {
         if (!first) out += ',';
         first = false;
-        out += schema::json_quote(item.first.Scalar());
+        out += util::json_string(item.first.Scalar());
         out += ':';
         append_json(out, item.second);
       }

@@ -6,7 +6,9 @@
 // with it; a restarted CAMUS server gets the imported services back; filters and loop prevention
 // keep the catalogs as configured. The spaces also share state: jp's RTC lifecycle states and
 // robot poses reach kr's context, kr's agents, context entries and events reach any DDS reader
-// (here a third "space" observing the link), and a lost bridge's state ends with it.
+// (here a third "space" observing the link), and a lost bridge's state ends with it. A reader
+// knowing none of URSLink's types reads every topic of the link with the types announced at run
+// time.
 
 #include <arpa/inet.h>
 #include <gtest/gtest.h>
@@ -14,10 +16,19 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <fastdds/dds/domain/DomainParticipant.hpp>
+#include <fastdds/dds/domain/DomainParticipantFactory.hpp>
+#include <fastdds/dds/subscriber/DataReader.hpp>
+#include <fastdds/dds/subscriber/SampleInfo.hpp>
+#include <fastdds/dds/subscriber/Subscriber.hpp>
+#include <fastdds/dds/topic/TypeSupport.hpp>
 #include <future>
 #include <iostream>
 
 #include <google/protobuf/struct.pb.h>
+#include <google/protobuf/descriptor.pb.h>
+#include <google/protobuf/util/json_util.h>
+#include <google/protobuf/wrappers.pb.h>
 
 #include <mutex>
 
@@ -25,6 +36,8 @@
 #include "bridge_fixture.hpp"
 #include "dds_domain.hpp"
 #include "camus.pb.h"
+#include "SpaceState.h"
+#include "SpaceStatePubSubTypes.h"
 #include "urs/bridge/state_link.hpp"
 #include "urs/corba_agent/corba_proxy.hpp"
 #include "urs/world/world.hpp"
@@ -50,12 +63,12 @@ class Federation : public BridgeSpaceTest {
     start_kr();
   }
 
-  void start_kr(const std::string& discovery = "") {
+  void start_kr(const std::string& discovery = "", const std::string& context_allow = "\"room.*\"") {
     kr_ = launch_bridge("bridge-kr",
                         "name: bridge-kr\n" + dds(discovery) +
                             "  export: {allow: [\"*\"], deny: []}\n"
                             "  import: {as_rtc: \"\"}\n"
-                            "  state: {events: [\"alarm/#\"], context: {allow: [\"room.*\"]}}\n",
+                            "  state: {events: [\"alarm/#\"], context: {allow: [" + context_allow + "]}}\n",
                         {"--server", server_address_});
   }
 
@@ -400,6 +413,254 @@ TEST_F(Federation, SpacesShareStateOverDds) {
                          kLease * 6));
   start_jp();
   EXPECT_TRUE(wait_until([&] { return context_field("jp/component/" + diag, "state") == "Inactive"; }, 20s));
+}
+
+// Every sample written on urs/state/context, as a plain DDS reader of the link sees it (keep-all:
+// tombstones included, which StateLink's own reader folds away).
+class ContextTap {
+ public:
+  explicit ContextTap(uint32_t domain) {
+    namespace fdds = eprosima::fastdds::dds;
+    auto* factory = fdds::DomainParticipantFactory::get_instance();
+    participant_ = factory->create_participant(domain, fdds::PARTICIPANT_QOS_DEFAULT);
+    type_.register_type(participant_);
+    topic_ = participant_->create_topic("urs/state/context", type_.get_type_name(), fdds::TOPIC_QOS_DEFAULT);
+    fdds::DataReaderQos qos = fdds::DATAREADER_QOS_DEFAULT;
+    qos.reliability().kind = fdds::RELIABLE_RELIABILITY_QOS;
+    qos.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
+    qos.history().kind = fdds::KEEP_ALL_HISTORY_QOS;
+    reader_ = participant_->create_subscriber(fdds::SUBSCRIBER_QOS_DEFAULT)->create_datareader(topic_, qos);
+  }
+  ~ContextTap() {
+    participant_->delete_contained_entities();
+    eprosima::fastdds::dds::DomainParticipantFactory::get_instance()->delete_participant(participant_);
+  }
+  // Every (space, key, value_json) received so far.
+  const std::vector<urs::dds::ContextEntry>& samples() {
+    urs::dds::ContextEntry sample;
+    eprosima::fastdds::dds::SampleInfo info;
+    while (reader_->take_next_sample(&sample, &info) == ReturnCode_t::RETCODE_OK) {
+      if (info.valid_data) samples_.push_back(sample);
+    }
+    return samples_;
+  }
+  bool has(const std::string& space, const std::string& key, bool removed) {
+    for (const auto& s : samples()) {
+      if (s.space() == space && s.key() == key && s.value_json().empty() == removed) return true;
+    }
+    return false;
+  }
+
+ private:
+  eprosima::fastdds::dds::DomainParticipant* participant_ = nullptr;
+  eprosima::fastdds::dds::TypeSupport type_{new urs::dds::ContextEntryPubSubType()};
+  eprosima::fastdds::dds::Topic* topic_ = nullptr;
+  eprosima::fastdds::dds::DataReader* reader_ = nullptr;
+  std::vector<urs::dds::ContextEntry> samples_;
+};
+
+// kr shares all of its context, which also holds what it imported from jp ("jp/..." keys, source
+// "dds:jp"): neither those entries nor their removals (when jp's bridge is lost) are written on the
+// link as kr's, while kr's own keys and their removals are.
+TEST_F(Federation, ImportedStateIsNeverSharedAgainNorItsRemoval) {
+  kr_.reset();
+  start_kr("", "\"*\"");
+  ContextTap tap(static_cast<uint32_t>(domain_));
+  const std::string imported = "jp/component/jphost.host_cxt/Diagnostic0.rtc";
+  ASSERT_TRUE(wait_until([&] { return context(imported).has_value(); }, 20s)) << kr_->log();
+  ASSERT_EQ(urs({"context", "set", "room.before", "1"}).exit_code, 0);
+  ASSERT_TRUE(wait_until([&] { return tap.has("kr", "room.before", false); }, 10s));
+
+  jp_->kill9();  // kr removes what it imported from jp
+  ASSERT_TRUE(wait_until([&] { return !context(imported).has_value(); }, kLease * 6)) << kr_->log();
+  // kr's exporter shares in order: once the removal of a key set after jp's entries went away
+  // is seen, anything it wrote about those entries has been seen too.
+  ASSERT_EQ(urs({"context", "set", "room.after", "2"}).exit_code, 0);
+  ASSERT_EQ(urs({"context", "rm", "room.after"}).exit_code, 0);
+  ASSERT_TRUE(wait_until([&] { return tap.has("kr", "room.after", true); }, 10s));
+  for (const auto& sample : tap.samples()) {
+    EXPECT_NE(sample.key().rfind("jp/", 0), 0u)
+        << "kr shared " << sample.key() << " (value '" << sample.value_json() << "') as its own";
+  }
+}
+
+// What tests/integration/bridge/dynamic_reader printed: the types announced (as IDL, by type name)
+// and the samples (as JSON) of each topic.
+struct DynamicReading {
+  explicit DynamicReading(const std::string& log) {
+    std::istringstream lines(log);
+    for (std::string line; std::getline(lines, line);) {
+      if (line.rfind("type ", 0) == 0) {
+        const auto idl = line.find(" struct ");
+        if (idl == std::string::npos) continue;
+        const std::string declaration = line.substr(idl + 1);
+        types[declaration.substr(7, declaration.find(' ', 7) - 7)] = declaration;
+      } else if (line.rfind("{", 0) == 0) {
+        gp::Struct sample;
+        if (!gp::util::JsonStringToMessage(line, &sample).ok()) continue;
+        const std::string topic = sample.fields().at("topic").string_value();
+        samples[topic].push_back(sample);
+      }
+    }
+  }
+  // The samples of `topic` whose `field` is `value`.
+  std::vector<gp::Struct> with(const std::string& topic, const std::string& field, const std::string& value) const {
+    std::vector<gp::Struct> found;
+    auto it = samples.find(topic);
+    if (it == samples.end()) return found;
+    for (const auto& sample : it->second) {
+      const auto& fields = sample.fields().at("value").struct_value().fields();
+      auto f = fields.find(field);
+      if (f != fields.end() && f->second.string_value() == value) found.push_back(sample);
+    }
+    return found;
+  }
+  static const gp::Value& field(const gp::Struct& sample, const std::string& name) {
+    return sample.fields().at("value").struct_value().fields().at(name);
+  }
+  std::map<std::string, std::string> types;
+  std::map<std::string, std::vector<gp::Struct>> samples;
+};
+
+// Another party's generic tool: a reader with no type compiled in reads every topic of the link,
+// catalog, descriptions, state and calls, and the devices' poses, with the types the bridges and
+// devices announce in discovery (XTypes TypeObjects), each exactly as idl/dds/*.idl declares it.
+TEST_F(Federation, EveryTopicOfTheLinkReadsWithTypesAnnouncedAtRunTime) {
+  Process reader({URS_DYNAMIC_READER_BIN, std::to_string(domain_), "urs/", "120"}, dir_ + "/dynamic_reader.log");
+  auto reading = [&] { return DynamicReading(reader.log()); };
+  // And the devices' own topics, on jp's devices domain.
+  Process devices_reader({URS_DYNAMIC_READER_BIN, std::to_string(devices_domain()), "urs/", "120"},
+                         dir_ + "/dynamic_reader_devices.log");
+  ASSERT_TRUE(wait_for_service("jp/rt.Diagnostic0", 20s)) << kr_->log() << jp_->log();
+
+  world::World devices(devices_domain(), "federation-test-robot");
+  world::PoseSample pose;
+  pose.robot = "robot1";
+  pose.x = 1.25;
+  pose.stamp = std::chrono::system_clock::now();
+  world::PoseSample measured = pose;
+  for (std::size_t i = 0; i < measured.covariance.size(); ++i) measured.covariance[i] = i % 4 == 0 ? 0.01 : 0;
+  // Longer than fastddsgen's 255, which its type objects gave every unbounded string.
+  const std::string note = "\"" + std::string(300, 'n') + "\"";
+  ASSERT_EQ(urs({"context", "set", "room.note", note}).exit_code, 0);
+  google::protobuf::Value alarm;
+  alarm.set_number_value(7);
+  // The request of an echo whose reply was seen too, or "".
+  auto answered_request = [](const DynamicReading& now) -> std::string {
+    for (const auto& request : now.with("urs/rpc/jp/request", "operation", "echo")) {
+      const std::string id = DynamicReading::field(request, "request_id").string_value();
+      if (!now.with("urs/rpc/kr/reply", "request_id", id).empty()) return id;
+    }
+    return "";
+  };
+  // Poses and events are volatile, calls retired once answered: each is sent until the reader,
+  // which matches their writers in its own time, has one of every topic.
+  EXPECT_TRUE(wait_until(
+      [&] {
+        devices.publish(world::Channel::ground_truth, pose);
+        devices.publish(world::Channel::localizer, measured);
+        planet_->publish("alarm/fire", alarm.SerializeAsString(), alarm.GetTypeName());
+        URS::Diagnostic_echo_Request echo;
+        echo.set_text("seen by a stranger");
+        call("jp/rt.Diagnostic0", "echo", echo);
+        const DynamicReading now = reading();
+        return !now.with("urs/catalog", "name", "rt.Diagnostic0").empty() && now.samples.count("urs/interface") &&
+               !now.with("urs/state/component", "name", "jphost.host_cxt/Diagnostic0.rtc").empty() &&
+               !now.with("urs/state/pose", "robot", "robot1").empty() &&
+               !now.with("urs/state/context", "key", "room.note").empty() &&
+               !now.with("urs/state/event", "topic", "alarm/fire").empty() && !answered_request(now).empty();
+      },
+      60s))
+      << reader.log();
+  EXPECT_TRUE(wait_until(
+      [&] {
+        devices.publish(world::Channel::ground_truth, pose);
+        devices.publish(world::Channel::localizer, measured);
+        const DynamicReading now(devices_reader.log());
+        return !now.with("urs/world/pose", "robot", "robot1").empty() &&
+               !now.with("urs/localizer/pose", "robot", "robot1").empty();
+      },
+      30s))
+      << devices_reader.log();
+  const DynamicReading devices_seen(devices_reader.log());
+  EXPECT_EQ(devices_seen.types.count("urs::dds::RobotPose") ? devices_seen.types.at("urs::dds::RobotPose") : "",
+            "struct urs::dds::RobotPose { @key string robot; double x; double y; double theta; long long sec; "
+            "unsigned long nsec; }");
+  EXPECT_EQ(devices_seen.types.count("urs::dds::RobotPoseEstimate")
+                ? devices_seen.types.at("urs::dds::RobotPoseEstimate")
+                : "",
+            "struct urs::dds::RobotPoseEstimate { @key string robot; double x; double y; double theta; "
+            "double covariance[9]; long long sec; unsigned long nsec; }");
+  const auto estimates = devices_seen.with("urs/localizer/pose", "robot", "robot1");
+  ASSERT_FALSE(estimates.empty());
+  const auto& covariance = DynamicReading::field(estimates[0], "covariance").list_value();
+  ASSERT_EQ(covariance.values_size(), 9);
+  EXPECT_EQ(covariance.values(4).number_value(), 0.01);
+  EXPECT_EQ(covariance.values(5).number_value(), 0);
+
+  const DynamicReading seen = reading();
+  const std::map<std::string, std::string> idl{
+      {"urs::dds::ServiceEntry",
+       "struct urs::dds::ServiceEntry { @key string space; @key string name; string interface_name; "
+       "string repository_id; string origin; string bridge; unsigned long deadline_ms; string interface_digest; }"},
+      {"urs::dds::InterfaceDescription",
+       "struct urs::dds::InterfaceDescription { @key string digest; sequence<octet> descriptor_set; }"},
+      {"urs::dds::CallRequest",
+       "struct urs::dds::CallRequest { @key string request_id; string caller_space; string service; "
+       "string operation; unsigned long deadline_ms; boolean no_reply; sequence<octet> payload; }"},
+      {"urs::dds::CallReply",
+       "struct urs::dds::CallReply { @key string request_id; long status; string message; string exception_type; "
+       "sequence<octet> payload; }"},
+      {"urs::dds::ComponentState",
+       "struct urs::dds::ComponentState { @key string space; @key string name; string kind; string state; "
+       "string type_name; string host; long long sec; unsigned long nsec; }"},
+      {"urs::dds::SpacePose",
+       "struct urs::dds::SpacePose { @key string space; @key string robot; double x; double y; double theta; "
+       "long long sec; unsigned long nsec; }"},
+      {"urs::dds::ContextEntry",
+       "struct urs::dds::ContextEntry { @key string space; @key string key; string value_json; string source; "
+       "unsigned long long version; long long sec; unsigned long nsec; }"},
+      {"urs::dds::SpaceEvent",
+       "struct urs::dds::SpaceEvent { string space; unsigned long long seq; string topic; string content_type; "
+       "string source; long long sec; unsigned long nsec; sequence<octet> payload; }"}};
+  for (const auto& [name, declaration] : idl) {
+    EXPECT_EQ(seen.types.count(name) ? seen.types.at(name) : "(not announced)", declaration);
+  }
+
+  // The values, as the bridges wrote them.
+  const auto entries = seen.with("urs/catalog", "name", "rt.Diagnostic0");
+  ASSERT_FALSE(entries.empty()) << reader.log();
+  EXPECT_EQ(DynamicReading::field(entries[0], "space").string_value(), "jp");
+  EXPECT_EQ(DynamicReading::field(entries[0], "interface_name").string_value(), "URS.Diagnostic");
+  const std::string digest = DynamicReading::field(entries[0], "interface_digest").string_value();
+  const auto descriptions = seen.with("urs/interface", "digest", digest);
+  ASSERT_FALSE(descriptions.empty()) << digest;
+  gp::BytesValue descriptor_set;  // JSON's form of bytes is base64, as the reader prints them
+  ASSERT_TRUE(gp::util::JsonStringToMessage(
+                  "\"" + DynamicReading::field(descriptions[0], "descriptor_set").string_value() + "\"", &descriptor_set)
+                  .ok());
+  gp::FileDescriptorSet files;
+  ASSERT_TRUE(files.ParseFromString(descriptor_set.value()));
+  bool described = false;
+  for (const auto& file : files.file()) {
+    for (const auto& service : file.service()) described |= file.package() + "." + service.name() == "URS.Diagnostic";
+  }
+  EXPECT_TRUE(described) << files.DebugString();
+  EXPECT_FALSE(seen.with("urs/state/component", "name", "jphost.host_cxt/Diagnostic0.rtc").empty());
+  const auto poses = seen.with("urs/state/pose", "robot", "robot1");
+  ASSERT_FALSE(poses.empty());
+  EXPECT_EQ(DynamicReading::field(poses[0], "x").number_value(), 1.25);
+  const auto notes = seen.with("urs/state/context", "key", "room.note");
+  ASSERT_FALSE(notes.empty());
+  EXPECT_EQ(DynamicReading::field(notes.back(), "value_json").string_value(), note);
+  EXPECT_FALSE(seen.with("urs/state/event", "topic", "alarm/fire").empty());
+  const std::string request_id = answered_request(seen);
+  ASSERT_FALSE(request_id.empty());
+  const auto request = seen.with("urs/rpc/jp/request", "request_id", request_id)[0];
+  EXPECT_EQ(DynamicReading::field(request, "service").string_value(), "rt.Diagnostic0");
+  EXPECT_EQ(DynamicReading::field(request, "caller_space").string_value(), "kr");
+  const auto replies = seen.with("urs/rpc/kr/reply", "request_id", request_id);
+  EXPECT_EQ(DynamicReading::field(replies[0], "status").number_value(), 0);
 }
 
 }  // namespace

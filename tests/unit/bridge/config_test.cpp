@@ -105,5 +105,27 @@ TEST_F(BridgeConfigTest, EveryStateAndDiscoveryErrorIsNamedWithItsKey) {
             std::string::npos);
 }
 
+// The participant lease: 20 s by default (no shorter than other vendors' own leases, so that a
+// pause shorter than it drops nobody), never below the liveliness lease, within 100..600000 ms.
+TEST_F(BridgeConfigTest, ParticipantLeaseDefaultsLongAndIsNeverBelowTheLease) {
+  const DdsConfig defaults = load("dds: {domain: 3}\n").dds;
+  EXPECT_EQ(defaults.lease.count(), 3000);
+  EXPECT_EQ(defaults.participant_lease.count(), 20000);
+  EXPECT_EQ(load("dds: {lease_ms: 1500}\n").dds.participant_lease.count(), 20000);
+  EXPECT_EQ(load("dds: {lease_ms: 30000}\n").dds.participant_lease.count(), 30000);  // follows a longer lease
+  EXPECT_EQ(load("dds: {participant_lease_ms: 5000}\n").dds.participant_lease.count(), 5000);
+  EXPECT_EQ(load("dds: {lease_ms: 5000, participant_lease_ms: 5000}\n").dds.participant_lease.count(), 5000);
+
+  EXPECT_NE(refused("dds: {lease_ms: 5000, participant_lease_ms: 4000}\n")
+                .find("dds.participant_lease_ms: 4000 is below dds.lease_ms 5000"),
+            std::string::npos);
+  EXPECT_NE(refused("dds: {participant_lease_ms: 50}\n").find("dds.participant_lease_ms: 50 is outside 100..600000"),
+            std::string::npos);
+  EXPECT_NE(refused("dds: {participant_lease_ms: 700000}\n")
+                .find("dds.participant_lease_ms: 700000 is outside 100..600000"),
+            std::string::npos);
+  EXPECT_NE(refused("dds: {participant_lease_ms: soon}\n").find("dds.participant_lease_ms"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace urs::bridge

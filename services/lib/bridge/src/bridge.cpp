@@ -409,6 +409,7 @@ void Bridge::open_session() {
     options.space = config_.space;
     options.bridge = config_.name;
     options.lease = config_.dds.lease;
+    options.participant_lease = config_.dds.participant_lease;
     options.udp_only = config_.dds.udp_only;
     options.socket_buffer_bytes = config_.dds.socket_buffer_bytes;
     options.initial_peers = config_.dds.initial_peers;

@@ -167,7 +167,7 @@ void read_dds(const YAML::Node& node, DdsConfig& dds, std::vector<std::string>& 
     errors.push_back("dds: a map is expected");
     return;
   }
-  util::check_keys(node, "dds", {"domain", "lease_ms", "udp_only", "socket_buffer_bytes", "initial_peers", "discovery",
+  util::check_keys(node, "dds", {"domain", "lease_ms", "participant_lease_ms", "udp_only", "socket_buffer_bytes", "initial_peers", "discovery",
                                  "export", "import", "state"},
                    errors);
   if (node["domain"] && util::read_scalar(node["domain"], "dds.domain", dds.domain, errors) && dds.domain > 232) {
@@ -179,6 +179,22 @@ void read_dds(const YAML::Node& node, DdsConfig& dds, std::vector<std::string>& 
       if (ms < 100 || ms > 600000) errors.push_back("dds.lease_ms: " + std::to_string(ms) + " is outside 100..600000");
       dds.lease = std::chrono::milliseconds(ms);
     }
+  }
+  if (node["participant_lease_ms"]) {
+    int ms = 0;
+    if (util::read_scalar(node["participant_lease_ms"], "dds.participant_lease_ms", ms, errors)) {
+      if (ms < 100 || ms > 600000) {
+        errors.push_back("dds.participant_lease_ms: " + std::to_string(ms) + " is outside 100..600000");
+      }
+      dds.participant_lease = std::chrono::milliseconds(ms);
+    }
+  } else {
+    dds.participant_lease = std::max(dds.participant_lease, dds.lease);  // the default, never below the lease
+  }
+  if (dds.participant_lease < dds.lease) {
+    errors.push_back("dds.participant_lease_ms: " + std::to_string(dds.participant_lease.count()) +
+                     " is below dds.lease_ms " + std::to_string(dds.lease.count()) +
+                     ": a participant would be dropped while its writers still count as alive");
   }
   if (node["udp_only"]) util::read_scalar(node["udp_only"], "dds.udp_only", dds.udp_only, errors);
   if (node["socket_buffer_bytes"]) {

@@ -22,15 +22,18 @@
 #include <fastdds/rtps/transport/shared_mem/SharedMemTransportDescriptor.h>
 #include <fastrtps/utils/IPLocator.h>
 #include <cstdio>
+#include <deque>
 #include <future>
 #include <map>
 #include <mutex>
+#include <random>
 #include <set>
 #include <stdexcept>
 
 #include "Federation.h"
 #include "FederationPubSubTypes.h"
 #include "dds_qos.hpp"
+#include "liveliness_asserter.hpp"
 
 namespace urs::bridge {
 
@@ -55,6 +58,16 @@ std::string digest_of(const std::string& bytes) {
   std::snprintf(text, sizeof text, "%016llx-%zu", static_cast<unsigned long long>(hash), bytes.size());
   return text;
 }
+
+// Calls in flight per request or reply writer (instances it keeps registered): beyond, a call is
+// refused rather than an older one's request dropped.
+constexpr int32_t kRpcInFlight = 4096;
+// How long a replier remembers the requests it executed (against a second delivery of one) and a
+// oneway request stays available to a replier that matches late: requests carry their deadline,
+// oneway ones none.
+constexpr std::chrono::milliseconds kDefaultDeadline{10000};
+// Executed request ids remembered at most (the oldest forgotten first).
+constexpr std::size_t kRememberedRequests = 65536;
 
 std::string request_topic(const std::string& space) { return "urs/rpc/" + space + "/request"; }
 std::string reply_topic(const std::string& space) { return "urs/rpc/" + space + "/reply"; }
@@ -121,6 +134,14 @@ struct DdsLink::Impl : public fdds::DataReaderListener {
   const DdsOptions& options;
   CatalogHandler on_catalog;
   CallHandler on_call;
+  // Part of every request id: ids stay unique across restarts of this bridge, so a replier that
+  // remembers an earlier run's id never takes a new call for a duplicate.
+  const std::string run = [] {
+    std::random_device random;
+    char text[20];
+    std::snprintf(text, sizeof text, "%08x%08x", random(), random());
+    return std::string(text);
+  }();
 
   fdds::DomainParticipant* participant = nullptr;
   fdds::Publisher* publisher = nullptr;
@@ -144,12 +165,45 @@ struct DdsLink::Impl : public fdds::DataReaderListener {
   std::vector<std::unique_ptr<RequestWriterListener>> writer_listeners;
   std::map<std::string, std::shared_ptr<Pending>> pending;  // by request id
   std::atomic<uint64_t> next_id{1};
+  // Requests and replies still registered, each until nobody waits for it any more: then it is
+  // unregistered, so a reader that matches later does not get it.
+  struct Registered {
+    Clock::time_point until;
+    fdds::DataWriter* writer;
+    std::string request_id;
+    bool reply;
+  };
+  std::deque<Registered> registered;  // oneway requests and replies, by `until` within each kind
+  // Requests this replier executed, against a second delivery (transient-local history sent again
+  // to a reader that matched again): id -> until when it could arrive again.
+  std::mutex executed_mutex;  // guards the three below
+  std::map<std::string, Clock::time_point> executed;
+  std::deque<std::pair<Clock::time_point, std::string>> executed_order;
+  // Requests being served, by their instance on the request reader: when the caller unregisters
+  // one (it has the reply, or gave up), its reply is retired at once.
+  std::map<fdds::InstanceHandle_t, std::pair<std::string, Clock::time_point>> serving;
 
   std::mutex interfaces_mutex;
   std::map<std::string, Clock::time_point> interfaces_written;  // digest -> when last written
 
-  mutable std::mutex catalog_mutex;  // guards dead_writers
+  mutable std::mutex catalog_mutex;  // guards dead_writers and writer_spaces
   std::set<fdds::InstanceHandle_t> dead_writers;  // catalog writers whose liveliness is lost
+  std::map<fdds::InstanceHandle_t, std::string> writer_spaces;  // catalog writers seen, by space written
+
+  // Asserts the keyed-state writers' liveliness (the link's and StateLink's); stopped first.
+  std::unique_ptr<LivelinessAsserter> asserter;
+
+  // True if catalog writers of `space` were seen and every one has lost its liveliness.
+  bool space_lost(const std::string& space) const {
+    std::lock_guard lock(catalog_mutex);
+    bool seen = false;
+    for (const auto& [writer, written] : writer_spaces) {
+      if (written != space) continue;
+      if (!dead_writers.count(writer)) return false;
+      seen = true;
+    }
+    return seen;
+  }
 
   // ---- entities ----
 
@@ -162,13 +216,21 @@ struct DdsLink::Impl : public fdds::DataReaderListener {
     return made;
   }
 
-  // Reliable and volatile, the same on writers and readers or they would not match.
+  // Reliable and transient-local, keyed by request id (keep-last 1 per instance): a reader that
+  // matches a writer after a request or reply was written (discovery is not symmetric: a writer
+  // may see a reader before the reader sees it, and a volatile reader then never gets what was
+  // written in between) still receives it, as long as its writer keeps it registered. The same
+  // on writers and readers, or they would not match.
   template <class Qos>
   static Qos rpc_qos(Qos qos) {
     qos.reliability().kind = fdds::RELIABLE_RELIABILITY_QOS;
-    qos.durability().kind = fdds::VOLATILE_DURABILITY_QOS;
+    qos.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
     qos.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
-    qos.history().depth = 256;
+    qos.history().depth = 1;
+    qos.resource_limits().max_instances = kRpcInFlight;
+    qos.resource_limits().max_samples_per_instance = 1;
+    qos.resource_limits().max_samples = kRpcInFlight;
+    qos.resource_limits().allocated_samples = 16;
     return qos;
   }
   static fdds::DataWriterQos rpc_writer_qos() {
@@ -199,6 +261,37 @@ struct DdsLink::Impl : public fdds::DataReaderListener {
     if (writer == nullptr) throw std::runtime_error("DDS: cannot write replies to space " + space);
     reply_writers[space] = writer;
     return writer;
+  }
+
+  // The request (or reply) `id` is no longer waited for: unregistered, so that no reader matching
+  // from now on gets it (one that has it already keeps it).
+  static void retire(fdds::DataWriter* writer, const std::string& id, bool reply) {
+    if (reply) {
+      dds::CallReply key;
+      key.request_id(id);
+      writer->unregister_instance(&key, fdds::HANDLE_NIL);
+    } else {
+      dds::CallRequest key;
+      key.request_id(id);
+      writer->unregister_instance(&key, fdds::HANDLE_NIL);
+    }
+  }
+  // Keeps `id` registered on `writer` until `until`, and retires what is due. Caller holds `mutex`.
+  void retire_later(fdds::DataWriter* writer, const std::string& id, bool reply, Clock::time_point until) {
+    const auto now = Clock::now();
+    for (auto it = registered.begin(); it != registered.end();) {
+      if (it->until > now) {
+        ++it;
+        continue;
+      }
+      retire(it->writer, it->request_id, it->reply);
+      it = registered.erase(it);
+    }
+    registered.push_back({until, writer, id, reply});
+  }
+
+  std::string next_request_id() {
+    return options.space + "/" + options.bridge + "/" + run + "/" + std::to_string(next_id++);
   }
 
   // Waits until `writer` has a matched reader, or `until`.
@@ -244,20 +337,34 @@ struct DdsLink::Impl : public fdds::DataReaderListener {
   }
 
   void writer_state(const fdds::InstanceHandle_t& writer, bool alive) {
+    std::string lost;  // a space none of whose catalog writers is alive any more
     {
       std::lock_guard lock(catalog_mutex);
       if (alive) {
         dead_writers.erase(writer);
       } else {
         dead_writers.insert(writer);
+        auto it = writer_spaces.find(writer);
+        if (it != writer_spaces.end()) {
+          lost = it->second;
+          for (const auto& [other, space] : writer_spaces) {
+            if (space == lost && !dead_writers.count(other)) lost.clear();
+          }
+        }
       }
     }
+    // Calls to a space whose bridges are all lost fail now, not when the participant lease ends.
+    if (!lost.empty()) fail_pending(lost);
     on_catalog();
   }
 
   void on_subscription_matched(fdds::DataReader* reader, const fdds::SubscriptionMatchedStatus& status) override {
     if (reader != catalog_reader) return;
     if (status.current_count_change != 0) writer_state(status.last_publication_handle, status.current_count_change > 0);
+    if (status.current_count_change < 0) {
+      std::lock_guard lock(catalog_mutex);
+      writer_spaces.erase(status.last_publication_handle);
+    }
   }
   void on_liveliness_changed(fdds::DataReader* reader, const fdds::LivelinessChangedStatus& status) override {
     if (reader != catalog_reader) return;
@@ -265,14 +372,82 @@ struct DdsLink::Impl : public fdds::DataReaderListener {
     if (status.alive_count_change > 0) writer_state(status.last_publication_handle, true);
   }
 
+  // True if `request` was sent longer ago than its deadline (by its writer's clock, which the
+  // sites keep in step): its caller has given up, whoever delivers it now.
+  static bool stale(const dds::CallRequest& request, const fdds::SampleInfo& info) {
+    const auto& sent = info.source_timestamp;
+    if (sent == eprosima::fastrtps::rtps::c_RTPSTimeInvalid || sent.seconds() <= 0) return false;
+    const auto sent_at = std::chrono::system_clock::time_point(std::chrono::duration_cast<std::chrono::system_clock::duration>(
+        std::chrono::seconds(sent.seconds()) + std::chrono::nanoseconds(sent.nanosec())));
+    const auto deadline =
+        request.deadline_ms() == 0 ? kDefaultDeadline : std::chrono::milliseconds(request.deadline_ms());
+    return std::chrono::system_clock::now() - sent_at > deadline;
+  }
+  // True the first time `id` arrives (within `until`), false for a second delivery.
+  bool first_delivery(const std::string& id, Clock::time_point until) {
+    std::lock_guard lock(executed_mutex);
+    const auto now = Clock::now();
+    while (!executed_order.empty() &&
+           (executed_order.front().first <= now || executed_order.size() >= kRememberedRequests)) {
+      auto it = executed.find(executed_order.front().second);
+      if (it != executed.end() && it->second == executed_order.front().first) executed.erase(it);
+      executed_order.pop_front();
+    }
+    if (!executed.emplace(id, until).second) return false;
+    executed_order.emplace_back(until, id);
+    return true;
+  }
+
+  // The caller of the request on `instance` no longer waits for it: its reply is retired.
+  void caller_done(const fdds::InstanceHandle_t& instance) {
+    std::string id;
+    {
+      std::lock_guard lock(executed_mutex);
+      auto it = serving.find(instance);
+      if (it == serving.end()) return;
+      id = it->second.first;
+      serving.erase(it);
+    }
+    std::lock_guard lock(mutex);
+    for (auto it = registered.begin(); it != registered.end(); ++it) {
+      if (it->reply && it->request_id == id) {
+        retire(it->writer, id, true);
+        registered.erase(it);
+        return;
+      }
+    }
+  }
+  void serve(const fdds::InstanceHandle_t& instance, const std::string& id, Clock::time_point until) {
+    std::lock_guard lock(executed_mutex);
+    if (serving.size() >= static_cast<std::size_t>(kRpcInFlight)) {
+      const auto now = Clock::now();
+      for (auto it = serving.begin(); it != serving.end();) it = it->second.second <= now ? serving.erase(it) : ++it;
+    }
+    serving[instance] = {id, until};
+  }
+
   void read_requests(fdds::DataReader* reader) {
     dds::CallRequest sample;
     fdds::SampleInfo info;
     while (reader->take_next_sample(&sample, &info) == ReturnCode_t::RETCODE_OK) {
-      if (!info.valid_data) continue;
+      if (!info.valid_data) {  // a request its caller no longer waits for
+        caller_done(info.instance_handle);
+        continue;
+      }
+      if (stale(sample, info)) {
+        spdlog::info("dds: request {} from space {} arrived after its deadline; not executed", sample.request_id(),
+                     sample.caller_space());
+        continue;
+      }
       IncomingCall call{sample.request_id(), sample.caller_space(), sample.service(), sample.operation(),
                         sample.deadline_ms(), sample.no_reply(), text_of(sample.payload())};
-      const auto until = Clock::now() + std::chrono::milliseconds(call.deadline_ms == 0 ? 10000 : call.deadline_ms);
+      const auto until =
+          Clock::now() + (call.deadline_ms == 0 ? kDefaultDeadline : std::chrono::milliseconds(call.deadline_ms));
+      if (!first_delivery(call.request_id, until)) {
+        spdlog::debug("dds: request {} delivered again; executed once already", call.request_id);
+        continue;
+      }
+      if (!call.oneway) serve(info.instance_handle, call.request_id, until);
       std::function<void(planet::CallResult)> reply;
       if (!call.oneway) {
         reply = [this, id = call.request_id, space = call.caller_space, until](planet::CallResult result) {
@@ -285,19 +460,18 @@ struct DdsLink::Impl : public fdds::DataReaderListener {
 
   void send_reply(const std::string& space, const std::string& id, const planet::CallResult& result,
                   Clock::time_point until) {
+    // Written at once, matched reader or not: the caller's reply reader, if it matches this
+    // writer later, still gets the reply while it is registered (until the caller's deadline).
+    std::unique_lock lock(mutex);
     fdds::DataWriter* writer = nullptr;
     try {
-      std::lock_guard lock(mutex);
       writer = reply_writer(space);
     } catch (const std::exception& e) {
       spdlog::error("dds: reply to {} for {}: {}", space, id, e.what());
       return;
     }
-    // A writer just made has no reader yet; the caller waits no longer than its deadline.
-    if (!wait_matched(writer, std::max(until, Clock::now() + std::chrono::milliseconds(100)))) {
-      spdlog::warn("dds: no reader of replies in space {}; the reply to {} is lost", space, id);
-      return;
-    }
+    retire_later(writer, id, true, until);
+    lock.unlock();
     dds::CallReply reply;
     reply.request_id(id);
     reply.status(static_cast<int32_t>(result.status));
@@ -368,9 +542,11 @@ DdsLink::DdsLink(DdsOptions options, CatalogHandler on_catalog, CallHandler on_c
   factory->load_profiles();  // an XML default profile's settings, but for the transports set below
   fdds::DomainParticipantQos qos = factory->get_default_participant_qos();
   qos.name("urs-bridge/" + options_.space + "/" + options_.bridge);
-  // A participant that stops announcing itself (dead process, cut network) is dropped after the
-  // lease, which ends its writers' matches and so this space's entries at the others.
-  qos.wire_protocol().builtin.discovery_config.leaseDuration = link_qos::duration(options_.lease);
+  // A participant that stops announcing itself (dead process, cut network) is dropped after its
+  // lease; its entries end earlier, with its writers' liveliness (`lease`). Announced four times
+  // a `lease`, so that a peer that dropped it finds it again quickly.
+  qos.wire_protocol().builtin.discovery_config.leaseDuration =
+      link_qos::duration(std::max(options_.participant_lease, options_.lease));
   qos.wire_protocol().builtin.discovery_config.leaseDuration_announcementperiod =
       link_qos::duration(options_.lease / 4);
   qos.transport().use_builtin_transports = false;
@@ -427,7 +603,11 @@ DdsLink::DdsLink(DdsOptions options, CatalogHandler on_catalog, CallHandler on_c
         !d.reply_reader) {
       throw std::runtime_error("DDS: cannot create the catalog and call endpoints");
     }
+    d.asserter = std::make_unique<LivelinessAsserter>(std::max(std::chrono::milliseconds(1), options_.lease / 4));
+    d.asserter->add(d.catalog_writer);
+    d.asserter->add(d.interface_writer);
   } catch (...) {
+    d.asserter.reset();
     d.participant->delete_contained_entities();
     factory->delete_participant(d.participant);
     throw;
@@ -436,6 +616,7 @@ DdsLink::DdsLink(DdsOptions options, CatalogHandler on_catalog, CallHandler on_c
 
 DdsLink::~DdsLink() {
   Impl& d = *impl_;
+  d.asserter.reset();
   d.participant->set_listener(nullptr);
   d.participant->delete_contained_entities();
   fdds::DomainParticipantFactory::get_instance()->delete_participant(d.participant);
@@ -449,6 +630,10 @@ DdsLink::~DdsLink() {
 }
 
 fdds::DomainParticipant* DdsLink::participant() const { return impl_->participant; }
+
+void DdsLink::keep_alive(fdds::DataWriter* writer) { impl_->asserter->add(writer); }
+
+void DdsLink::let_go(fdds::DataWriter* writer) { impl_->asserter->remove(writer); }
 
 std::vector<ServiceEntry> DdsLink::catalog() const {
   Impl& d = *impl_;
@@ -478,7 +663,9 @@ std::vector<ServiceEntry> DdsLink::catalog() const {
                              fdds::ALIVE_INSTANCE_STATE) != ReturnCode_t::RETCODE_OK) {
     return entries;
   }
+  std::map<fdds::InstanceHandle_t, std::string> spaces;
   for (fdds::LoanableCollection::size_type i = 0; i < samples.length(); ++i) {
+    if (infos[i].valid_data) spaces[infos[i].publication_handle] = samples[i].space();
     if (!infos[i].valid_data || dead.count(infos[i].publication_handle)) continue;
     const dds::ServiceEntry& sample = samples[i];
     if (sample.space() == options_.space) continue;  // our own entries
@@ -488,6 +675,10 @@ std::vector<ServiceEntry> DdsLink::catalog() const {
                        sample.bridge(), sample.deadline_ms(), description->second});
   }
   d.catalog_reader->return_loan(samples, infos);
+  {
+    std::lock_guard lock(d.catalog_mutex);
+    for (auto& [writer, space] : spaces) d.writer_spaces[writer] = std::move(space);
+  }
   return entries;
 }
 
@@ -527,17 +718,20 @@ void DdsLink::withdraw(const std::string& name) {
   dds::ServiceEntry sample;
   sample.space(options_.space);
   sample.name(name);
-  const auto handle = impl_->catalog_writer->lookup_instance(&sample);
-  if (handle == fdds::HANDLE_NIL) return;
-  impl_->catalog_writer->dispose(&sample, handle);
-  impl_->catalog_writer->unregister_instance(&sample, handle);
+  // By key (HANDLE_NIL): Fast DDS 2.9's lookup_instance() finds no instance that write() made, so
+  // a withdrawal looked up first was never sent. An entry never announced is refused, harmlessly.
+  impl_->catalog_writer->dispose(&sample, fdds::HANDLE_NIL);
+  impl_->catalog_writer->unregister_instance(&sample, fdds::HANDLE_NIL);
 }
 
 planet::CallResult DdsLink::call(const std::string& space, const std::string& service, const std::string& operation,
                                  std::string payload, std::chrono::milliseconds deadline) {
   Impl& d = *impl_;
+  if (d.space_lost(space)) {
+    return planet::CallResult::error(planet::UNAVAILABLE, "the bridge of space " + space + " lost its liveliness");
+  }
   const auto until = Clock::now() + deadline;
-  const std::string id = options_.space + "/" + options_.bridge + "/" + std::to_string(d.next_id++);
+  const std::string id = d.next_request_id();
   auto pending = std::make_shared<Impl::Pending>();
   pending->space = space;
   auto answer = pending->promise.get_future();
@@ -571,7 +765,11 @@ planet::CallResult DdsLink::call(const std::string& space, const std::string& se
     forget();
     return planet::CallResult::error(planet::UNAVAILABLE, "the request to space " + space + " could not be written");
   }
-  if (answer.wait_until(until) != std::future_status::ready) {
+  // Whatever the outcome, nobody waits for this request any more: a replier matching later must
+  // not execute it, and the one that did may forget its reply.
+  const bool answered = answer.wait_until(until) == std::future_status::ready;
+  Impl::retire(writer, id, false);
+  if (!answered) {
     forget();
     return planet::CallResult::error(planet::DEADLINE_EXCEEDED, "no reply from space " + space + " for " + service +
                                                                     "." + operation + " within " +
@@ -583,6 +781,7 @@ planet::CallResult DdsLink::call(const std::string& space, const std::string& se
 bool DdsLink::oneway(const std::string& space, const std::string& service, const std::string& operation,
                      std::string payload) {
   Impl& d = *impl_;
+  if (d.space_lost(space)) return false;
   fdds::DataWriter* writer = nullptr;
   try {
     std::lock_guard lock(d.mutex);
@@ -592,13 +791,18 @@ bool DdsLink::oneway(const std::string& space, const std::string& service, const
   }
   if (!Impl::wait_matched(writer, Clock::now() + std::chrono::milliseconds(2000))) return false;
   dds::CallRequest request;
-  request.request_id(options_.space + "/" + options_.bridge + "/" + std::to_string(d.next_id++));
+  request.request_id(d.next_request_id());
   request.caller_space(options_.space);
   request.service(service);
   request.operation(operation);
   request.no_reply(true);
   request.payload(bytes_of(payload));
-  return writer->write(&request);
+  if (!writer->write(&request)) return false;
+  // No reply tells when it was served: it stays available to a replier matching late for as long
+  // as a replier would take it (kDefaultDeadline), then is retired.
+  std::lock_guard lock(d.mutex);
+  d.retire_later(writer, request.request_id(), false, Clock::now() + kDefaultDeadline);
+  return true;
 }
 
 }  // namespace urs::bridge

@@ -14,8 +14,8 @@ inline eprosima::fastrtps::Duration_t duration(std::chrono::milliseconds ms) {
 }
 
 // Keyed state: reliable, transient-local, keep-last 1 per instance (a late joiner gets every live
-// entry), automatic liveliness with the link's lease (a silent bridge's entries end within it),
-// room for every entry of every space (Fast DDS's default of 10 instances would silently refuse the
+// entry), manual-by-topic liveliness with the link's lease (a silent bridge's entries end within
+// it), room for every entry of every space (Fast DDS's default of 10 instances would silently refuse the
 // eleventh), and samples sized as they come: a preallocated pool would give every sample the
 // type's maximum size, tens of kB for an unbounded sequence.
 template <class Qos>
@@ -25,7 +25,12 @@ Qos keyed_state(Qos qos, std::chrono::milliseconds lease) {
   qos.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
   qos.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
   qos.history().depth = 1;
-  qos.liveliness().kind = fdds::AUTOMATIC_LIVELINESS_QOS;
+  // Not AUTOMATIC: Fast DDS 2.9 asserts every AUTOMATIC writer a reader tracks whenever any
+  // participant's writer asserts (eProsima/Fast-DDS#4373, fixed after 2.9), so
+  // a killed bridge's entries lived on as long as another bridge did, until its participant lease
+  // ran out. Manual-by-topic liveliness is tracked per writer; the writers assert it
+  // (LivelinessAsserter) and a reader asking for it only matches writers that offer it.
+  qos.liveliness().kind = fdds::MANUAL_BY_TOPIC_LIVELINESS_QOS;
   qos.liveliness().lease_duration = duration(lease);
   qos.resource_limits().max_instances = 100000;
   qos.resource_limits().max_samples_per_instance = 1;
@@ -35,11 +40,10 @@ Qos keyed_state(Qos qos, std::chrono::milliseconds lease) {
   return qos;
 }
 
-// The writers of keyed state also announce their liveliness four times a lease, and publish
-// asynchronously: a description or a context value may exceed one datagram.
+// The writers of keyed state publish asynchronously: a description or a context value may exceed
+// one datagram. Their owner has a LivelinessAsserter assert them four times a lease.
 inline eprosima::fastdds::dds::DataWriterQos keyed_state_writer(std::chrono::milliseconds lease) {
   auto qos = keyed_state(eprosima::fastdds::dds::DATAWRITER_QOS_DEFAULT, lease);
-  qos.liveliness().announcement_period = duration(lease / 4);
   qos.publish_mode().kind = eprosima::fastdds::dds::ASYNCHRONOUS_PUBLISH_MODE;
   return qos;
 }

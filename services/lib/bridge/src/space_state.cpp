@@ -159,8 +159,10 @@ void SpaceState::export_context(const planet::Event& event) {
     spdlog::warn("bridge: context change {} is not a ContextEntry; not shared", key);
     return;
   }
-  if (entry.origin().rfind(kImportedSource, 0) == 0) return;  // imported from another space
-  if (entry.value().has_null_value()) {         // removed (or expired)
+  // Imported from another space, removed (or expired), or now holding another space's value: no
+  // longer this space's to share. drop_context() ends only a key this bridge shared, so the
+  // removal of an imported key is never shared either.
+  if (entry.value().has_null_value() || entry.origin().rfind(kImportedSource, 0) == 0) {
     link_->drop_context(key);
     return;
   }

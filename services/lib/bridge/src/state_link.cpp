@@ -232,6 +232,8 @@ struct StateLink::Impl : public fdds::DataReaderListener {
         !context_reader || !pose_reader || !event_reader) {
       throw std::runtime_error("DDS: cannot create the state endpoints");
     }
+    link.keep_alive(component_writer);
+    link.keep_alive(context_writer);
     components_in.attach(component_reader, space);
     context_in.attach(context_reader, space);
     reader_thread =
@@ -249,6 +251,9 @@ struct StateLink::Impl : public fdds::DataReaderListener {
         }
       }
       participant->delete_subscriber(subscriber);
+    }
+    for (auto* writer : {component_writer, context_writer}) {
+      if (writer) link.let_go(writer);
     }
     if (publisher) {
       for (auto* writer : {component_writer, context_writer, pose_writer, event_writer}) {
@@ -460,20 +465,23 @@ void StateLink::drop_component(const std::string& name) {
 void StateLink::set_context(ContextState entry) {
   Impl& d = *impl_;
   if (entry.stamp == SystemClock::time_point{}) entry.stamp = SystemClock::now();
+  if (entry.value_json.empty()) return drop_context(entry.key);
   std::lock_guard lock(d.mutex);
   if (!d.write_context(entry)) spdlog::warn("dds: context entry {} could not be written", entry.key);
-  if (entry.value_json.empty()) {
-    d.context_out.erase(entry.key);
-  } else {
-    d.context_out[entry.key] = std::move(entry);
-  }
+  d.context_out[entry.key] = std::move(entry);
 }
 
-// A removed key is written with an empty value (a tombstone), as drop_component does.
+// A removed key is written with an empty value (a tombstone), as drop_component does; only a key
+// this link shared has one: any other removal (of a key it never wrote, e.g. one imported from
+// another space) is none of its business.
 void StateLink::drop_context(const std::string& key) {
+  Impl& d = *impl_;
+  std::lock_guard lock(d.mutex);
+  if (d.context_out.erase(key) == 0) return;
   ContextState removed;
   removed.key = key;
-  set_context(removed);
+  removed.stamp = SystemClock::now();
+  if (!d.write_context(removed)) spdlog::warn("dds: the removal of context entry {} could not be written", key);
 }
 
 bool StateLink::publish_event(const SpaceEvent& event) {

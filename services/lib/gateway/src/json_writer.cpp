@@ -1,6 +1,7 @@
 #include "urs/gateway/json_writer.hpp"
 
 #include "urs/schema/json.hpp"
+#include "urs/util/json_text.hpp"
 
 #include <charconv>
 #include <cmath>
@@ -31,7 +32,7 @@ JsonWriter& JsonWriter::close(char c) {
 
 JsonWriter& JsonWriter::key(std::string_view name) {
   separate();
-  out_ += schema::json_quote(name);
+  out_ += util::json_string(name);
   out_ += ':';
   after_key_ = true;
   return *this;
@@ -39,7 +40,7 @@ JsonWriter& JsonWriter::key(std::string_view name) {
 
 JsonWriter& JsonWriter::value(std::string_view text) {
   separate();
-  out_ += schema::json_quote(text);
+  out_ += util::json_string(text);
   return *this;
 }
 

@@ -4,6 +4,7 @@
 #include <memory>
 
 #include "urs/schema/schema.hpp"
+#include "urs/util/json_text.hpp"
 
 namespace urs::schema {
 
@@ -27,7 +28,7 @@ std::string payload_to_json(const SchemaPool* pool, const std::string& type, con
     std::string json;
     if (message && message->ParseFromString(payload) && message_to_json(*message, json).empty()) return json;
   }
-  return "{\"base64\":" + json_quote(base64(payload)) + "}";
+  return "{\"base64\":" + util::json_string(util::base64(payload)) + "}";
 }
 
 }  // namespace urs::schema

@@ -29,7 +29,9 @@
 //       context: robot1.pose        # optional: context entry set to each value (as JSON)
 //   dds:                            # link to other spaces over DDS (docs/federation.md)
 //     domain: 0
-//     lease_ms: 3000                # a silent bridge's services leave the others after this
+//     lease_ms: 3000                # a silent bridge's services and state leave the others after this
+//     participant_lease_ms: 20000   # a silent participant is dropped after this (>= lease_ms; no
+//                                   #   shorter than any peer's own lease: docs/federation.md)
 //     udp_only: false               # true between containers (no shared memory)
 //     socket_buffer_bytes: 4194304
 //     initial_peers: [bridge-kr]    # HOST or HOST:PORT, for networks without multicast
@@ -117,6 +119,7 @@ struct DdsConfig {
   bool enabled = false;
   uint32_t domain = 0;
   std::chrono::milliseconds lease{3000};
+  std::chrono::milliseconds participant_lease{20000};  // default: 20 s, or lease_ms if longer
   bool udp_only = false;
   uint32_t socket_buffer_bytes = 4u << 20;
   std::vector<std::string> initial_peers;

@@ -18,6 +18,7 @@
 #include "urs/planet/status.hpp"
 
 namespace eprosima::fastdds::dds {
+class DataWriter;
 class DomainParticipant;
 class DomainParticipantQos;
 }
@@ -28,8 +29,15 @@ struct DdsOptions {
   uint32_t domain = 0;
   std::string space;   // this space
   std::string bridge;  // this bridge's name
-  // How long a silent bridge (dead, cut off) keeps its entries in the others' catalogs.
+  // How long a silent bridge (dead, cut off) keeps its entries in the others' catalogs: its
+  // writers' liveliness lease (asserted four times a lease).
   std::chrono::milliseconds lease{3000};
+  // How long a silent participant stays discovered at the others (announced four times a
+  // `lease`), at least `lease`. Longer than `lease` on purpose: a peer that drops this participant
+  // while this one keeps the peer (its own lease being longer) is never sent this participant's
+  // endpoints again by Fast DDS 2.9, so it must be no shorter than other vendors' leases
+  // (Cyclone DDS: 10 s) for a pause or cut shorter than theirs to leave no one behind.
+  std::chrono::milliseconds participant_lease{10000};
   bool udp_only = false;                    // no shared memory (required between containers)
   uint32_t socket_buffer_bytes = 4u << 20;  // UDP send/receive buffers, for large samples
   uint32_t shm_segment_bytes = 8u << 20;    // shared-memory segment, when used
@@ -84,6 +92,11 @@ class DdsLink {
   const DdsOptions& options() const { return options_; }
   // The link's participant, for the other endpoints a space shares on it (StateLink).
   eprosima::fastdds::dds::DomainParticipant* participant() const;
+  // Asserts the liveliness of `writer`, a keyed-state writer of that participant (manual-by-topic
+  // liveliness with the link's lease), with the link's own, until let_go(writer); after let_go()
+  // returns, the writer may be deleted. Not from a DDS listener.
+  void keep_alive(eprosima::fastdds::dds::DataWriter* writer);
+  void let_go(eprosima::fastdds::dds::DataWriter* writer);
 
   // What the other spaces offer now: every live entry of the catalog (read from the reader's
   // cache, whose instances DDS keeps up to date), but those of bridges whose liveliness is lost.
@@ -94,7 +107,8 @@ class DdsLink {
   void withdraw(const std::string& name);
 
   // Calls a service of another space. UNAVAILABLE at once if no bridge of that space is matched
-  // (unknown, dead or unreachable space); PROVIDER_GONE if it leaves during the call;
+  // (unknown, dead or unreachable space) or every one of them lost its liveliness; PROVIDER_GONE
+  // if it leaves or loses it during the call;
   // DEADLINE_EXCEEDED when the deadline passes; otherwise the remote outcome.
   planet::CallResult call(const std::string& space, const std::string& service, const std::string& operation,
                           std::string payload, std::chrono::milliseconds deadline);

@@ -91,6 +91,8 @@ class StateLink {
   void set_component(ComponentState state);
   void drop_component(const std::string& name);
 
+  // This space's context entries: written when set; `drop` ends one this link shared (a tombstone)
+  // and ignores any other key, so a removal never shares a key that was not shared before.
   void set_context(ContextState entry);
   void drop_context(const std::string& key);
 

@@ -22,11 +22,6 @@ std::string json_to_message(const std::string& json, google::protobuf::Message& 
 // printed (even when 0/""/false). pretty: indented, multi-line. Returns "" on success.
 std::string message_to_json(const google::protobuf::Message& msg, std::string& out, bool pretty = false);
 
-// `text` as a JSON string literal (RFC 8259 escapes), quotes included. Bytes that are not UTF-8
-// are copied as they are.
-std::string json_quote(std::string_view text);
 
-// RFC 4648 base64 of `data` (with padding).
-std::string base64(std::string_view data);
 
 }  // namespace urs::schema

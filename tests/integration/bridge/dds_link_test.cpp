@@ -1,0 +1,141 @@
+// The DDS link between bridges (urs::bridge::DdsLink, StateLink) on real Fast DDS participants,
+// UDP only as between containers: what one space sees of another's catalog and state when that
+// space withdraws a service, or its bridge dies while others live on.
+
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <mutex>
+#include <set>
+
+#include "dds_domain.hpp"
+#include "process.hpp"
+#include "urs/bridge/dds_link.hpp"
+#include "urs/bridge/state_link.hpp"
+
+namespace urs::test {
+namespace {
+
+using namespace std::chrono_literals;
+using Clock = std::chrono::steady_clock;
+
+constexpr auto kLease = 1500ms;
+
+bridge::DdsOptions link_options(uint32_t domain, const std::string& space) {
+  bridge::DdsOptions options;
+  options.domain = domain;
+  options.space = space;
+  options.bridge = "bridge-" + space;
+  options.lease = kLease;
+  options.udp_only = true;
+  return options;
+}
+
+bridge::ServiceEntry entry_named(const std::string& name) {
+  bridge::ServiceEntry entry;
+  entry.name = name;
+  entry.interface_name = "URS.Diagnostic";
+  entry.descriptor_set = "a description";
+  return entry;
+}
+
+// A space's bridge in a process of its own: its link offers service "svc" and shares component
+// "robot" until the process is killed. Forked before this process makes any DDS entity or thread.
+pid_t bridge_process(uint32_t domain, const std::string& space) {
+  const pid_t child = fork();
+  if (child != 0) return child;
+  try {  // never back into the test runner
+    bridge::DdsLink link(link_options(domain, space), [] {}, [](bridge::IncomingCall, auto) {});
+    bridge::StateLink state(link, {}, std::nullopt);
+    link.announce(entry_named("svc"));
+    state.set_component({space, "robot", "rtc", "Active", "Robot", "host", {}});
+    while (true) pause();
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "bridge of %s: %s\n", space.c_str(), e.what());
+  }
+  _exit(1);
+}
+
+class LinkedSpaces : public ::testing::Test {
+ protected:
+  void TearDown() override {
+    for (pid_t pid : children_) {
+      kill(pid, SIGKILL);
+      waitpid(pid, nullptr, 0);
+    }
+  }
+  std::vector<pid_t> children_;
+};
+
+// Two other spaces' bridges live; one is killed. Its service and its state end within the
+// liveliness lease, not with its participant's lease (20 s by default), calls to it fail at once,
+// and the other's stay. With AUTOMATIC liveliness, Fast DDS 2.9 kept asserting the dead bridge's
+// writers as long as the other asserted its own: they ended only with the participant lease.
+TEST_F(LinkedSpaces, AKilledBridgesServicesAndStateEndWithinTheLeaseWhileAnotherLives) {
+  const DdsDomains domains;
+  children_.push_back(bridge_process(domains[0], "a"));
+  children_.push_back(bridge_process(domains[0], "b"));
+  std::mutex mutex;
+  std::set<std::string> components;  // "<space>/<name>" of the live ones
+  bridge::StateHandlers handlers;
+  handlers.component = [&](const bridge::ComponentState& c, bool alive) {
+    std::lock_guard lock(mutex);
+    if (alive) {
+      components.insert(c.space + "/" + c.name);
+    } else {
+      components.erase(c.space + "/" + c.name);
+    }
+  };
+  bridge::DdsLink seeing(link_options(domains[0], "r"), [] {}, [](bridge::IncomingCall, auto) {});
+  bridge::StateLink state(seeing, handlers, std::nullopt);
+  auto services = [&] {
+    std::set<std::string> found;
+    for (const auto& entry : seeing.catalog()) found.insert(entry.space + "/" + entry.name);
+    return found;
+  };
+  auto live_components = [&] {
+    std::lock_guard lock(mutex);
+    return components;
+  };
+  const std::set<std::string> both{"a/svc", "b/svc"};
+  ASSERT_TRUE(wait_until([&] { return services() == both; }, 20s));
+  ASSERT_TRUE(wait_until([&] { return live_components() == std::set<std::string>{"a/robot", "b/robot"}; }, 20s));
+
+  kill(children_[0], SIGKILL);
+  const auto killed = Clock::now();
+  EXPECT_TRUE(wait_until([&] { return services() == std::set<std::string>{"b/svc"}; }, 30s));
+  const auto ended = Clock::now() - killed;
+  EXPECT_TRUE(wait_until([&] { return live_components() == std::set<std::string>{"b/robot"}; }, 30s));
+  std::cout << "a's service ended " << std::chrono::duration_cast<std::chrono::milliseconds>(ended).count()
+            << " ms after the kill (lease " << kLease.count() << " ms)\n";
+  EXPECT_LT(ended, kLease * 4);
+  const auto refused = seeing.call("a", "svc", "echo", "", 5s);
+  EXPECT_EQ(refused.status, planet::UNAVAILABLE) << refused.message;
+  EXPECT_NE(refused.message.find("lost its liveliness"), std::string::npos) << refused.message;
+}
+
+// A service withdrawn in its space leaves the other spaces' catalogs while its bridge lives on,
+// and what that bridge announces afterwards still arrives.
+TEST(DdsCatalog, AWithdrawnEntryLeavesTheOtherSpaces) {
+  const DdsDomains domains;
+  bridge::DdsLink offering(link_options(domains[0], "a"), [] {}, [](bridge::IncomingCall, auto) {});
+  bridge::DdsLink seeing(link_options(domains[0], "b"), [] {}, [](bridge::IncomingCall, auto) {});
+  auto names = [&] {
+    std::set<std::string> found;
+    for (const auto& entry : seeing.catalog()) found.insert(entry.space + "/" + entry.name);
+    return found;
+  };
+  offering.announce(entry_named("first"));
+  ASSERT_TRUE(wait_until([&] { return names() == std::set<std::string>{"a/first"}; }, 10s));
+  offering.withdraw("first");
+  offering.announce(entry_named("second"));
+  EXPECT_TRUE(wait_until([&] { return names() == std::set<std::string>{"a/second"}; }, 10s))
+      << "seen: " << ::testing::PrintToString(names());
+  offering.withdraw("never announced");  // refused by DDS, harmlessly
+}
+
+}  // namespace
+}  // namespace urs::test
