@@ -10,7 +10,7 @@ namespace {
 TEST(JsonString, EscapesQuotesBackslashesAndControlCharacters) {
   EXPECT_EQ(json_string(""), "\"\"");
   EXPECT_EQ(json_string("a\"b\\c"), "\"a\\\"b\\\\c\"");
-  EXPECT_EQ(json_string(std::string("\n\t\x01\0", 4)), "\"\\u000a\\u0009\\u0001\\u0000\"");
+  EXPECT_EQ(json_string(std::string("\n\t\r\x01\0", 5)), "\"\\n\\t\\r\\u0001\\u0000\"");
   EXPECT_EQ(json_string("こんにちは"), "\"こんにちは\"");  // UTF-8 passes as it is
 }
 
