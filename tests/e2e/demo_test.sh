@@ -10,7 +10,7 @@ fail() { echo "demo_test: $1"; echo "---- demo output"; echo "$out"; exit 1; }
 [[ $rc -eq 0 ]] || fail "demo exited with $rc"
 expect() { grep -qE -- "$1" <<<"$out" || fail "missing: $1"; }
 expect '^diag +URS\.Diagnostic +[^ ]+ +sam@'
-expect 'echo\(URS\.Diagnostic_echo_Request\) -> URS\.Diagnostic_echo_Reply'
+expect '^  string echo\(in string text\);$'
 expect '^\{"result":"hello from the demo"\}$'
 expect 'USER_EXCEPTION URS\.Failure \{"reason":"battery low","code":7\}'
 expect 'DEADLINE_EXCEEDED'
