@@ -25,6 +25,7 @@ log = logging.getLogger("urslink")
 CLIENT = pl.CLIENT
 SAM = pl.SAM
 OPERATOR = pl.OPERATOR
+SEND_BUFFER_BYTES = 4 << 20   # written but not yet taken by the socket, before senders wait
 _ROLES = {"client": pl.CLIENT, "sam": pl.SAM, "operator": pl.OPERATOR}
 
 
@@ -192,6 +193,8 @@ class Client:
         self.max_pending_events = max_pending_events
 
         self.welcome = None         # of the current (or last) session, session_secret cleared
+        self.resumed = False        # whether the server resumed the previous session
+        self.sessions = 0           # Welcomes received
         self.last_error = ""
         self._secret = ""           # never logged
         self._open = False
@@ -213,6 +216,7 @@ class Client:
         self._runner = None
         self._stopping = False
         self._tasks = set()
+        self._last_rx = 0.0
 
     # ---- life cycle ------------------------------------------------------------------------------
 
@@ -298,6 +302,7 @@ class Client:
         request = pl.Request(service=service, operation=operation, payload=bytes(payload), oneway=oneway)
         future = None if oneway else loop.create_future()
         self._start_call(pl.Frame(request=request), "%s.%s" % (service, operation), future, max(0, deadline_ms))
+        await self._backpressure()
         if future is None:
             return None
         status, message, answer, exception_type = await future
@@ -469,7 +474,9 @@ class Client:
 
     async def publish(self, topic, payload=b"", content_type=""):
         """Publishes and waits for the server's acknowledgement; returns the event's seq."""
-        return await self.publish_nowait(topic, payload, content_type)
+        future = self.publish_nowait(topic, payload, content_type)
+        await self._backpressure()
+        return await future
 
     async def subscribe(self, pattern, callback=None, *, resume_after_seq=0):
         """Subscribes to `pattern` ("*" one level, trailing "#" any levels). Returns a Subscription
@@ -575,6 +582,7 @@ class Client:
         status, message, payload, exception_type = await agent._dispatch(request)
         if not request.oneway:
             self._reply(writer, request.call_id, status, message, payload, exception_type)
+            await self._backpressure()
 
     def _reply(self, writer, call_id, status, message="", payload=b"", exception_type=""):
         if writer is not self._writer or not self._open:
@@ -597,6 +605,15 @@ class Client:
             return False
         writer.write(encode(frame, self._send_chunk, self._new_message_id))
         return True
+
+    async def _backpressure(self):
+        """Waits while more than SEND_BUFFER_BYTES are waiting to be written to the socket."""
+        writer = self._writer
+        if writer is not None and writer.transport.get_write_buffer_size() > SEND_BUFFER_BYTES:
+            try:
+                await writer.drain()
+            except ConnectionError:
+                pass            # the read loop notices and reconnects
 
     def _new_message_id(self):
         self._message_ids += 1
@@ -679,6 +696,7 @@ class Client:
 
     def _on_welcome(self, welcome):
         resumed = bool(self._secret) and self._secret == welcome.session_secret
+        self.resumed = resumed
         self._secret = welcome.session_secret
         welcome.session_secret = ""
         self.welcome = welcome
@@ -687,6 +705,7 @@ class Client:
             self._send_chunk = min(self.chunk_bytes, welcome.chunk_bytes)
         self._max_frame = min(max(self.chunk_bytes, welcome.chunk_bytes), self.max_message_bytes)
         self._open = True
+        self.sessions += 1
         log.info("urslink: connected to %s (space '%s', server instance %s) as %s (role %s), %s session",
                  self.target, welcome.space, welcome.server_instance, welcome.identity,
                  pl.Role.Name(welcome.role), "resumed" if resumed else "new")
@@ -710,14 +729,26 @@ class Client:
         self._connected.set()
 
     async def _read_loop(self, reader):
-        timeout = (self.welcome.heartbeat_timeout_ms or 0) / 1000.0 or None
+        """Reads the session's frames; a server silent for Welcome.heartbeat_timeout_ms is dead
+        (checked by a watchdog, so that reading a frame costs no timer)."""
+        timeout_ms = self.welcome.heartbeat_timeout_ms
+        self._last_rx = time.monotonic()
+        reading = asyncio.ensure_future(self._read_frames(reader))
+        try:
+            while True:
+                done, _ = await asyncio.wait({reading}, timeout=timeout_ms / 4000.0 if timeout_ms else None)
+                if done:
+                    return reading.result()
+                if time.monotonic() - self._last_rx > timeout_ms / 1000.0:
+                    raise _Ended("heartbeat timeout after %d ms" % timeout_ms)
+        finally:
+            reading.cancel()
+
+    async def _read_frames(self, reader):
         reassembler = Reassembler(self.max_message_bytes)
         while True:
-            try:
-                frame = await asyncio.wait_for(read_frame(reader, self._max_frame), timeout)
-            except asyncio.TimeoutError:
-                raise _Ended("heartbeat timeout after %d ms" % (timeout * 1000)) from None
-            frame = reassembler.feed(frame)
+            frame = reassembler.feed(await read_frame(reader, self._max_frame))
+            self._last_rx = time.monotonic()   # any frame, chunks included, is a sign of life
             if frame is not None:
                 self._on_frame(frame)
 

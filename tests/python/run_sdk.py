@@ -56,6 +56,8 @@ class Space:
     """urs-camus-server, urs-sam (diag) and the example's Python agent, in a temporary folder."""
 
     def __init__(self, args):
+        for binary in ("server_bin", "sam_bin", "cli_bin"):
+            setattr(args, binary, os.path.abspath(getattr(args, binary)))
         self.args = args
         self.work = tempfile.mkdtemp(prefix="urslink-sdk-")
         self.port = free_port()
@@ -102,12 +104,14 @@ class Space:
             p.kill()
             p.wait()
 
-    def up(self):
+    def up(self, agent=True):
         self.start_server()
         if not wait_for(lambda: "listening on" in self.log("server"), 20):
             return "the server did not start"
         self.start("sam", [self.args.sam_bin, "--space", "sdk", "--server", self.server, "--config",
                            self.path("sam.yaml"), "--token-file", self.tokens["sam"], "--log-level", "info"])
+        if not agent:
+            return None if wait_for(lambda: "diag" in self.urs("ls").stdout, 30) else "the SAM did not register diag"
         self.start("agent", [PY, os.path.join(EXAMPLE, "thermostat_agent.py"), "--server", self.server,
                              "--token-file", self.tokens["sam"], "--room", "kitchen"])
         if not wait_for(lambda: "serving thermo" in self.log("agent") and self.urs_ok("ls"), 30):
@@ -328,10 +332,83 @@ async def check_reconnect(space):
         expect(event.payload == b"back", "the subscription was restored", event)
 
 
+class CuttableProxy:
+    """A TCP relay to the server whose connections the test can cut, as a network failure would."""
+
+    def __init__(self, target_port):
+        self.target_port = target_port
+        self.writers = []
+
+    async def start(self):
+        self.server = await asyncio.start_server(self.relay, "127.0.0.1", 0)
+        self.address = "127.0.0.1:%d" % self.server.sockets[0].getsockname()[1]
+
+    async def relay(self, reader, writer):
+        upstream_reader, upstream_writer = await asyncio.open_connection("127.0.0.1", self.target_port)
+        self.writers += [writer, upstream_writer]
+
+        async def pipe(source, sink):
+            try:
+                while True:
+                    data = await source.read(65536)
+                    if not data:
+                        break
+                    sink.write(data)
+            except (ConnectionError, OSError):
+                pass
+            finally:
+                sink.close()
+        await asyncio.gather(pipe(reader, upstream_writer), pipe(upstream_reader, writer))
+
+    def cut(self):
+        for writer in self.writers:
+            writer.transport.abort()
+        self.writers = []
+
+    async def close(self):
+        self.cut()
+        self.server.close()
+
+
+async def check_resume(space):
+    """A cut connection: the session is resumed with its secret; the registration carries over and
+    events published meanwhile are replayed to the subscription."""
+    proxy = CuttableProxy(space.port)
+    await proxy.start()
+    interface = urslink.Interface.from_idl(os.path.join(EXAMPLE, "Thermostat.idl"))
+
+    class Room(urslink.Agent):
+        def _get_room(self, request):
+            return "attic"
+    try:
+        async with urslink.Client(proxy.address, token_file=space.tokens["sam"], role="sam",
+                                  peer_name="sdk-resume") as agent_client:
+            await agent_client.serve("thermo-resume", Room(interface))
+            events = await agent_client.subscribe("sdk/resume/#")
+            async with urslink.Client(space.server, token_file=space.tokens["client"]) as caller:
+                room = await caller.proxy("thermo-resume")
+                expect((await room._get_room()).result == "attic", "the in-process agent answers")
+                proxy.cut()
+                for i in range(3):                  # published while the subscriber is cut off
+                    await caller.publish("sdk/resume/x", b"%d" % i)
+                for _ in range(200):
+                    if agent_client.sessions >= 2 and agent_client.connected:
+                        break
+                    await asyncio.sleep(0.05)
+                expect(agent_client.sessions >= 2 and agent_client.resumed, "the session was resumed",
+                       (agent_client.sessions, agent_client.resumed, agent_client.last_error))
+                got = [(await events.get(timeout=10)).payload for _ in range(3)]
+                expect(got == [b"0", b"1", b"2"], "events published meanwhile are replayed in order", got)
+                expect((await room._get_room(deadline_ms=5000)).result == "attic",
+                       "the registration carried over the resumed session")
+    finally:
+        await proxy.close()
+
+
 CHECKS = [("urs_call_python_agent", check_urs_call), ("python_client_example", check_example_client),
           ("python_client_diagnostic", check_diagnostic), ("python_client_context", check_context),
           ("python_client_credentials", check_credentials), ("python_client_queue", check_queue),
-          ("python_reconnect", check_reconnect)]
+          ("python_resume", check_resume), ("python_reconnect", check_reconnect)]
 
 
 def main():
