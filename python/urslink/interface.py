@@ -90,12 +90,13 @@ class Interface:
             name = package + "." + name if package else name
         return name
 
-    def exception(self, name, **fields):
+    def exception(self, name, _message="", **fields):
         """A UserException of the IDL exception `name` ("OutOfRange" in the interface's module, or
-        a full name) with these fields, to raise from an agent."""
+        a full name) with these fields, to raise from an agent. `_message` is the Reply's text
+        (default: the type and its fields), as a C++ agent's Outcome::raise(exception, message)."""
         full = self._exception_type(name)
         value = self.message_class(full)(**fields)
-        return UserException(full, value.SerializeToString(), value=value)
+        return UserException(full, value.SerializeToString(), _message, value)
 
     def decode_exception(self, type_name, payload, message=""):
         """A UserException for a Reply with USER_EXCEPTION, its value decoded when the type is known."""

@@ -5,6 +5,8 @@ example's Python agent serving Demo.Thermostat:
 
   - the Python agent called with `urs call` (the C++ CLI encodes JSON from the registered description)
     and with the example's Python client;
+  - a Python agent serving URS.Diagnostic from the server's description, answering `urs call` as
+    the C++ agent does;
   - the Python client calling the C++ diagnostic agent: results, chunked payloads both ways,
     declared exceptions, deadlines, oneways and their events, errors, the registry, context, tasks;
   - an RT consumer (`urs rtc call`, CORBA) calling the Python agent through urs-bridge;
@@ -248,6 +250,39 @@ async def check_diagnostic(space):
         expect(tasks is not None, "task_list()")
 
 
+async def check_transparency(space):
+    """A Python agent serving URS.Diagnostic (described by the server, no IDL file) answers `urs call`
+    as the C++ diagnostic agent does: same output and exit status, exceptions included."""
+    async with urslink.Client(space.server, token_file=space.tokens["sam"], role="sam") as client:
+        interface = await client.describe(interface="URS.Diagnostic")
+
+        class PyDiag(urslink.Agent):
+            def echo(self, request):
+                return request.text
+
+            def add(self, request):
+                return request.a + request.b
+
+            def fail(self, request):
+                raise interface.exception("Failure", "Failure: " + request.reason, reason=request.reason,
+                                          code=request.code)
+
+        await client.serve("pydiag", PyDiag(interface), deadline_ms=5000)
+        loop = asyncio.get_running_loop()
+        for argv in (("echo", '{"text": "héllo"}'), ("add", '{"a": 1.5, "b": 2}'),
+                     ("fail", '{"reason": "broken", "code": 7}'), ("fail", '{"reason": "x", "code": "y"}'),
+                     ("checksum", "{}")):
+            native, python = [await loop.run_in_executor(None, lambda s=service: space.urs("call", s, *argv))
+                              for service in ("diag", "pydiag")]
+            if argv[0] == "checksum":   # not implemented by PyDiag
+                expect(python.returncode != 0 and "UNKNOWN_OPERATION" in python.stdout,
+                       "an operation the agent lacks is UNKNOWN_OPERATION", python.stdout)
+                continue
+            expect((native.returncode, native.stdout) == (python.returncode, python.stdout.replace("pydiag", "diag")),
+                   "urs call %s: the Python agent answers as the C++ one" % " ".join(argv),
+                   (native.returncode, native.stdout, python.returncode, python.stdout))
+
+
 async def check_context(space):
     """Context get/set/ls/delete with an operator credential."""
     async with urslink.Client(space.server, token_file=space.tokens["operator"], role="operator") as op:
@@ -449,7 +484,8 @@ class Skip(Exception):
 
 
 CHECKS = [("urs_call_python_agent", check_urs_call), ("python_client_example", check_example_client),
-          ("python_client_diagnostic", check_diagnostic), ("python_client_context", check_context),
+          ("python_client_diagnostic", check_diagnostic), ("python_agent_as_cpp_agent", check_transparency),
+          ("python_client_context", check_context),
           ("python_client_credentials", check_credentials), ("python_client_queue", check_queue),
           ("python_resume", check_resume), ("python_rt_consumer_via_bridge", check_rt_consumer),
           ("python_reconnect", check_reconnect)]
