@@ -223,7 +223,7 @@ class Client:
     async def start(self, wait=True, timeout=None):
         """Starts connecting (and reconnecting). With `wait`, returns once the first session is
         open, or raises PlanetError UNAVAILABLE with the last error after `timeout` seconds
-        (default: queue_timeout)."""
+        (default: queue_timeout); the client then keeps trying until close()."""
         if self._runner is None:
             self._connected = asyncio.Event()
             self._runner = asyncio.get_running_loop().create_task(self._run())
@@ -232,6 +232,8 @@ class Client:
         return self
 
     async def wait_connected(self, timeout=None):
+        if self._connected is None:
+            raise PlanetError(pl.UNAVAILABLE, "client not started: await start() first")
         try:
             await asyncio.wait_for(self._connected.wait(), timeout if timeout is not None else self.queue_timeout)
         except asyncio.TimeoutError:
@@ -260,7 +262,11 @@ class Client:
         self._subscriptions.clear()
 
     async def __aenter__(self):
-        return await self.start()
+        try:
+            return await self.start()
+        except BaseException:
+            await self.close()      # no session: stop retrying, the block does not run
+            raise
 
     async def __aexit__(self, *exc):
         await self.close()

@@ -284,7 +284,7 @@ async def check_transparency(space):
 
 
 async def check_context(space):
-    """Context get/set/ls/delete with an operator credential."""
+    """Context get/set/ls/delete and tasks with an operator credential."""
     async with urslink.Client(space.server, token_file=space.tokens["operator"], role="operator") as op:
         entry = await op.context_set("sdk/room", {"name": "kitchen", "size": 12})
         expect(entry.source == "sdk-operator" and entry.version >= 1, "context_set returns the entry", entry)
@@ -292,6 +292,20 @@ async def check_context(space):
         expect(urslink.value_of(got) == {"name": "kitchen", "size": 12}, "context_get", urslink.value_of(got))
         keys = [e.key for e in await op.context_ls("sdk/*")]
         expect(keys == ["sdk/room"], "context_ls", keys)
+        # A task whose step calls the Python agent (the server encodes its args with the registered description).
+        definition = await op.task_define("sdk-warm", "steps:\n  - call: {service: thermo, operation: setTarget, "
+                                          "args: {celsius: 23.5}, deadline_ms: 5000}\n")
+        expect(definition.name == "sdk-warm", "task_define", definition)
+        run = await op.task_run("sdk-warm")
+        for _ in range(100):
+            run = await op.task_status(run.run_id)
+            if run.state != "running":
+                break
+            await asyncio.sleep(0.05)
+        expect(run.state == "succeeded", "the task's call to the Python agent succeeded", run)
+        thermo = await op.proxy("thermo")
+        expect((await thermo.read()).result.target == 23.5, "the task set the Python agent's target")
+        expect("sdk-warm" in [t.name for t in (await op.task_list()).tasks], "task_list has the task")
         await op.context_delete("sdk/room")
         try:
             await op.context_get("sdk/room")
