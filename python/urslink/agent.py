@@ -1,5 +1,6 @@
 """Serving an IDL interface from Python: an Agent answers the operations of its Interface by
 method name (docs/sdk.md)."""
+import asyncio
 import contextvars
 import inspect
 import logging
@@ -37,12 +38,13 @@ class Agent:
         def setTarget(self, request):            # request: the operation's Request message
             ...                                   # return the Reply message, a dict of its fields,
                                                   # the value of its `result` field, or None
-    Handlers may be coroutine functions. A plain function runs on the event loop: it must not
-    block (await asyncio.to_thread(...) for slow work). Raise `self.interface.exception("Name",
+    Handlers may be coroutine functions. A plain function runs on the event loop and must not
+    block, unless the class sets `blocking = True`: then plain handlers run in worker threads. Raise `self.interface.exception("Name",
     field=...)` for a declared IDL exception, PlanetError for a Planet status; any other exception
     answers INTERNAL. Attributes are operations too: `_get_x` / `_set_x`."""
 
     interface = None
+    blocking = False    # True: plain (non-async) handlers run in worker threads (asyncio.to_thread)
 
     def __init__(self, interface=None):
         if interface is not None:
@@ -82,7 +84,11 @@ class Agent:
                     b"", "")
         token = _current.set(CallInfo(request))
         try:
-            result = handler(parsed)
+            if self.blocking and not inspect.iscoroutinefunction(handler):
+                # contextvars are copied into the worker thread: current_call() works there too
+                result = await asyncio.to_thread(handler, parsed)
+            else:
+                result = handler(parsed)
             if inspect.isawaitable(result):
                 result = await result
             reply = _to_reply(method.reply, result)

@@ -183,6 +183,21 @@ class AgentTest(unittest.TestCase):
         self.assertEqual(status, pl.BAD_ARGUMENTS)
 
 
+    def test_blocking_handlers_run_in_threads(self):
+        import threading
+
+        class Slow(urslink.Agent):
+            blocking = True
+
+            def _get_room(self, request):
+                return "%s %s" % (threading.current_thread() is threading.main_thread(),
+                                  urslink.current_call().operation)
+
+        status, _, payload, _ = self.dispatch(Slow(self.interface), "_get_room")
+        self.assertEqual(status, pl.OK)
+        self.assertEqual(self.interface.methods["_get_room"].reply.FromString(payload).result, "False _get_room")
+
+
 class ScriptedServer:
     """A loopback server answering the first Hello with `answer(hello)` and then running `script`."""
 
