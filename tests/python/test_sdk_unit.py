@@ -2,10 +2,11 @@
 """Unit tests of the Python SDK (python/urslink) without a server: framing and chunk reassembly
 with their limits, interfaces built from IDL at run time, an agent's dispatch (results, declared
 exceptions, errors), and a Client speaking to a scripted server on loopback (handshake, Pings,
-Refused, heartbeat timeout, a malformed frame).
+Refused, heartbeat timeout, an oversized frame, a call lost with its connection).
 
   python3 -m unittest tests/python/test_sdk_unit.py   (from the repository root)"""
 import asyncio
+import logging
 import os
 import struct
 import sys
@@ -21,6 +22,7 @@ from urslink import planet_pb2 as pl  # noqa: E402
 from urslink.wire import ProtocolError, Reassembler, encode, read_frame  # noqa: E402
 
 THERMOSTAT = os.path.join(ROOT, "examples", "python", "Thermostat.idl")
+logging.getLogger("urslink").setLevel(logging.CRITICAL)   # the tests read last_error, not the log
 
 
 def split(data):
@@ -295,6 +297,29 @@ class ClientTest(unittest.TestCase):
         self.assertGreaterEqual(len(hellos), 2)
         self.assertEqual(hellos[1].session_secret, "s" * 64)
         self.assertIn("heartbeat timeout after 200 ms", error)
+
+    def test_oversized_frame_from_the_server_is_refused_before_reading_it(self):
+        async def script(server, reader, writer):
+            writer.write(struct.pack(">I", 1 << 30))     # announces 1 GiB, sends nothing more
+            goodbye = await read_frame(reader, 65536)
+            server.goodbye = goodbye.goodbye
+            await reader.read()
+
+        async def run():
+            async with ScriptedServer(welcome, script) as server:
+                client = urslink.Client(server.address, token="x", reconnect_min=1, reconnect_max=1)
+                await client.start(timeout=5)
+                for _ in range(100):
+                    if hasattr(server, "goodbye"):
+                        break
+                    await asyncio.sleep(0.02)
+                error = client.last_error
+                await client.close()
+                return server, error
+        server, error = asyncio.run(run())
+        self.assertEqual(server.goodbye.status, pl.PAYLOAD_TOO_LARGE)
+        self.assertIn("frame of 1073741824 bytes exceeds the limit of 65536 bytes", server.goodbye.reason)
+        self.assertIn("protocol error: frame of 1073741824 bytes", error)
 
     def test_call_lost_with_the_connection(self):
         async def script(server, reader, writer):
