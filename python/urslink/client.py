@@ -48,14 +48,14 @@ def read_token_file(path):
 
 
 class _Call:
-    __slots__ = ("frame", "label", "future", "deadline_ms", "timer", "sent", "oneway")
+    __slots__ = ("frame", "label", "future", "deadline_ms", "expires", "sent", "oneway")
 
     def __init__(self, frame, label, future, deadline_ms, oneway):
         self.frame = frame          # the Request frame until sent
         self.label = label          # "service.operation"
         self.future = future        # None for oneways
         self.deadline_ms = deadline_ms
-        self.timer = None
+        self.expires = 0.0         # monotonic time of the local deadline (or of the queue timeout)
         self.sent = False
         self.oneway = oneway
 
@@ -326,11 +326,12 @@ class Client:
         self._next_call_id += 1
         frame.request.call_id = cid
         call = _Call(frame, label, future, deadline_ms, frame.request.oneway)
-        call.deadline_ms = deadline_ms
-        expires = deadline_ms / 1000.0 if deadline_ms > 0 else self.queue_timeout
-        call.timer = time.monotonic() + expires
+        # Without a deadline the local timer bounds only the wait for a connection: once sent, the
+        # server answers by the service's deadline (docs/planet.md, "Calls and deadlines").
+        wait = deadline_ms / 1000.0 if deadline_ms > 0 else self.queue_timeout
+        call.expires = time.monotonic() + wait
         if future is not None:
-            handle = asyncio.get_running_loop().call_later(expires, self._on_deadline, cid)
+            handle = asyncio.get_running_loop().call_later(wait, self._on_deadline, cid)
             future.add_done_callback(lambda _f, h=handle: h.cancel())
         self._calls[cid] = call
         if self._open and (not self._queue or jump_queue) and self._send_call(cid):
@@ -346,7 +347,7 @@ class Client:
         if call.oneway or call.deadline_ms == 0:
             request.deadline_ms = 0
         else:
-            request.deadline_ms = max(1, int((call.timer - time.monotonic()) * 1000))
+            request.deadline_ms = max(1, int((call.expires - time.monotonic()) * 1000))
         size = call.frame.ByteSize()
         if self._send_limit and size > self._send_limit:
             del self._calls[cid]
