@@ -9,6 +9,7 @@
 #   share/urslink/tasks/          the CAMUS server's task files
 #   share/urslink/fastdds-udp.xml the Fast DDS profile for spaces on networks without shared memory
 #   share/urslink/web/            urs-gateway's dashboard (static files)
+#   share/urslink/python/urslink/ the Python SDK (docs/sdk.md): PYTHONPATH=<prefix>/share/urslink/python
 #   share/doc/urslink/examples/   the out-of-tree example project
 
 # Programs. A new program joins this list (and so the package, the .deb and the images).
@@ -34,7 +35,10 @@ install(DIRECTORY ${PROJECT_SOURCE_DIR}/services/camus-server/tasks/ DESTINATION
         FILES_MATCHING PATTERN "*.yaml")
 install(FILES ${PROJECT_SOURCE_DIR}/compose/fastdds-udp.xml DESTINATION ${URS_INSTALL_DATADIR})
 install(DIRECTORY ${PROJECT_SOURCE_DIR}/services/gateway/web/ DESTINATION ${URS_INSTALL_DATADIR}/web)
-install(DIRECTORY ${PROJECT_SOURCE_DIR}/examples/ DESTINATION ${CMAKE_INSTALL_DOCDIR}/examples)
+install(DIRECTORY ${PROJECT_SOURCE_DIR}/examples/ DESTINATION ${CMAKE_INSTALL_DOCDIR}/examples
+        PATTERN "__pycache__" EXCLUDE)
+install(DIRECTORY ${PROJECT_SOURCE_DIR}/python/urslink DESTINATION ${URS_INSTALL_DATADIR}/python
+        FILES_MATCHING PATTERN "*.py" PATTERN "__pycache__" EXCLUDE)
 
 # find_package(urslink): the exported libraries as urslink::<name>, their dependencies, and the
 # IDL functions of idl/PlanetIdl.cmake.
@@ -58,7 +62,8 @@ install(FILES ${PROJECT_BINARY_DIR}/urslinkConfig.cmake ${PROJECT_BINARY_DIR}/ur
 # The .deb: `cpack -G DEB` in the build folder writes urslink_<version>_<arch>.deb, installing
 # under /usr. Depends: the Debian packages of the shared libraries the programs link (found by
 # dpkg-shlibdeps), plus what they run or read: omniidl and Python for loading IDL at run time,
-# the speech devices' data. Building against the package needs the -dev packages in Suggests.
+# the speech devices' data. Building against the package needs the -dev packages in Suggests;
+# the Python SDK needs python3-protobuf (and protobuf-compiler to load IDL files).
 set(CPACK_PACKAGE_NAME urslink)
 set(CPACK_PACKAGE_VENDOR "URSLink")
 set(CPACK_PACKAGE_CONTACT "URSLink maintainers <urslink@localhost>")
@@ -78,5 +83,5 @@ set(CPACK_DEBIAN_PACKAGE_GENERATE_SHLIBS ON)
 set(CPACK_DEBIAN_PACKAGE_DEPENDS "omniidl, python3, espeak-ng-data, pocketsphinx-en-us")
 set(CPACK_DEBIAN_PACKAGE_RECOMMENDS "omniorb-nameserver")
 set(CPACK_DEBIAN_PACKAGE_SUGGESTS
-    "cmake, pkg-config, g++, libprotobuf-dev, protobuf-compiler, libspdlog-dev, libyaml-cpp-dev, libomniorb4-dev")
+    "python3-protobuf, cmake, pkg-config, g++, libprotobuf-dev, protobuf-compiler, libspdlog-dev, libyaml-cpp-dev, libomniorb4-dev")
 include(CPack)

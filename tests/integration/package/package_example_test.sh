@@ -3,8 +3,9 @@
 # programs load the package's libraries from the prefix (RUNPATH $ORIGIN/../lib) and not from the
 # build tree, builds examples/cpp/minimal against the prefix with find_package(urslink), hosts its
 # Greeter agent on the installed urs-camus-server and calls it with the installed urs: a greeting,
-# the declared exception, and the count. As root, also checks that the installed urs-bridge loads
-# IDL at run time with the installed omniidl back-end while the sources' one is hidden.
+# the declared exception, and the count; imports the installed Python SDK, which loads an IDL file.
+# As root, also checks that the installed urs-bridge loads IDL at run time with the installed
+# omniidl back-end while the sources' one is hidden.
 set -uo pipefail
 root=$1
 build=$2
@@ -37,6 +38,11 @@ for program in urs-camus-server urs-sam urs-rtc-manager urs urs-bridge urs-lab; 
 done
 [[ -f "$prefix/lib/cmake/urslink/urslinkConfig.cmake" ]] || fail "no lib/cmake/urslink/urslinkConfig.cmake"
 [[ -f "$prefix/share/urslink/idl/omniidl_planet/planet_proto.py" ]] || fail "no omniidl back-end in share/urslink/idl"
+# The Python SDK from the prefix: it finds the installed omniidl back-end by itself.
+PYTHONPATH="$prefix/share/urslink/python" env -u URS_OMNIIDL_BACKEND_DIR /usr/bin/python3 -c \
+  'import sys, urslink; print(urslink.Interface.from_idl(sys.argv[1]).name)' "$root/examples/python/Thermostat.idl" \
+  >"$work/python-sdk.log" 2>&1 && grep -qx Demo.Thermostat "$work/python-sdk.log" ||
+  fail "the installed Python SDK (share/urslink/python) cannot load an IDL file: $(cat "$work/python-sdk.log")"
 
 # Every URSLink library an installed program or library needs resolves inside the prefix.
 for file in "$prefix"/bin/* "$prefix"/lib/liburslink_*.so.*.*; do
