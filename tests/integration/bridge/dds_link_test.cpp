@@ -8,6 +8,7 @@
 #include <unistd.h>
 
 #include <cstdio>
+#include <future>
 #include <mutex>
 #include <set>
 
@@ -135,6 +136,27 @@ TEST(DdsCatalog, AWithdrawnEntryLeavesTheOtherSpaces) {
   EXPECT_TRUE(wait_until([&] { return names() == std::set<std::string>{"a/second"}; }, 10s))
       << "seen: " << ::testing::PrintToString(names());
   offering.withdraw("never announced");  // refused by DDS, harmlessly
+}
+
+// A call to a space whose bridge is not matched yet waits for it, woken by the request writer's
+// match (no polling), and is answered once it is there; a space nobody serves is UNAVAILABLE after
+// the match wait (not DEADLINE_EXCEEDED).
+TEST(DdsCalls, ACallWaitsForItsSpacesBridgeToMatchAndOnlyThatLong) {
+  const DdsDomains domains;
+  bridge::DdsLink calling(link_options(domains[0], "a"), [] {}, [](bridge::IncomingCall, auto) {});
+  auto answer = std::async(std::launch::async, [&] { return calling.call("late", "svc", "echo", "ping", 10s); });
+  bridge::DdsLink late(link_options(domains[0], "late"), [] {},
+                       [](bridge::IncomingCall call, std::function<void(planet::CallResult)> reply) {
+                         reply(planet::CallResult::success(call.operation + ":" + call.payload));
+                       });
+  ASSERT_EQ(answer.wait_for(30s), std::future_status::ready);
+  const auto result = answer.get();
+  EXPECT_EQ(result.status, planet::OK) << result.message;
+  EXPECT_EQ(result.payload, "echo:ping");
+
+  const auto nobody = calling.call("nobody", "svc", "echo", "", 10s);
+  EXPECT_EQ(nobody.status, planet::UNAVAILABLE) << nobody.message;
+  EXPECT_NE(nobody.message.find("no bridge of it matched"), std::string::npos) << nobody.message;
 }
 
 }  // namespace

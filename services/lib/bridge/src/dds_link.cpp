@@ -66,6 +66,13 @@ constexpr int32_t kRpcInFlight = 4096;
 // oneway request stays available to a replier that matches late: requests carry their deadline,
 // oneway ones none.
 constexpr std::chrono::milliseconds kDefaultDeadline{10000};
+// How long a call to a space waits for its request writer to match a bridge of that space
+// (discovery, for the first call to it). The wait is on a condition variable the writer's
+// matched-status listener signals, on a DDS listener thread: so call() and oneway() never run on
+// one (nor on a Planet client's I/O thread, which they would hold up). The bridge calls them from
+// its agent host's workers (PlanetProxyAgent) and CORBA's threads; what arrives over DDS
+// (serve_remote) is only dispatched or sent on asynchronously.
+constexpr std::chrono::milliseconds kMatchWait{2000};
 // Executed request ids remembered at most (the oldest forgotten first).
 constexpr std::size_t kRememberedRequests = 65536;
 
@@ -115,17 +122,33 @@ struct DdsLink::Impl : public fdds::DataReaderListener {
     std::string space;
     std::promise<planet::CallResult> promise;
   };
-  // Notices a request writer losing its last reader: the target space's bridge left.
+  // Follows a request writer's matched readers: wakes the callers waiting for the first one
+  // (wait_matched), and notices the writer losing its last: the target space's bridge left.
   class RequestWriterListener : public fdds::DataWriterListener {
    public:
     RequestWriterListener(Impl& impl, std::string space) : impl_(impl), space_(std::move(space)) {}
     void on_publication_matched(fdds::DataWriter*, const fdds::PublicationMatchedStatus& status) override {
+      {
+        // Never held while DDS is called: this may run holding DDS's own locks.
+        std::lock_guard lock(mutex_);
+        matched_ = status.current_count;
+      }
+      matched_changed_.notify_all();
       if (status.current_count == 0 && status.current_count_change < 0) impl_.fail_pending(space_);
+    }
+    // Waits until the writer has a matched reader, or `until`. Blocks: never on a DDS listener
+    // thread (the match it waits for would be reported on such a thread).
+    bool wait_matched(Clock::time_point until) {
+      std::unique_lock lock(mutex_);
+      return matched_changed_.wait_until(lock, until, [this] { return matched_ > 0; });
     }
 
    private:
     Impl& impl_;
-    std::string space_;
+    const std::string space_;
+    std::mutex mutex_;
+    std::condition_variable matched_changed_;
+    int32_t matched_ = 0;  // readers matched now
   };
 
   Impl(const DdsOptions& options, CatalogHandler on_catalog, CallHandler on_call)
@@ -160,8 +183,12 @@ struct DdsLink::Impl : public fdds::DataReaderListener {
 
   std::mutex mutex;  // guards the maps below and entity creation
   std::map<std::string, fdds::Topic*> topics;
-  std::map<std::string, fdds::DataWriter*> request_writers;  // by target space
-  std::map<std::string, fdds::DataWriter*> reply_writers;    // by caller space
+  struct RequestRoute {
+    fdds::DataWriter* writer = nullptr;
+    RequestWriterListener* listener = nullptr;  // owned by writer_listeners
+  };
+  std::map<std::string, RequestRoute> request_writers;     // by target space
+  std::map<std::string, fdds::DataWriter*> reply_writers;  // by caller space
   std::vector<std::unique_ptr<RequestWriterListener>> writer_listeners;
   std::map<std::string, std::shared_ptr<Pending>> pending;  // by request id
   std::atomic<uint64_t> next_id{1};
@@ -244,15 +271,18 @@ struct DdsLink::Impl : public fdds::DataReaderListener {
   static fdds::DataReaderQos rpc_reader_qos() { return rpc_qos(fdds::DATAREADER_QOS_DEFAULT); }
 
   // Caller holds `mutex`.
-  fdds::DataWriter* request_writer(const std::string& space) {
+  RequestRoute request_writer(const std::string& space) {
     auto it = request_writers.find(space);
     if (it != request_writers.end()) return it->second;
-    writer_listeners.push_back(std::make_unique<RequestWriterListener>(*this, space));
-    fdds::DataWriter* writer = publisher->create_datawriter(topic(request_topic(space), request_type), rpc_writer_qos(),
-                                                            writer_listeners.back().get());
+    // The listener is the writer's from its creation on: no match goes unreported.
+    auto listener = std::make_unique<RequestWriterListener>(*this, space);
+    fdds::DataWriter* writer =
+        publisher->create_datawriter(topic(request_topic(space), request_type), rpc_writer_qos(), listener.get());
     if (writer == nullptr) throw std::runtime_error("DDS: cannot write requests to space " + space);
-    request_writers[space] = writer;
-    return writer;
+    RequestRoute route{writer, listener.get()};
+    writer_listeners.push_back(std::move(listener));
+    request_writers[space] = route;
+    return route;
   }
   fdds::DataWriter* reply_writer(const std::string& space) {
     auto it = reply_writers.find(space);
@@ -292,17 +322,6 @@ struct DdsLink::Impl : public fdds::DataReaderListener {
 
   std::string next_request_id() {
     return options.space + "/" + options.bridge + "/" + run + "/" + std::to_string(next_id++);
-  }
-
-  // Waits until `writer` has a matched reader, or `until`.
-  static bool wait_matched(fdds::DataWriter* writer, Clock::time_point until) {
-    while (true) {
-      fdds::PublicationMatchedStatus status;
-      writer->get_publication_matched_status(status);
-      if (status.current_count > 0) return true;
-      if (Clock::now() >= until) return false;
-      std::this_thread::sleep_for(std::chrono::milliseconds(1));
-    }
   }
 
   void fail_pending(const std::string& space) {
@@ -735,20 +754,21 @@ planet::CallResult DdsLink::call(const std::string& space, const std::string& se
   auto pending = std::make_shared<Impl::Pending>();
   pending->space = space;
   auto answer = pending->promise.get_future();
-  fdds::DataWriter* writer = nullptr;
+  Impl::RequestRoute route;
   try {
     std::lock_guard lock(d.mutex);
-    writer = d.request_writer(space);
+    route = d.request_writer(space);
     d.pending[id] = pending;
   } catch (const std::exception& e) {
     return planet::CallResult::error(planet::UNAVAILABLE, e.what());
   }
+  fdds::DataWriter* writer = route.writer;
   auto forget = [&] {
     std::lock_guard lock(d.mutex);
     d.pending.erase(id);
   };
   // A writer made for this call waits for discovery; a known space's is matched already.
-  if (!Impl::wait_matched(writer, std::min(until, Clock::now() + std::chrono::milliseconds(2000)))) {
+  if (!route.listener->wait_matched(std::min(until, Clock::now() + kMatchWait))) {
     forget();
     return planet::CallResult::error(planet::UNAVAILABLE, "space " + space + " is not reachable over DDS (no bridge of it matched)");
   }
@@ -782,14 +802,15 @@ bool DdsLink::oneway(const std::string& space, const std::string& service, const
                      std::string payload) {
   Impl& d = *impl_;
   if (d.space_lost(space)) return false;
-  fdds::DataWriter* writer = nullptr;
+  Impl::RequestRoute route;
   try {
     std::lock_guard lock(d.mutex);
-    writer = d.request_writer(space);
+    route = d.request_writer(space);
   } catch (const std::exception&) {
     return false;
   }
-  if (!Impl::wait_matched(writer, Clock::now() + std::chrono::milliseconds(2000))) return false;
+  if (!route.listener->wait_matched(Clock::now() + kMatchWait)) return false;
+  fdds::DataWriter* writer = route.writer;
   dds::CallRequest request;
   request.request_id(d.next_request_id());
   request.caller_space(options_.space);
