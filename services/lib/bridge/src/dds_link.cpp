@@ -157,6 +157,8 @@ struct DdsLink::Impl : public fdds::DataReaderListener {
   const DdsOptions& options;
   CatalogHandler on_catalog;
   CallHandler on_call;
+  const std::string request_name = request_topic(options.space);  // this space's requests
+  const std::string reply_name = reply_topic(options.space);      // replies to this space's calls
   // Part of every request id: ids stay unique across restarts of this bridge, so a replier that
   // remembers an earlier run's id never takes a new call for a duplicate.
   const std::string run = [] {
@@ -345,12 +347,17 @@ struct DdsLink::Impl : public fdds::DataReaderListener {
 
   // ---- reading ----
 
+  // The listeners run on DDS threads from the moment each reader exists, while the constructor is
+  // still assigning the endpoint members: they know a reader by its topic, never by those members.
+  static const std::string& topic_of(fdds::DataReader* reader) { return reader->get_topicdescription()->get_name(); }
+
   void on_data_available(fdds::DataReader* reader) override {
-    if (reader == catalog_reader || reader == interface_reader) {
+    const std::string& name = topic_of(reader);
+    if (name == kCatalogTopic || name == kInterfaceTopic) {
       on_catalog();  // the entries stay in the readers' caches: catalog() reads them
-    } else if (reader == request_reader) {
+    } else if (name == request_name) {
       read_requests(reader);
-    } else if (reader == reply_reader) {
+    } else if (name == reply_name) {
       read_replies(reader);
     }
   }
@@ -378,7 +385,7 @@ struct DdsLink::Impl : public fdds::DataReaderListener {
   }
 
   void on_subscription_matched(fdds::DataReader* reader, const fdds::SubscriptionMatchedStatus& status) override {
-    if (reader != catalog_reader) return;
+    if (topic_of(reader) != kCatalogTopic) return;
     if (status.current_count_change != 0) writer_state(status.last_publication_handle, status.current_count_change > 0);
     if (status.current_count_change < 0) {
       std::lock_guard lock(catalog_mutex);
@@ -386,7 +393,7 @@ struct DdsLink::Impl : public fdds::DataReaderListener {
     }
   }
   void on_liveliness_changed(fdds::DataReader* reader, const fdds::LivelinessChangedStatus& status) override {
-    if (reader != catalog_reader) return;
+    if (topic_of(reader) != kCatalogTopic) return;
     if (status.not_alive_count_change > 0) writer_state(status.last_publication_handle, false);
     if (status.alive_count_change > 0) writer_state(status.last_publication_handle, true);
   }
