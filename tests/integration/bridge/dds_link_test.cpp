@@ -7,7 +7,9 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <condition_variable>
 #include <cstdio>
+#include <functional>
 #include <future>
 #include <mutex>
 #include <set>
@@ -157,6 +159,33 @@ TEST(DdsCalls, ACallWaitsForItsSpacesBridgeToMatchAndOnlyThatLong) {
   const auto nobody = calling.call("nobody", "svc", "echo", "", 10s);
   EXPECT_EQ(nobody.status, planet::UNAVAILABLE) << nobody.message;
   EXPECT_NE(nobody.message.find("no bridge of it matched"), std::string::npos) << nobody.message;
+}
+
+// A link destroyed while one of its calls waits for a reply ends that call first ("bridge
+// stopping"), while its writers still exist, rather than leaving it to wake on deleted entities.
+TEST(DdsCalls, ALinkStoppingEndsItsCallsInProgressFirst) {
+  const DdsDomains domains;
+  std::mutex mutex;
+  std::condition_variable arrived;
+  std::vector<std::function<void(planet::CallResult)>> unanswered;  // the replier never answers
+  bridge::DdsLink replier(link_options(domains[0], "slow"), [] {},
+                          [&](bridge::IncomingCall, std::function<void(planet::CallResult)> reply) {
+                            std::lock_guard lock(mutex);
+                            unanswered.push_back(std::move(reply));
+                            arrived.notify_all();
+                          });
+  auto calling = std::make_unique<bridge::DdsLink>(link_options(domains[0], "a"), [] {},
+                                                   [](bridge::IncomingCall, auto) {});
+  auto answer = std::async(std::launch::async, [&] { return calling->call("slow", "svc", "sleep", "", 60s); });
+  {
+    std::unique_lock lock(mutex);
+    ASSERT_TRUE(arrived.wait_for(lock, 30s, [&] { return !unanswered.empty(); })) << "the call never arrived";
+  }
+  calling.reset();  // returns once the call has ended
+  ASSERT_EQ(answer.wait_for(0s), std::future_status::ready);
+  const auto result = answer.get();
+  EXPECT_EQ(result.status, planet::UNAVAILABLE) << result.message;
+  EXPECT_EQ(result.message, "bridge stopping");
 }
 
 }  // namespace

@@ -136,11 +136,17 @@ struct DdsLink::Impl : public fdds::DataReaderListener {
       matched_changed_.notify_all();
       if (status.current_count == 0 && status.current_count_change < 0) impl_.fail_pending(space_);
     }
-    // Waits until the writer has a matched reader, or `until`. Blocks: never on a DDS listener
-    // thread (the match it waits for would be reported on such a thread).
+    // Waits until the writer has a matched reader, or `until`, or the link closes (false). Blocks:
+    // never on a DDS listener thread (the match it waits for would be reported on such a thread).
     bool wait_matched(Clock::time_point until) {
       std::unique_lock lock(mutex_);
-      return matched_changed_.wait_until(lock, until, [this] { return matched_ > 0; });
+      matched_changed_.wait_until(lock, until, [this] { return matched_ > 0 || impl_.closing; });
+      return matched_ > 0 && !impl_.closing;
+    }
+    // Wakes the callers in wait_matched() (the link is closing).
+    void wake() {
+      { std::lock_guard lock(mutex_); }
+      matched_changed_.notify_all();
     }
 
    private:
@@ -182,6 +188,33 @@ struct DdsLink::Impl : public fdds::DataReaderListener {
   fdds::DataReader* interface_reader = nullptr;
   fdds::DataReader* request_reader = nullptr;
   fdds::DataReader* reply_reader = nullptr;
+
+  // Calls in progress (call(), oneway()): the destructor wakes them and waits until none is left,
+  // before it deletes what they use.
+  std::atomic<bool> closing{false};
+  std::mutex calls_mutex;  // guards calls_in_progress
+  std::condition_variable calls_done;
+  int calls_in_progress = 0;
+  class InProgress {
+   public:
+    explicit InProgress(Impl& d) : d_(d) {
+      std::lock_guard lock(d_.calls_mutex);
+      admitted_ = !d_.closing;
+      if (admitted_) ++d_.calls_in_progress;
+    }
+    ~InProgress() {
+      if (!admitted_) return;
+      std::lock_guard lock(d_.calls_mutex);
+      if (--d_.calls_in_progress == 0) d_.calls_done.notify_all();
+    }
+    InProgress(const InProgress&) = delete;
+    InProgress& operator=(const InProgress&) = delete;
+    bool admitted() const { return admitted_; }
+
+   private:
+    Impl& d_;
+    bool admitted_ = false;
+  };
 
   std::mutex mutex;  // guards the maps below and entity creation
   std::map<std::string, fdds::Topic*> topics;
@@ -642,17 +675,28 @@ DdsLink::DdsLink(DdsOptions options, CatalogHandler on_catalog, CallHandler on_c
 
 DdsLink::~DdsLink() {
   Impl& d = *impl_;
-  d.asserter.reset();
-  d.participant->set_listener(nullptr);
-  d.participant->delete_contained_entities();
-  fdds::DomainParticipantFactory::get_instance()->delete_participant(d.participant);
+  // Calls in progress end first (UNAVAILABLE "bridge stopping"), while their writers still exist:
+  // no new call is admitted, those waiting for a match are woken, those waiting for a reply failed.
+  {
+    std::lock_guard lock(d.calls_mutex);
+    d.closing = true;
+  }
   std::vector<std::shared_ptr<Impl::Pending>> left;
   {
-    std::lock_guard lock(d.mutex);
+    std::lock_guard lock(d.mutex);  // a call registers its pending reply under it, closing or not
+    for (auto& listener : d.writer_listeners) listener->wake();
     for (auto& [id, call] : d.pending) left.push_back(call);
     d.pending.clear();
   }
   for (auto& call : left) call->promise.set_value(planet::CallResult::error(planet::UNAVAILABLE, "bridge stopping"));
+  {
+    std::unique_lock lock(d.calls_mutex);
+    d.calls_done.wait(lock, [&] { return d.calls_in_progress == 0; });
+  }
+  d.asserter.reset();
+  d.participant->set_listener(nullptr);
+  d.participant->delete_contained_entities();
+  fdds::DomainParticipantFactory::get_instance()->delete_participant(d.participant);
 }
 
 fdds::DomainParticipant* DdsLink::participant() const { return impl_->participant; }
@@ -753,6 +797,8 @@ void DdsLink::withdraw(const std::string& name) {
 planet::CallResult DdsLink::call(const std::string& space, const std::string& service, const std::string& operation,
                                  std::string payload, std::chrono::milliseconds deadline) {
   Impl& d = *impl_;
+  const Impl::InProgress in_progress(d);  // first: the last to end
+  if (!in_progress.admitted()) return planet::CallResult::error(planet::UNAVAILABLE, "bridge stopping");
   if (d.space_lost(space)) {
     return planet::CallResult::error(planet::UNAVAILABLE, "the bridge of space " + space + " lost its liveliness");
   }
@@ -764,6 +810,7 @@ planet::CallResult DdsLink::call(const std::string& space, const std::string& se
   Impl::RequestRoute route;
   try {
     std::lock_guard lock(d.mutex);
+    if (d.closing) return planet::CallResult::error(planet::UNAVAILABLE, "bridge stopping");
     route = d.request_writer(space);
     d.pending[id] = pending;
   } catch (const std::exception& e) {
@@ -777,6 +824,7 @@ planet::CallResult DdsLink::call(const std::string& space, const std::string& se
   // A writer made for this call waits for discovery; a known space's is matched already.
   if (!route.listener->wait_matched(std::min(until, Clock::now() + kMatchWait))) {
     forget();
+    if (d.closing) return planet::CallResult::error(planet::UNAVAILABLE, "bridge stopping");
     return planet::CallResult::error(planet::UNAVAILABLE, "space " + space + " is not reachable over DDS (no bridge of it matched)");
   }
   dds::CallRequest request;
@@ -808,10 +856,12 @@ planet::CallResult DdsLink::call(const std::string& space, const std::string& se
 bool DdsLink::oneway(const std::string& space, const std::string& service, const std::string& operation,
                      std::string payload) {
   Impl& d = *impl_;
-  if (d.space_lost(space)) return false;
+  const Impl::InProgress in_progress(d);  // first: the last to end
+  if (!in_progress.admitted() || d.space_lost(space)) return false;
   Impl::RequestRoute route;
   try {
     std::lock_guard lock(d.mutex);
+    if (d.closing) return false;
     route = d.request_writer(space);
   } catch (const std::exception&) {
     return false;
