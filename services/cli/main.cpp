@@ -15,6 +15,7 @@
 #include <map>
 #include <iostream>
 #include <limits>
+#include <memory>
 #include <mutex>
 #include <sstream>
 
@@ -250,30 +251,36 @@ int main(int argc, char** argv) {
     }
     if (*watch) {
       // Events arrive on the client's I/O thread, which must not block; decoding may need to
-      // ask the registry for an interface, so events are handed to this thread first.
-      std::mutex mutex;
-      std::condition_variable arrived;
-      std::deque<urs::planet::Event> inbox;
-      client.subscribe(
+      // ask the registry for an interface, so events are handed to this thread first. The inbox
+      // is shared with the handler (which may still be running when this block ends) and the
+      // subscription ends before the block does.
+      struct Inbox {
+        std::mutex mutex;
+        std::condition_variable arrived;
+        std::deque<urs::planet::Event> events;
+      };
+      auto inbox = std::make_shared<Inbox>();
+      const uint64_t subscription = client.subscribe(
           pattern,
-          [&](const urs::planet::Event& event) {
-            std::lock_guard<std::mutex> lock(mutex);
-            inbox.push_back(event);
-            arrived.notify_all();
+          [inbox](const urs::planet::Event& event) {
+            std::lock_guard<std::mutex> lock(inbox->mutex);
+            inbox->events.push_back(event);
+            inbox->arrived.notify_all();
           },
           resume_after);
       const auto until = for_ms > 0 ? std::chrono::steady_clock::now() + std::chrono::milliseconds(for_ms)
                                     : std::chrono::steady_clock::time_point::max();
       int seen = 0;
       while (count == 0 || seen < count) {
-        std::unique_lock<std::mutex> lock(mutex);
-        if (!arrived.wait_until(lock, until, [&] { return !inbox.empty(); })) break;
-        urs::planet::Event event = std::move(inbox.front());
-        inbox.pop_front();
+        std::unique_lock<std::mutex> lock(inbox->mutex);
+        if (!inbox->arrived.wait_until(lock, until, [&] { return !inbox->events.empty(); })) break;
+        urs::planet::Event event = std::move(inbox->events.front());
+        inbox->events.pop_front();
         lock.unlock();
         std::cout << caller.event_json(event) << std::endl;
         ++seen;
       }
+      client.unsubscribe(subscription);
       return count > 0 && seen < count ? kFailed : kOk;
     }
     if (*pub) {

@@ -41,10 +41,6 @@ std::string json_string(const std::string& text) {
   return out + "\"";
 }
 
-void sleep_simulated(double seconds, double time_scale) {
-  std::this_thread::sleep_for(std::chrono::duration<double>(seconds / time_scale));
-}
-
 template <typename Request, typename Reply>
 Reply call(RemoteService& service, const std::string& operation, const Request& request) {
   Reply reply;
@@ -102,23 +98,28 @@ std::vector<Sample> read_trace_csv(const std::string& path) {
 // ---- tracer ----------------------------------------------------------------------------------
 
 Tracer::Tracer(uint32_t domain, const std::string& robot, double time_scale)
-    : time_scale_(time_scale), start_(Clock::now()), source_("ground truth on DDS topic urs/world/pose") {
+    : time_scale_(time_scale),
+      start_(Clock::now()),
+      simulated_clock_(true),
+      source_("ground truth on DDS topic urs/world/pose") {
   world_ = std::make_unique<world::World>(domain, "urs-lab");
   world_->subscribe(world::Channel::ground_truth, robot,
-                    [this](const world::PoseSample& pose) { add(pose.x, pose.y, Clock::now()); });
+                    [this](const world::PoseSample& pose) { add(pose.x, pose.y, pose.sim_time); });
   // DDS discovery usually takes milliseconds but can take seconds: start once the robot is seen.
-  const auto give_up = Clock::now() + 15s;
-  while (!latest()) {
-    if (Clock::now() > give_up) {
-      throw std::runtime_error("no pose of robot '" + robot + "' on DDS domain " + std::to_string(domain) +
-                               " within 15 s (is the robot running, in that domain?)");
-    }
-    std::this_thread::sleep_for(5ms);
+  std::unique_lock lock(mutex_);
+  if (!added_.wait_for(lock, 15s, [this] { return !samples_.empty(); })) {
+    lock.unlock();
+    world_.reset();
+    throw std::runtime_error("no pose of robot '" + robot + "' on DDS domain " + std::to_string(domain) +
+                             " within 15 s (is the robot running, in that domain?)");
   }
 }
 
 Tracer::Tracer(RemoteService& navigation, double time_scale, std::chrono::milliseconds period)
-    : time_scale_(time_scale), start_(Clock::now()), source_("getPosition polled through " + navigation.where()) {
+    : time_scale_(time_scale),
+      start_(Clock::now()),
+      simulated_clock_(false),
+      source_("getPosition polled through " + navigation.where()) {
   poller_ = std::thread([this, &navigation, period] {
     while (true) {
       {
@@ -128,7 +129,7 @@ Tracer::Tracer(RemoteService& navigation, double time_scale, std::chrono::millis
       URC::Navigation_getPosition_Reply reply;
       const auto asked = Clock::now();
       if (navigation.call("getPosition", URC::Navigation_getPosition_Request(), reply, 2s).ok()) {
-        add(reply.result().x(), reply.result().y(), asked);
+        add(reply.result().x(), reply.result().y(), std::chrono::duration<double>(asked - start_).count() * time_scale_);
       }
       std::this_thread::sleep_until(asked + period);
     }
@@ -144,11 +145,15 @@ Tracer::~Tracer() {
   world_.reset();
 }
 
-void Tracer::add(double x, double y, Clock::time_point when) {
-  std::lock_guard lock(mutex_);
-  const double t = std::chrono::duration<double>(when - start_).count() * time_scale_;
-  if (!samples_.empty() && t <= samples_.back().t) return;
-  samples_.push_back({t, x, y});
+void Tracer::add(double x, double y, double t) {
+  {
+    std::lock_guard lock(mutex_);
+    if (!origin_) origin_ = t;
+    t -= *origin_;
+    if (!samples_.empty() && t <= samples_.back().t) return;  // sent again (a late joiner's history)
+    samples_.push_back({t, x, y});
+  }
+  added_.notify_all();
 }
 
 std::vector<Sample> Tracer::samples() const {
@@ -162,7 +167,28 @@ std::optional<Sample> Tracer::latest() const {
   return samples_.back();
 }
 
-double Tracer::now() const { return std::chrono::duration<double>(Clock::now() - start_).count() * time_scale_; }
+double Tracer::now() const {
+  if (!simulated_clock_) return std::chrono::duration<double>(Clock::now() - start_).count() * time_scale_;
+  std::lock_guard lock(mutex_);
+  return samples_.empty() ? 0 : samples_.back().t;
+}
+
+bool Tracer::wait_until(double t, Clock::duration wall_timeout) const {
+  std::unique_lock lock(mutex_);
+  return added_.wait_for(lock, wall_timeout, [&] { return !samples_.empty() && samples_.back().t >= t; });
+}
+
+std::vector<std::pair<double, double>> speed_profile(const std::vector<Sample>& trace, double window) {
+  std::vector<std::pair<double, double>> speed;
+  for (std::size_t i = 1, j = 0; i < trace.size(); ++i) {
+    while (j + 1 < i && trace[i].t - trace[j + 1].t >= window) ++j;
+    const double dt = trace[i].t - trace[j].t;
+    if (dt < window / 4) continue;
+    const double d = std::hypot(trace[i].x - trace[j].x, trace[i].y - trace[j].y);
+    speed.emplace_back(trace[i].t - dt / 2, d / dt * 1000.0);
+  }
+  return speed;
+}
 
 // ---- square path -----------------------------------------------------------------------------
 
@@ -189,13 +215,11 @@ SquareRun run_square(RemoteService& navigation, Tracer& tracer, double speed_mm_
     }
     Leg leg;
     leg.target = target;
-    leg.time_s = tracer.now() - started;
-    // Where the robot came to rest: the newest position traced after the arrival was reported.
+    // Where the robot was when it reported arrival: the first position traced after the one
+    // known when the report was read (the robot writes its pose after it changed its state).
     const double reported = tracer.now();
-    const auto wait_until = Clock::now() + 2s;
-    while ((!tracer.latest() || tracer.latest()->t < reported) && Clock::now() < wait_until) {
-      std::this_thread::sleep_for(5ms);
-    }
+    tracer.wait_until(std::nextafter(reported, reported + 1), 2s);
+    leg.time_s = reported - started;
     const auto at = tracer.latest();
     if (!at) throw std::runtime_error("no position traced (" + tracer.source() + ")");
     leg.error_mm = std::hypot(at->x - target.x, at->y - target.y) * 1000.0;
@@ -220,21 +244,20 @@ SpeedRun run_speed(RemoteService& navigation, Tracer& tracer, double time_scale)
   for (std::size_t i = 0; i < run.phases.size(); ++i) {
     if (i > 0) set_speed(navigation, run.phases[i].command_mm_s);
     phase_start.push_back(tracer.now() - t0);
-    sleep_simulated(run.phases[i].duration_s, time_scale);
+    // Held for its simulated duration on the robot's clock, however late its ticks run.
+    const double until = phase_start.back() + t0 + run.phases[i].duration_s;
+    if (!tracer.wait_until(until, std::chrono::duration_cast<Clock::duration>(
+                                      std::chrono::duration<double>(run.phases[i].duration_s / time_scale)) +
+                                      30s)) {
+      throw std::runtime_error("the robot's clock stood still: no pose traced for 30 s (" + tracer.source() + ")");
+    }
   }
   phase_start.push_back(tracer.now() - t0);
   call<URC::Navigation_stop_Request, URC::Navigation_stop_Reply>(navigation, "stop", {});
   for (const auto& s : tracer.samples()) {
     if (s.t >= t0) run.trace.push_back({s.t - t0, s.x, s.y});
   }
-  // Speed over a 0.2 s window of simulated time.
-  for (std::size_t i = 1, j = 0; i < run.trace.size(); ++i) {
-    while (j + 1 < i && run.trace[i].t - run.trace[j + 1].t >= 0.2) ++j;
-    const double dt = run.trace[i].t - run.trace[j].t;
-    if (dt < 0.05) continue;
-    const double d = std::hypot(run.trace[i].x - run.trace[j].x, run.trace[i].y - run.trace[j].y);
-    run.speed.emplace_back(run.trace[i].t - dt / 2, d / dt * 1000.0);
-  }
+  run.speed = speed_profile(run.trace, 0.2);
   for (std::size_t i = 0; i < run.phases.size(); ++i) {
     run.command.emplace_back(phase_start[i], run.phases[i].command_mm_s);
     run.command.emplace_back(phase_start[i + 1], run.phases[i].command_mm_s);

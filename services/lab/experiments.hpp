@@ -4,6 +4,7 @@
 // traced from the shared world state (DDS ground truth) or by polling getPosition.
 
 #include <chrono>
+#include <condition_variable>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -20,17 +21,21 @@ class World;
 namespace urs::lab {
 
 struct Sample {
-  double t = 0;  // s of simulated time since the tracer started
+  double t = 0;  // s of simulated time since the tracer's first sample
   double x = 0;  // m
   double y = 0;  // m
 };
 
-// Records where the robot is.
+// Records where the robot is, on the robot's simulated clock.
 class Tracer {
  public:
-  // The robot's ground truth on DDS topic urs/world/pose (the devices' world state).
+  // The robot's ground truth on DDS topic urs/world/pose (the devices' world state). Each sample
+  // is stamped with the simulated time it carries (PoseSample::sim_time), so the trace and the
+  // speeds measured from it do not depend on how late the samples arrive (a loaded machine).
   Tracer(uint32_t domain, const std::string& robot, double time_scale);
-  // getPosition of `navigation` every `period` (when DDS does not reach the robot's space).
+  // getPosition of `navigation` every `period` (when DDS does not reach the robot's space). The
+  // reply carries no time: samples are stamped with the wall clock times `time_scale`, which
+  // is the robot's clock only while the machine keeps up.
   Tracer(RemoteService& navigation, double time_scale, std::chrono::milliseconds period);
   ~Tracer();
   Tracer(const Tracer&) = delete;
@@ -38,21 +43,31 @@ class Tracer {
 
   std::vector<Sample> samples() const;
   std::optional<Sample> latest() const;
-  double now() const;  // simulated seconds since start
+  // The robot's simulated seconds since the tracer's first sample, as far as the tracer knows:
+  // the newest sample's time (DDS), or the scaled wall clock (getPosition).
+  double now() const;
+  // Waits until a sample at `t` or later is traced (false if none is within `wall_timeout`).
+  bool wait_until(double t, std::chrono::steady_clock::duration wall_timeout) const;
   const std::string& source() const { return source_; }
 
  private:
-  void add(double x, double y, std::chrono::steady_clock::time_point when);
+  void add(double x, double y, double t);
 
   const double time_scale_;
   const std::chrono::steady_clock::time_point start_;
+  const bool simulated_clock_;  // samples carry the robot's simulated time
   std::string source_;
   mutable std::mutex mutex_;
+  mutable std::condition_variable added_;
+  std::optional<double> origin_;  // sim_time of the first sample
   std::vector<Sample> samples_;
   std::unique_ptr<world::World> world_;
   bool stop_ = false;
   std::thread poller_;
 };
+
+// Speed over a sliding window of `window` simulated seconds: (middle of the window, mm/s).
+std::vector<std::pair<double, double>> speed_profile(const std::vector<Sample>& trace, double window = 0.2);
 
 struct Waypoint {
   double x = 0;

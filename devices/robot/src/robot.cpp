@@ -194,6 +194,7 @@ void RobotAgent::tick() {
     sample.x = truth_.pose.x;
     sample.y = truth_.pose.y;
     sample.theta = truth_.pose.theta;
+    sample.sim_time = truth_.time;
   }
   sample.stamp = std::chrono::system_clock::now();
   world_->publish(world::Channel::ground_truth, sample);

@@ -46,6 +46,7 @@ T to_wire(const PoseSample& s) {
   d.y(s.y);
   d.theta(s.theta);
   if constexpr (std::is_same_v<T, dds::RobotPoseEstimate>) d.covariance(s.covariance);
+  if constexpr (std::is_same_v<T, dds::RobotPose>) d.sim_time(s.sim_time);
   split_stamp(s.stamp, d.sec(), d.nsec());
   return d;
 }
@@ -58,6 +59,7 @@ PoseSample from_wire(const T& d) {
   s.y = d.y();
   s.theta = d.theta();
   if constexpr (std::is_same_v<T, dds::RobotPoseEstimate>) s.covariance = d.covariance();
+  if constexpr (std::is_same_v<T, dds::RobotPose>) s.sim_time = d.sim_time();
   s.stamp = join_stamp(d.sec(), d.nsec());
   return s;
 }

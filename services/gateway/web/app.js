@@ -25,6 +25,7 @@ const state = {
   session: null,      // this browser's login id (for the Foxglove URL)
   loggedOut: false,
   role: null,
+  credential: null,  // {identity, server_role}: what the CAMUS server said of this login's credential
   graph: null,
   services: [],
   components: [],
@@ -71,6 +72,7 @@ async function start() {
       const login = await api("/api/login", { credential: $("credential").value });
       $("credential").value = "";
       state.session = login.session;
+      state.credential = login.identity ? { identity: login.identity, server_role: login.server_role } : null;
       state.loggedOut = false;
       connect();
     } catch (error) {
@@ -80,6 +82,7 @@ async function start() {
   $("logout-button").addEventListener("click", async () => {
     await api("/api/logout", {}).catch(() => {});
     state.session = null;
+    state.credential = null;
     state.loggedOut = true;
     if (state.client) state.client.close();
     showLogin(true);
@@ -94,11 +97,23 @@ async function start() {
   try {
     const who = await api("/api/whoami");
     $("space-name").textContent = who.space;
+    state.credential = who.identity ? { identity: who.identity, server_role: who.server_role } : null;
     if (who.role) connect(); else showLogin(true);
   } catch (error) {
     showLogin(true);
   }
   requestAnimationFrame(frame);
+}
+
+// Why this connection may or may not act: an operator acts; anyone else only sees (the gateway
+// refuses their calls with PERMISSION_DENIED).
+function roleExplained() {
+  const who = state.credential
+    ? "the CAMUS server gives credential '" + state.credential.identity + "' the role " + state.credential.server_role
+    : "";
+  if (state.role === "operator") return "operator: sees and acts" + (who ? " (" + who + ")" : "");
+  return "viewer: sees everything, acts on nothing" + (who ? " (" + who + ")" : "") +
+    "; calls, lifecycle changes and context need a credential with the role operator";
 }
 
 function showLogin(visible) {
@@ -117,6 +132,11 @@ function connect() {
     $("connection").textContent = "live";
     $("connection").className = "badge online";
     $("role").textContent = state.role;
+    $("role").title = roleExplained();
+    for (const id of ["run-square", "run-speeds"]) {
+      $(id).disabled = state.role !== "operator";
+      $(id).title = state.role === "operator" ? "" : roleExplained();
+    }
     $("space-name").textContent = (info.metadata && info.metadata.space) || "";
     showLogin(false);
     if (state.session) {
@@ -387,6 +407,7 @@ function renderComponents() {
       for (const transition of ["activate", "deactivate", "reset"]) {
         const button = el("button", { class: "lifecycle", "data-transition": transition }, actions, transition);
         button.disabled = !operator || !state.client || !state.client.services.has(c.name + "/" + transition);
+        if (!operator) button.title = roleExplained();
         button.addEventListener("click", () => lifecycle(c.name, transition));
       }
     }
@@ -540,6 +561,7 @@ function renderOperations() {
     if (name === current) option.selected = true;
   }
   $("call-button").disabled = state.role !== "operator";
+  $("call-button").title = state.role === "operator" ? "" : roleExplained();
   if (select.value !== current || !$("call-form").firstChild) renderCallForm();
 }
 

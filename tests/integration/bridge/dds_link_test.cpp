@@ -7,7 +7,10 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <condition_variable>
 #include <cstdio>
+#include <functional>
+#include <future>
 #include <mutex>
 #include <set>
 
@@ -135,6 +138,54 @@ TEST(DdsCatalog, AWithdrawnEntryLeavesTheOtherSpaces) {
   EXPECT_TRUE(wait_until([&] { return names() == std::set<std::string>{"a/second"}; }, 10s))
       << "seen: " << ::testing::PrintToString(names());
   offering.withdraw("never announced");  // refused by DDS, harmlessly
+}
+
+// A call to a space whose bridge is not matched yet waits for it, woken by the request writer's
+// match (no polling), and is answered once it is there; a space nobody serves is UNAVAILABLE after
+// the match wait (not DEADLINE_EXCEEDED).
+TEST(DdsCalls, ACallWaitsForItsSpacesBridgeToMatchAndOnlyThatLong) {
+  const DdsDomains domains;
+  bridge::DdsLink calling(link_options(domains[0], "a"), [] {}, [](bridge::IncomingCall, auto) {});
+  auto answer = std::async(std::launch::async, [&] { return calling.call("late", "svc", "echo", "ping", 10s); });
+  bridge::DdsLink late(link_options(domains[0], "late"), [] {},
+                       [](bridge::IncomingCall call, std::function<void(planet::CallResult)> reply) {
+                         reply(planet::CallResult::success(call.operation + ":" + call.payload));
+                       });
+  ASSERT_EQ(answer.wait_for(30s), std::future_status::ready);
+  const auto result = answer.get();
+  EXPECT_EQ(result.status, planet::OK) << result.message;
+  EXPECT_EQ(result.payload, "echo:ping");
+
+  const auto nobody = calling.call("nobody", "svc", "echo", "", 10s);
+  EXPECT_EQ(nobody.status, planet::UNAVAILABLE) << nobody.message;
+  EXPECT_NE(nobody.message.find("no bridge of it matched"), std::string::npos) << nobody.message;
+}
+
+// A link destroyed while one of its calls waits for a reply ends that call first ("bridge
+// stopping"), while its writers still exist, rather than leaving it to wake on deleted entities.
+TEST(DdsCalls, ALinkStoppingEndsItsCallsInProgressFirst) {
+  const DdsDomains domains;
+  std::mutex mutex;
+  std::condition_variable arrived;
+  std::vector<std::function<void(planet::CallResult)>> unanswered;  // the replier never answers
+  bridge::DdsLink replier(link_options(domains[0], "slow"), [] {},
+                          [&](bridge::IncomingCall, std::function<void(planet::CallResult)> reply) {
+                            std::lock_guard lock(mutex);
+                            unanswered.push_back(std::move(reply));
+                            arrived.notify_all();
+                          });
+  auto calling = std::make_unique<bridge::DdsLink>(link_options(domains[0], "a"), [] {},
+                                                   [](bridge::IncomingCall, auto) {});
+  auto answer = std::async(std::launch::async, [&] { return calling->call("slow", "svc", "sleep", "", 60s); });
+  {
+    std::unique_lock lock(mutex);
+    ASSERT_TRUE(arrived.wait_for(lock, 30s, [&] { return !unanswered.empty(); })) << "the call never arrived";
+  }
+  calling.reset();  // returns once the call has ended
+  ASSERT_EQ(answer.wait_for(0s), std::future_status::ready);
+  const auto result = answer.get();
+  EXPECT_EQ(result.status, planet::UNAVAILABLE) << result.message;
+  EXPECT_EQ(result.message, "bridge stopping");
 }
 
 }  // namespace

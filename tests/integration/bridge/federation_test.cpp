@@ -585,7 +585,7 @@ TEST_F(Federation, EveryTopicOfTheLinkReadsWithTypesAnnouncedAtRunTime) {
   const DynamicReading devices_seen(devices_reader.log());
   EXPECT_EQ(devices_seen.types.count("urs::dds::RobotPose") ? devices_seen.types.at("urs::dds::RobotPose") : "",
             "struct urs::dds::RobotPose { @key string robot; double x; double y; double theta; long long sec; "
-            "unsigned long nsec; }");
+            "unsigned long nsec; double sim_time; }");
   EXPECT_EQ(devices_seen.types.count("urs::dds::RobotPoseEstimate")
                 ? devices_seen.types.at("urs::dds::RobotPoseEstimate")
                 : "",

@@ -16,7 +16,7 @@ import time
 
 import websockets
 
-from space import Space, TOKEN, VIEWER_TOKEN, wait_for
+from space import Space, TOKEN, VIEWER_TOKEN, CLIENT_TOKEN, SAM_TOKEN, wait_for
 
 SUBPROTOCOL = "foxglove.websocket.v1"
 failures = []
@@ -124,6 +124,14 @@ async def scenario(space):
     status, body = space.login(VIEWER_TOKEN)
     check(status == 200 and body.get("role") == "viewer", "the viewer token logs in as viewer: %s %s" % (status, body))
     viewer_session = body["session"]
+    # The CAMUS server's role decides: its client and SAM credentials log in, as viewers.
+    status, body = space.login(CLIENT_TOKEN)
+    check(status == 200 and body.get("role") == "viewer",
+          "a credential the server gives the role client logs in as viewer: %s %s" % (status, body))
+    client_session = body.get("session", "")
+    status, body = space.login(SAM_TOKEN)
+    check(status == 200 and body.get("role") == "viewer",
+          "a credential the server gives the role sam logs in as viewer: %s %s" % (status, body))
 
     # No login, no connection (the gateway allows no anonymous role here); a foreign subprotocol neither.
     try:
@@ -248,7 +256,24 @@ async def scenario(space):
           '"typed over CORBA"' in answer["message"], "the RT provider's IDL exception arrives typed: %s" % (answer,))
     await b.call("diag/echo", {"text": "viewer"}, 104)
     kind, answer = await b.answer(104)
-    check(kind == "failure" and answer["message"].startswith("permission denied"), "a viewer may not call: %s" % (answer,))
+    check(kind == "failure" and answer["message"].startswith("PERMISSION_DENIED: diag/echo needs the operator role"),
+          "a viewer may not call: %s" % (answer,))
+    # A login whose credential the server gives the role client: it sees, and may not act (a call,
+    # setting context, a component's lifecycle), each refused typed.
+    c = await Client.connect(space.gateway_url + "?session=" + client_session)
+    info = (await c.until("serverInfo", lambda: c.of("serverInfo")))[0]
+    check(info.get("metadata", {}).get("role") == "viewer", "the client credential's metadata.role: %s" % info.get("metadata"))
+    await c.until("the services", lambda: {"diag/echo", "camus.context/Set", rt_echo} <= set(c.services()))
+    lifecycle = [name for name in c.services() if name.endswith("/activate")]
+    check(lifecycle, "lifecycle operations advertised to a viewer too: %s" % sorted(c.services())[:20])
+    for call_id, (name, request) in enumerate([("diag/echo", {"text": "client"}),
+                                               ("camus.context/Set", {"key": "gw/test", "value": 1}),
+                                               (lifecycle[0] if lifecycle else "none/activate", {})], 200):
+        await c.call(name, request, call_id)
+        kind, answer = await c.answer(call_id)
+        check(kind == "failure" and answer["message"].startswith("PERMISSION_DENIED: %s needs the operator role" % name),
+              "the client credential may not call %s: %s" % (name, answer))
+    await c.ws.close()
     await a.send({"op": "subscribe", "subscriptions": [{"id": 4, "channelId": channels["/events"]["id"]}]})
     await a.call("diag/notify", {"topic": "gateway/test", "text": "an event"}, 105)
     await a.answer(105)

@@ -22,6 +22,10 @@ import urllib.request
 
 TOKEN = "gateway-test-token"
 VIEWER_TOKEN = "gateway-test-viewer"
+# Credentials the CAMUS server itself gives lesser roles (--credentials): the gateway makes their
+# logins viewers, from the role in the server's Welcome.
+CLIENT_TOKEN = "gateway-test-client"
+SAM_TOKEN = "gateway-test-sam"
 
 
 def free_port():
@@ -131,6 +135,13 @@ class Space:
             f.write(TOKEN + "\n")
         with open(os.path.join(d, "viewer-token"), "w") as f:
             f.write(VIEWER_TOKEN + "\n")
+        for name, token in (("watcher", CLIENT_TOKEN), ("agent-host", SAM_TOKEN)):
+            with open(os.path.join(d, name + ".token"), "w") as f:
+                f.write(token + "\n")
+        with open(os.path.join(d, "credentials.yaml"), "w") as f:
+            f.write("credentials:\n"
+                    "  - {name: watcher, role: client, token_file: watcher.token}\n"
+                    "  - {name: agent-host, role: sam, token_file: agent-host.token}\n")
         naming_port = free_port()
         self.naming = "127.0.0.1:%d" % naming_port
         os.makedirs(os.path.join(d, "naming"))
@@ -140,7 +151,8 @@ class Space:
         tasks = os.path.join(self.source, "services", "camus-server", "tasks")
         self.start("server", [self.bin("camus-server/urs-camus-server"), "--space", self.name, "--listen", "127.0.0.1:0",
                               "--port-file", os.path.join(d, "port"), "--data-dir", os.path.join(d, "data"),
-                              "--tasks-dir", tasks, "--token-file", os.path.join(d, "token"), "--token-role", "operator"])
+                              "--tasks-dir", tasks, "--token-file", os.path.join(d, "token"), "--token-role", "operator",
+                              "--credentials", os.path.join(d, "credentials.yaml")])
         wait_for("urs-camus-server listening", lambda: os.path.exists(os.path.join(d, "port")), 15)
         self.server = "127.0.0.1:" + open(os.path.join(d, "port")).read().strip()
         params = {"domain": self.domain, "scale": self.time_scale, "rate": self.localizer_rate}

@@ -5,6 +5,9 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <condition_variable>
+#include <future>
+#include <mutex>
 #include <thread>
 
 #include "support.hpp"
@@ -479,6 +482,55 @@ TEST(PlanetClient, StopFailsPendingCallsAndCallbacksCannotBlock) {
   EXPECT_EQ(after.message, "client stopped");
   EXPECT_TRUE(eventually([&] { return handler.close_reason_of("stopper").has_value(); }));
   EXPECT_EQ(*handler.close_reason_of("stopper"), "goodbye from peer (OK): client stopped");
+}
+
+// unsubscribe() returns only once the subscription's handler is no longer running, so what the
+// handler uses may be destroyed right after (`urs watch` and the bridge's shared state rely on
+// it); from the handler itself it returns at once.
+TEST(PlanetClient, UnsubscribeWaitsForTheHandlerRunningNow) {
+  TestHandler handler;
+  Server server(server_options(), handler);
+  server.start();
+  Client client(client_options(server.port(), "watcher"));
+  std::mutex mutex;
+  std::condition_variable changed;
+  bool entered = false;
+  bool release = false;
+  int runs = 0;
+  uint64_t inner = 0;
+  const uint64_t id = client.subscribe("watch/#", [&](const Event&) {
+    std::unique_lock<std::mutex> lock(mutex);
+    ++runs;
+    entered = true;
+    changed.notify_all();
+    changed.wait(lock, [&] { return release; });
+  });
+  inner = client.subscribe("self/#", [&](const Event&) { client.unsubscribe(inner); });  // must not deadlock
+  client.start();
+  ASSERT_TRUE(client.wait_connected(5s));
+  ASSERT_TRUE(eventually([&] { return handler.subscriptions() == 2; }));
+  Client publisher(client_options(server.port(), "pub"));
+  publisher.start();
+  ASSERT_TRUE(publisher.wait_connected(5s));
+  ASSERT_TRUE(publisher.publish("watch/a", "1", "text/plain").ok());
+  {
+    std::unique_lock<std::mutex> lock(mutex);
+    ASSERT_TRUE(changed.wait_for(lock, 10s, [&] { return entered; }));
+  }
+  auto unsubscribed = std::async(std::launch::async, [&] { client.unsubscribe(id); });
+  EXPECT_EQ(unsubscribed.wait_for(200ms), std::future_status::timeout)
+      << "unsubscribe() returned while the handler was still running";
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    release = true;
+  }
+  changed.notify_all();
+  ASSERT_EQ(unsubscribed.wait_for(10s), std::future_status::ready);
+  ASSERT_TRUE(publisher.publish("watch/b", "2", "text/plain").ok());
+  ASSERT_TRUE(publisher.publish("self/x", "3", "text/plain").ok());
+  ASSERT_TRUE(eventually([&] { return handler.subscriptions() == 0; })) << "both ended at the server";
+  std::lock_guard<std::mutex> lock(mutex);
+  EXPECT_EQ(runs, 1);
 }
 
 }  // namespace

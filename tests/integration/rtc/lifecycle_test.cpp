@@ -101,7 +101,11 @@ TEST_F(Lifecycle, ActivationIsSynchronousAndReturnsTheSpecifiedCodes) {
   EXPECT_EQ(ec_a_->get_component_state(ref_a_), RTC::INACTIVE);
   EXPECT_EQ(a_.deactivated.load(), 1);
   const int executed = a_.executed;
-  std::this_thread::sleep_for(50ms);  // an inactive component is not executed
+  // An inactive component is not executed: b, active in the same context, runs meanwhile.
+  ASSERT_EQ(ec_a_->add_component(ref_b_), RTC::RTC_OK);
+  ASSERT_EQ(ec_a_->activate_component(ref_b_), RTC::RTC_OK);
+  const int b_before = b_.executed;
+  ASSERT_TRUE(wait_until([&] { return b_.executed > b_before + 3; }, 5s));
   EXPECT_EQ(a_.executed.load(), executed);
 }
 

@@ -181,7 +181,8 @@ TEST_F(ServicePort, AConsumerInAManagerCallsThroughAndADeadPeerIsDropped) {
   ASSERT_EQ(rtc::connect_ports({caller_port.in(), provider_port_.in()}, "caller").code, RTC::RTC_OK);
   RTC::ExecutionContextList_var contexts = caller->get_owned_contexts();
   ASSERT_EQ(contexts[0]->activate_component(caller), RTC::RTC_OK);
-  std::this_thread::sleep_for(200ms);  // let it call a few dozen times
+  ASSERT_TRUE(wait_until([&] { return manager("caller").log().find("first echo reply") != std::string::npos; }, 10s))
+      << manager("caller").log();
   ASSERT_EQ(contexts[0]->deactivate_component(caller), RTC::RTC_OK);
   ASSERT_TRUE(wait_until([&] { return manager("caller").log().find("echo replies") != std::string::npos; }, 5s));
   const std::string log = manager("caller").log();

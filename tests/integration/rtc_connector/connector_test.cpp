@@ -216,7 +216,8 @@ TEST_F(ConnectorTest, ConnectsAProviderStartedAfterTheConsumer) {
 
   // The caller itself calls through the connection while active.
   auto caller = resolve<RTC::RTObject>(kConsumer);
-  std::this_thread::sleep_for(300ms);  // a dozen executions at 50 Hz
+  ASSERT_TRUE(wait_until([&] { return manager("consumer").log().find("first echo reply") != std::string::npos; }, 10s))
+      << manager("consumer").log();
   RTC::ExecutionContextList_var contexts = caller->get_owned_contexts();
   ASSERT_EQ(contexts[0]->deactivate_component(caller), RTC::RTC_OK);
   ASSERT_TRUE(wait_until([&] { return manager("consumer").log().find("echo replies") != std::string::npos; }, 5s));

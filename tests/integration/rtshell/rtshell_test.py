@@ -231,6 +231,10 @@ class RtshellTest:
         found = re.search(r"^  (\d+) connections?", out, re.M)
         return int(found.group(1)) if found else -1
 
+    def manager_log(self):
+        with open(os.path.join(self.space.work, "manager.log")) as f:
+            return f.read()
+
     def conf(self, instance, name):
         return self.urs("conf", "get", self.naming_path(instance), name).stdout.strip()
 
@@ -284,8 +288,11 @@ class RtshellTest:
         self.check("rtcon joins service ports", self.connections("Diagnostic0", "diagnostic"), 1)
         # With the provider connected, the strict caller stays Active: its echo calls work.
         self.rtshell("rtconf", self.path("DiagnosticCaller0"), "set", "strict", "true")
+        replies_before = self.manager_log().count("DiagnosticCaller0: first echo reply")
         self.rtshell("rtact", self.path("DiagnosticCaller0"))
-        time.sleep(0.5)  # some executions of a component that would fail at once
+        # An execution has called through (without a provider, a strict caller fails at once).
+        wait_until("the caller's first echo reply",
+                   lambda: self.manager_log().count("DiagnosticCaller0: first echo reply") > replies_before)
         self.check("a connected strict caller stays Active", self.state("DiagnosticCaller0"), "Active")
         self.rtshell("rtdeact", self.path("DiagnosticCaller0"))
         self.rtshell("rtconf", self.path("DiagnosticCaller0"), "set", "strict", "false")

@@ -179,7 +179,7 @@ TEST_F(HubTest, ServiceCallsNeedAnOperatorAndAreAnswered) {
   const uint64_t op = hub.connect(b, Role::operator_, "login-1");
   hub.receive_binary(viewer, service_call(echo, 1, "json", R"({"text":"hi"})"));
   ASSERT_EQ(a->json("serviceCallFailure").size(), 1u);
-  EXPECT_EQ(a->json("serviceCallFailure")[0].fields().at("message").string_value().rfind("permission denied", 0), 0u);
+  EXPECT_EQ(a->json("serviceCallFailure")[0].fields().at("message").string_value().rfind("PERMISSION_DENIED: ", 0), 0u);
   EXPECT_TRUE(got.empty());
 
   hub.receive_binary(op, service_call(echo, 1, "json", R"({"text":"hi"})"));

@@ -85,3 +85,14 @@ TEST(Logins, SameSecret) {
   EXPECT_FALSE(urs::gateway::same_secret("abc", "abd"));
   EXPECT_FALSE(urs::gateway::same_secret("abc", "abcd"));
 }
+
+// With a CAMUS server, the role is the one the server gives the credential (its Welcome): only
+// an operator's credential operates; a client's or a SAM's sees; read-only overrides.
+TEST(Logins, OnlyTheServersOperatorsOperate) {
+  using urs::gateway::role_for;
+  EXPECT_EQ(role_for(urs::planet::OPERATOR, false), Role::operator_);
+  EXPECT_EQ(role_for(urs::planet::SAM, false), Role::viewer);
+  EXPECT_EQ(role_for(urs::planet::CLIENT, false), Role::viewer);
+  EXPECT_EQ(role_for(urs::planet::ROLE_UNSPECIFIED, false), Role::viewer);
+  EXPECT_EQ(role_for(urs::planet::OPERATOR, true), Role::viewer);
+}

@@ -66,6 +66,13 @@ constexpr int32_t kRpcInFlight = 4096;
 // oneway request stays available to a replier that matches late: requests carry their deadline,
 // oneway ones none.
 constexpr std::chrono::milliseconds kDefaultDeadline{10000};
+// How long a call to a space waits for its request writer to match a bridge of that space
+// (discovery, for the first call to it). The wait is on a condition variable the writer's
+// matched-status listener signals, on a DDS listener thread: so call() and oneway() never run on
+// one (nor on a Planet client's I/O thread, which they would hold up). The bridge calls them from
+// its agent host's workers (PlanetProxyAgent) and CORBA's threads; what arrives over DDS
+// (serve_remote) is only dispatched or sent on asynchronously.
+constexpr std::chrono::milliseconds kMatchWait{2000};
 // Executed request ids remembered at most (the oldest forgotten first).
 constexpr std::size_t kRememberedRequests = 65536;
 
@@ -115,17 +122,39 @@ struct DdsLink::Impl : public fdds::DataReaderListener {
     std::string space;
     std::promise<planet::CallResult> promise;
   };
-  // Notices a request writer losing its last reader: the target space's bridge left.
+  // Follows a request writer's matched readers: wakes the callers waiting for the first one
+  // (wait_matched), and notices the writer losing its last: the target space's bridge left.
   class RequestWriterListener : public fdds::DataWriterListener {
    public:
     RequestWriterListener(Impl& impl, std::string space) : impl_(impl), space_(std::move(space)) {}
     void on_publication_matched(fdds::DataWriter*, const fdds::PublicationMatchedStatus& status) override {
+      {
+        // Never held while DDS is called: this may run holding DDS's own locks.
+        std::lock_guard lock(mutex_);
+        matched_ = status.current_count;
+      }
+      matched_changed_.notify_all();
       if (status.current_count == 0 && status.current_count_change < 0) impl_.fail_pending(space_);
+    }
+    // Waits until the writer has a matched reader, or `until`, or the link closes (false). Blocks:
+    // never on a DDS listener thread (the match it waits for would be reported on such a thread).
+    bool wait_matched(Clock::time_point until) {
+      std::unique_lock lock(mutex_);
+      matched_changed_.wait_until(lock, until, [this] { return matched_ > 0 || impl_.closing; });
+      return matched_ > 0 && !impl_.closing;
+    }
+    // Wakes the callers in wait_matched() (the link is closing).
+    void wake() {
+      { std::lock_guard lock(mutex_); }
+      matched_changed_.notify_all();
     }
 
    private:
     Impl& impl_;
-    std::string space_;
+    const std::string space_;
+    std::mutex mutex_;
+    std::condition_variable matched_changed_;
+    int32_t matched_ = 0;  // readers matched now
   };
 
   Impl(const DdsOptions& options, CatalogHandler on_catalog, CallHandler on_call)
@@ -134,6 +163,8 @@ struct DdsLink::Impl : public fdds::DataReaderListener {
   const DdsOptions& options;
   CatalogHandler on_catalog;
   CallHandler on_call;
+  const std::string request_name = request_topic(options.space);  // this space's requests
+  const std::string reply_name = reply_topic(options.space);      // replies to this space's calls
   // Part of every request id: ids stay unique across restarts of this bridge, so a replier that
   // remembers an earlier run's id never takes a new call for a duplicate.
   const std::string run = [] {
@@ -158,10 +189,41 @@ struct DdsLink::Impl : public fdds::DataReaderListener {
   fdds::DataReader* request_reader = nullptr;
   fdds::DataReader* reply_reader = nullptr;
 
+  // Calls in progress (call(), oneway()): the destructor wakes them and waits until none is left,
+  // before it deletes what they use.
+  std::atomic<bool> closing{false};
+  std::mutex calls_mutex;  // guards calls_in_progress
+  std::condition_variable calls_done;
+  int calls_in_progress = 0;
+  class InProgress {
+   public:
+    explicit InProgress(Impl& d) : d_(d) {
+      std::lock_guard lock(d_.calls_mutex);
+      admitted_ = !d_.closing;
+      if (admitted_) ++d_.calls_in_progress;
+    }
+    ~InProgress() {
+      if (!admitted_) return;
+      std::lock_guard lock(d_.calls_mutex);
+      if (--d_.calls_in_progress == 0) d_.calls_done.notify_all();
+    }
+    InProgress(const InProgress&) = delete;
+    InProgress& operator=(const InProgress&) = delete;
+    bool admitted() const { return admitted_; }
+
+   private:
+    Impl& d_;
+    bool admitted_ = false;
+  };
+
   std::mutex mutex;  // guards the maps below and entity creation
   std::map<std::string, fdds::Topic*> topics;
-  std::map<std::string, fdds::DataWriter*> request_writers;  // by target space
-  std::map<std::string, fdds::DataWriter*> reply_writers;    // by caller space
+  struct RequestRoute {
+    fdds::DataWriter* writer = nullptr;
+    RequestWriterListener* listener = nullptr;  // owned by writer_listeners
+  };
+  std::map<std::string, RequestRoute> request_writers;     // by target space
+  std::map<std::string, fdds::DataWriter*> reply_writers;  // by caller space
   std::vector<std::unique_ptr<RequestWriterListener>> writer_listeners;
   std::map<std::string, std::shared_ptr<Pending>> pending;  // by request id
   std::atomic<uint64_t> next_id{1};
@@ -244,15 +306,18 @@ struct DdsLink::Impl : public fdds::DataReaderListener {
   static fdds::DataReaderQos rpc_reader_qos() { return rpc_qos(fdds::DATAREADER_QOS_DEFAULT); }
 
   // Caller holds `mutex`.
-  fdds::DataWriter* request_writer(const std::string& space) {
+  RequestRoute request_writer(const std::string& space) {
     auto it = request_writers.find(space);
     if (it != request_writers.end()) return it->second;
-    writer_listeners.push_back(std::make_unique<RequestWriterListener>(*this, space));
-    fdds::DataWriter* writer = publisher->create_datawriter(topic(request_topic(space), request_type), rpc_writer_qos(),
-                                                            writer_listeners.back().get());
+    // The listener is the writer's from its creation on: no match goes unreported.
+    auto listener = std::make_unique<RequestWriterListener>(*this, space);
+    fdds::DataWriter* writer =
+        publisher->create_datawriter(topic(request_topic(space), request_type), rpc_writer_qos(), listener.get());
     if (writer == nullptr) throw std::runtime_error("DDS: cannot write requests to space " + space);
-    request_writers[space] = writer;
-    return writer;
+    RequestRoute route{writer, listener.get()};
+    writer_listeners.push_back(std::move(listener));
+    request_writers[space] = route;
+    return route;
   }
   fdds::DataWriter* reply_writer(const std::string& space) {
     auto it = reply_writers.find(space);
@@ -294,17 +359,6 @@ struct DdsLink::Impl : public fdds::DataReaderListener {
     return options.space + "/" + options.bridge + "/" + run + "/" + std::to_string(next_id++);
   }
 
-  // Waits until `writer` has a matched reader, or `until`.
-  static bool wait_matched(fdds::DataWriter* writer, Clock::time_point until) {
-    while (true) {
-      fdds::PublicationMatchedStatus status;
-      writer->get_publication_matched_status(status);
-      if (status.current_count > 0) return true;
-      if (Clock::now() >= until) return false;
-      std::this_thread::sleep_for(std::chrono::milliseconds(1));
-    }
-  }
-
   void fail_pending(const std::string& space) {
     std::vector<std::shared_ptr<Pending>> failed;
     {
@@ -326,12 +380,17 @@ struct DdsLink::Impl : public fdds::DataReaderListener {
 
   // ---- reading ----
 
+  // The listeners run on DDS threads from the moment each reader exists, while the constructor is
+  // still assigning the endpoint members: they know a reader by its topic, never by those members.
+  static const std::string& topic_of(fdds::DataReader* reader) { return reader->get_topicdescription()->get_name(); }
+
   void on_data_available(fdds::DataReader* reader) override {
-    if (reader == catalog_reader || reader == interface_reader) {
+    const std::string& name = topic_of(reader);
+    if (name == kCatalogTopic || name == kInterfaceTopic) {
       on_catalog();  // the entries stay in the readers' caches: catalog() reads them
-    } else if (reader == request_reader) {
+    } else if (name == request_name) {
       read_requests(reader);
-    } else if (reader == reply_reader) {
+    } else if (name == reply_name) {
       read_replies(reader);
     }
   }
@@ -359,7 +418,7 @@ struct DdsLink::Impl : public fdds::DataReaderListener {
   }
 
   void on_subscription_matched(fdds::DataReader* reader, const fdds::SubscriptionMatchedStatus& status) override {
-    if (reader != catalog_reader) return;
+    if (topic_of(reader) != kCatalogTopic) return;
     if (status.current_count_change != 0) writer_state(status.last_publication_handle, status.current_count_change > 0);
     if (status.current_count_change < 0) {
       std::lock_guard lock(catalog_mutex);
@@ -367,7 +426,7 @@ struct DdsLink::Impl : public fdds::DataReaderListener {
     }
   }
   void on_liveliness_changed(fdds::DataReader* reader, const fdds::LivelinessChangedStatus& status) override {
-    if (reader != catalog_reader) return;
+    if (topic_of(reader) != kCatalogTopic) return;
     if (status.not_alive_count_change > 0) writer_state(status.last_publication_handle, false);
     if (status.alive_count_change > 0) writer_state(status.last_publication_handle, true);
   }
@@ -616,17 +675,28 @@ DdsLink::DdsLink(DdsOptions options, CatalogHandler on_catalog, CallHandler on_c
 
 DdsLink::~DdsLink() {
   Impl& d = *impl_;
-  d.asserter.reset();
-  d.participant->set_listener(nullptr);
-  d.participant->delete_contained_entities();
-  fdds::DomainParticipantFactory::get_instance()->delete_participant(d.participant);
+  // Calls in progress end first (UNAVAILABLE "bridge stopping"), while their writers still exist:
+  // no new call is admitted, those waiting for a match are woken, those waiting for a reply failed.
+  {
+    std::lock_guard lock(d.calls_mutex);
+    d.closing = true;
+  }
   std::vector<std::shared_ptr<Impl::Pending>> left;
   {
-    std::lock_guard lock(d.mutex);
+    std::lock_guard lock(d.mutex);  // a call registers its pending reply under it, closing or not
+    for (auto& listener : d.writer_listeners) listener->wake();
     for (auto& [id, call] : d.pending) left.push_back(call);
     d.pending.clear();
   }
   for (auto& call : left) call->promise.set_value(planet::CallResult::error(planet::UNAVAILABLE, "bridge stopping"));
+  {
+    std::unique_lock lock(d.calls_mutex);
+    d.calls_done.wait(lock, [&] { return d.calls_in_progress == 0; });
+  }
+  d.asserter.reset();
+  d.participant->set_listener(nullptr);
+  d.participant->delete_contained_entities();
+  fdds::DomainParticipantFactory::get_instance()->delete_participant(d.participant);
 }
 
 fdds::DomainParticipant* DdsLink::participant() const { return impl_->participant; }
@@ -727,6 +797,8 @@ void DdsLink::withdraw(const std::string& name) {
 planet::CallResult DdsLink::call(const std::string& space, const std::string& service, const std::string& operation,
                                  std::string payload, std::chrono::milliseconds deadline) {
   Impl& d = *impl_;
+  const Impl::InProgress in_progress(d);  // first: the last to end
+  if (!in_progress.admitted()) return planet::CallResult::error(planet::UNAVAILABLE, "bridge stopping");
   if (d.space_lost(space)) {
     return planet::CallResult::error(planet::UNAVAILABLE, "the bridge of space " + space + " lost its liveliness");
   }
@@ -735,21 +807,24 @@ planet::CallResult DdsLink::call(const std::string& space, const std::string& se
   auto pending = std::make_shared<Impl::Pending>();
   pending->space = space;
   auto answer = pending->promise.get_future();
-  fdds::DataWriter* writer = nullptr;
+  Impl::RequestRoute route;
   try {
     std::lock_guard lock(d.mutex);
-    writer = d.request_writer(space);
+    if (d.closing) return planet::CallResult::error(planet::UNAVAILABLE, "bridge stopping");
+    route = d.request_writer(space);
     d.pending[id] = pending;
   } catch (const std::exception& e) {
     return planet::CallResult::error(planet::UNAVAILABLE, e.what());
   }
+  fdds::DataWriter* writer = route.writer;
   auto forget = [&] {
     std::lock_guard lock(d.mutex);
     d.pending.erase(id);
   };
   // A writer made for this call waits for discovery; a known space's is matched already.
-  if (!Impl::wait_matched(writer, std::min(until, Clock::now() + std::chrono::milliseconds(2000)))) {
+  if (!route.listener->wait_matched(std::min(until, Clock::now() + kMatchWait))) {
     forget();
+    if (d.closing) return planet::CallResult::error(planet::UNAVAILABLE, "bridge stopping");
     return planet::CallResult::error(planet::UNAVAILABLE, "space " + space + " is not reachable over DDS (no bridge of it matched)");
   }
   dds::CallRequest request;
@@ -781,15 +856,18 @@ planet::CallResult DdsLink::call(const std::string& space, const std::string& se
 bool DdsLink::oneway(const std::string& space, const std::string& service, const std::string& operation,
                      std::string payload) {
   Impl& d = *impl_;
-  if (d.space_lost(space)) return false;
-  fdds::DataWriter* writer = nullptr;
+  const Impl::InProgress in_progress(d);  // first: the last to end
+  if (!in_progress.admitted() || d.space_lost(space)) return false;
+  Impl::RequestRoute route;
   try {
     std::lock_guard lock(d.mutex);
-    writer = d.request_writer(space);
+    if (d.closing) return false;
+    route = d.request_writer(space);
   } catch (const std::exception&) {
     return false;
   }
-  if (!Impl::wait_matched(writer, Clock::now() + std::chrono::milliseconds(2000))) return false;
+  if (!route.listener->wait_matched(Clock::now() + kMatchWait)) return false;
+  fdds::DataWriter* writer = route.writer;
   dds::CallRequest request;
   request.request_id(d.next_request_id());
   request.caller_space(options_.space);

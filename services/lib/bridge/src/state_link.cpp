@@ -266,31 +266,42 @@ struct StateLink::Impl : public fdds::DataReaderListener {
 
   // ---- reading ----
 
+  // The listeners run on DDS threads from the moment each reader exists, while create() is still
+  // assigning the endpoint members on its own thread: they know a reader by its topic and use the
+  // reader they are given, never those members.
+  enum class Stream { component, pose, context, event, other };
+  static Stream stream_of(fdds::DataReader* reader) {
+    const std::string& name = reader->get_topicdescription()->get_name();
+    if (name == kComponentTopic) return Stream::component;
+    if (name == kPoseTopic) return Stream::pose;
+    if (name == kContextTopic) return Stream::context;
+    if (name == kEventTopic) return Stream::event;
+    return Stream::other;
+  }
+
   void on_data_available(fdds::DataReader* reader) override {
-    if (reader == component_reader) {
-      wake_reader();
-    } else if (reader == context_reader) {
-      wake_reader();
-    } else if (reader == pose_reader) {
-      read_poses();
-    } else if (reader == event_reader) {
-      read_events();
+    switch (stream_of(reader)) {
+      case Stream::component:
+      case Stream::context: wake_reader(); break;
+      case Stream::pose: read_poses(reader); break;
+      case Stream::event: read_events(reader); break;
+      case Stream::other: break;
     }
   }
 
-  void read_poses() {
+  void read_poses(fdds::DataReader* reader) {
     dds::SpacePose sample;
     fdds::SampleInfo info;
-    while (pose_reader->take_next_sample(&sample, &info) == ReturnCode_t::RETCODE_OK) {
+    while (reader->take_next_sample(&sample, &info) == ReturnCode_t::RETCODE_OK) {
       if (!info.valid_data || sample.space() == space || !handlers.pose) continue;
       handlers.pose({sample.space(), sample.robot(), sample.x(), sample.y(), sample.theta(), stamp_of(sample)});
     }
   }
 
-  void read_events() {
+  void read_events(fdds::DataReader* reader) {
     dds::SpaceEvent sample;
     fdds::SampleInfo info;
-    while (event_reader->take_next_sample(&sample, &info) == ReturnCode_t::RETCODE_OK) {
+    while (reader->take_next_sample(&sample, &info) == ReturnCode_t::RETCODE_OK) {
       if (!info.valid_data || sample.space() == space || !handlers.event) continue;
       handlers.event({sample.space(), sample.seq(), sample.topic(), sample.content_type(), sample.source(),
                       stamp_of(sample), std::string(sample.payload().begin(), sample.payload().end())});
@@ -298,8 +309,9 @@ struct StateLink::Impl : public fdds::DataReaderListener {
   }
 
   void writer_state(fdds::DataReader* reader, const fdds::InstanceHandle_t& writer, bool alive) {
-    if (reader == component_reader) components_in.writer(writer, alive);
-    if (reader == context_reader) context_in.writer(writer, alive);
+    const Stream stream = stream_of(reader);
+    if (stream == Stream::component) components_in.writer(writer, alive);
+    if (stream == Stream::context) context_in.writer(writer, alive);
     wake_reader();
   }
 

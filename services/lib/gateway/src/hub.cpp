@@ -221,8 +221,9 @@ void Hub::receive_binary(uint64_t id, std::string_view bytes) {
       refusal = "encoding '" + request->encoding.substr(0, fg::kMaxEncodingLength) +
                 "' is not supported (supportedEncodings: json)";
     } else if (client.role != Role::operator_) {
-      refusal = "permission denied: " + service->second.service.name + " needs the operator role; this connection is " +
-                role_name(client.role) + " (log in with an operator's credential)";
+      refusal = "PERMISSION_DENIED: " + service->second.service.name +
+                " needs the operator role; this connection is " + role_name(client.role) +
+                " (log in with a credential the CAMUS server gives the role operator)";
     } else if (client.calls_in_flight >= options_.max_calls_in_flight) {
       refusal = "too many calls in flight on this connection (at most " +
                 std::to_string(options_.max_calls_in_flight) + ")";

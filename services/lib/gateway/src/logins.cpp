@@ -5,6 +5,8 @@
 #include <cstdio>
 #include <random>
 
+#include "urs/planet/authenticator.hpp"
+
 namespace urs::gateway {
 
 using Clock = std::chrono::steady_clock;
@@ -25,6 +27,10 @@ std::string random_id() {
     id += part;
   }
   return id;
+}
+
+Role role_for(planet::Role server_role, bool read_only) {
+  return server_role == planet::OPERATOR && !read_only ? Role::operator_ : Role::viewer;
 }
 
 Logins::Logins(LoginOptions options) : options_(std::move(options)) {}
@@ -87,7 +93,10 @@ LoginResult Logins::login(const std::string& credential) {
       }
       return {nullptr, 503, "the CAMUS server cannot be reached: " + (why.empty() ? "no answer" : why)};
     }
-    made->role = options_.read_only ? Role::viewer : Role::operator_;
+    // The role the server gives this credential (its Welcome): only an operator acts here.
+    made->server_role = session->welcome().role();
+    made->identity = session->welcome().identity();
+    made->role = role_for(made->server_role, options_.read_only);
     made->client = std::move(session);
   } else if (!options_.space_token.empty() && same_secret(credential, options_.space_token)) {
     made->role = options_.read_only ? Role::viewer : Role::operator_;
@@ -102,7 +111,12 @@ LoginResult Logins::login(const std::string& credential) {
     return {nullptr, 503, "too many logins (" + std::to_string(options_.max_logins) + "); log out elsewhere first"};
   }
   logins_[login->id] = Entry{login, now};
-  spdlog::info("gateway: login {}... as {}", login->id.substr(0, 8), role_name(login->role));
+  if (login->identity.empty()) {
+    spdlog::info("gateway: login {}... as {}", login->id.substr(0, 8), role_name(login->role));
+  } else {
+    spdlog::info("gateway: login {}... as {} (credential '{}', role {} at the CAMUS server)", login->id.substr(0, 8),
+                 role_name(login->role), login->identity, planet::role_word(login->server_role));
+  }
   return {login, 200, {}};
 }
 

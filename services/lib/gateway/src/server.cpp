@@ -20,6 +20,7 @@
 #include "urs/agent/agent.hpp"
 #include "urs/gateway/json_writer.hpp"
 #include "urs/gateway/protocol.hpp"
+#include "urs/planet/authenticator.hpp"
 
 namespace urs::gateway {
 
@@ -117,6 +118,14 @@ Response error_response(const Request& request, http::status status, const std::
   JsonWriter out;
   out.begin_object().key("error").value(message).end_object();
   return json_response(request, status, out.take());
+}
+
+// What the CAMUS server said of a login's credential, when it was asked: "identity" (the
+// credential's name) and "server_role" (client, sam or operator), so the dashboard can say why a
+// login only sees.
+void describe_credential(JsonWriter& out, const Login& login) {
+  if (login.identity.empty()) return;
+  out.key("identity").value(login.identity).key("server_role").value(planet::role_word(login.server_role));
 }
 
 }  // namespace
@@ -472,6 +481,7 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
       out.key("role");
       if (login) {
         out.value(role_name(login->role));
+        describe_credential(out, *login);
       } else if (anonymous) {
         out.value(role_name(*anonymous));
       } else {
@@ -538,6 +548,7 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
         }
         JsonWriter out;
         out.begin_object().key("role").value(role_name(result.login->role));
+        describe_credential(out, *result.login);
         out.key("session").value(result.login->id).key("space").value(self->server_->options.space);
         Response response = json_response(request, http::status::ok, out.end_object().take());
         response.set(http::field::set_cookie, std::string(kCookie) + "=" + result.login->id +

@@ -233,6 +233,7 @@ struct ClientCore {
   std::map<uint64_t, PublishAck> awaited; // acks of publishes a publish_and_wait() waits for
   uint64_t next_subscription_id = 1;
   std::map<uint64_t, Subscription> subscriptions;
+  uint64_t delivering = 0;  // the subscription whose handler runs now on the I/O thread, or 0
   std::vector<Registration> registrations;
 };
 
@@ -625,6 +626,7 @@ void ClientCore::on_link_frame(const std::shared_ptr<ClientLink>& from, Frame&& 
       if (event.seq() <= it->second.last_seq) break;  // duplicate (replayed after a resume)
       it->second.last_seq = event.seq();
       auto handler = it->second.handler;
+      delivering = event.subscription_id();  // unsubscribe() waits for it
       lock.unlock();
       if (handler && *handler) {
         try {
@@ -634,6 +636,10 @@ void ClientCore::on_link_frame(const std::shared_ptr<ClientLink>& from, Frame&& 
                         exception.what());
         }
       }
+      lock.lock();
+      delivering = 0;
+      lock.unlock();
+      changed.notify_all();
       return;
     }
     case Frame::kRequest: {
@@ -975,13 +981,16 @@ uint64_t ClientCore::subscribe(const std::string& pattern, EventHandler handler,
 }
 
 void ClientCore::unsubscribe(uint64_t subscription_id) {
-  std::lock_guard<std::mutex> lock(mutex);
+  std::unique_lock<std::mutex> lock(mutex);
   if (subscriptions.erase(subscription_id) == 0) return;
   if (phase == Phase::kOpen && link) {
     Frame frame;
     frame.mutable_unsubscribe()->set_subscription_id(subscription_id);
     link->enqueue(frame);
   }
+  // The handler may be running on the I/O thread: once this returns, it runs no more, so what it
+  // uses may be destroyed. From the handler itself (the I/O thread) there is nothing to wait for.
+  if (!on_io_thread()) changed.wait(lock, [&] { return delivering != subscription_id; });
 }
 
 void ClientCore::register_service(const camus::RegisterRequest& registration,

@@ -34,7 +34,10 @@ struct PoseSample {
   double y = 0;                           // m
   double theta = 0;                       // rad, counter-clockwise from +x
   std::array<double, 9> covariance{};     // row-major (x, y, theta); zero on ground truth
-  std::chrono::system_clock::time_point stamp;
+  std::chrono::system_clock::time_point stamp;  // wall clock, when written
+  // Ground truth only: s of simulated time since the robot started. Motion measured against it
+  // is exact whatever the machine's load (a late tick delays the sample, not its sim_time).
+  double sim_time = 0;
 };
 
 // One DDS participant. Thread-safe. Handlers run on Fast DDS threads and must not block long.

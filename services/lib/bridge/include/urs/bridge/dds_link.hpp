@@ -5,8 +5,8 @@
 // serves calls to its space's services and makes calls to the others' (DDS-RPC: a request topic
 // per space, a reply topic per calling space, replies correlated by request id).
 //
-// Threads: handlers run on Fast DDS's listener threads and must not block; call() blocks the
-// caller until the reply, the deadline, or the target space's bridge leaves.
+// Threads: handlers run on DDS listener threads and must not block; call() and oneway() block (a
+// first match, then the reply): never from a DDS listener or Planet I/O thread (see dds_link.cpp).
 
 #include <chrono>
 #include <cstdint>

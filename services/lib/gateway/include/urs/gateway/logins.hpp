@@ -5,9 +5,11 @@
 // proves it the way any client does: it opens a Planet session of its own with that credential,
 // and the server accepts or refuses it; the session then carries that person's calls, so the
 // server decides what they may do. In a space without one (RT only) the credential is compared
-// with the space's token given to the gateway (--token-file). Roles, until the server tells them:
-//   operator  the space's credential (what the server accepts from any client), unless read_only
-//   viewer    the viewer credential (--viewer-token-file), or any login when read_only
+// with the space's token given to the gateway (--token-file). Roles:
+//   operator  a credential the CAMUS server gives the role operator (its Welcome says so), or,
+//             without a server, the space's token; never when read_only
+//   viewer    any other credential the server accepts (roles client and sam), the viewer
+//             credential (--viewer-token-file), and every login when read_only
 // A login is a random 128-bit id (the dashboard's cookie, or ?session= in a Foxglove URL); it
 // ends when logged out or idle too long. Credentials are never logged nor kept but inside the
 // login's Planet session.
@@ -44,7 +46,14 @@ struct Login {
   std::string id;
   Role role = Role::viewer;
   std::unique_ptr<planet::Client> client;  // the login's own session with the CAMUS server, if any
+  // What the CAMUS server said of the credential (ROLE_UNSPECIFIED and "" without a session).
+  planet::Role server_role = planet::ROLE_UNSPECIFIED;
+  std::string identity;
 };
+
+// The gateway's role for a credential the CAMUS server gives `server_role`: operator only for an
+// operator's, and never when `read_only`.
+Role role_for(planet::Role server_role, bool read_only);
 
 struct LoginResult {
   std::shared_ptr<const Login> login;  // null on refusal

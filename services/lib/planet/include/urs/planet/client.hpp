@@ -14,8 +14,8 @@
 //   session secret that the client presents on every reconnect to resume its session (its
 //   registrations and publish de-duplication carry over); the secret is never logged.
 //
-// Threading: every callback (reply, event, request, connected) runs on the client's I/O thread
-// and must not block; call() blocks and must not be used from a callback.
+// Threading: callbacks (reply, event, request, connected) run on the I/O thread and must not block;
+// call() blocks (not from a callback). unsubscribe() returns once its handler runs no more (waits).
 
 #include <chrono>
 #include <cstdint>
