@@ -5,13 +5,16 @@
 # refused with their path and reason while the SAM keeps serving its other agents (diagnostic and
 # the calculator); an agent of a type no plug-in gave is then dropped, not fatal. Without a refused
 # plug-in such an agent, and a plugin_path that is not a folder, are config errors (exit 2).
-#   plugin_sam_test.sh SERVER SAM URS PLUGIN_DIR WORK_DIR
+# With urs-bridge and omniNames, an RT consumer (urs rtc call) calls the agent through the bridge.
+#   plugin_sam_test.sh SERVER SAM URS PLUGIN_DIR WORK_DIR IDL [BRIDGE]
 set -uo pipefail
 server_bin=$1
 sam_bin=$2
 urs_bin=$3
 plugins=$4
 work=$5
+idl=$6
+bridge_bin=${7:-}
 test_name=plugin_sam
 source "$(dirname "$0")/../../support/process_test.sh"
 
@@ -66,6 +69,26 @@ label=$("$urs_bin" call calc label 2>>"$work/call.log") || fail "label failed"
 [[ "$label" == '{"result":"lab-calculator"}' ]] || fail "label answered '$label' (params not handed to the factory?)"
 echo=$("$urs_bin" call diag echo '{"text":"still here"}' 2>>"$work/call.log") || fail "diag echo failed"
 [[ "$echo" == '{"result":"still here"}' ]] || fail "echo answered '$echo'"
+
+# An RT consumer reaches the plug-in's agent through urs-bridge (the CAMUS service as an RTC), the
+# consumer loading the example's IDL at run time.
+if [[ -n "$bridge_bin" ]] && omninames=$(command -v omniNames); then
+  start_omninames "$omninames" "$work"
+  printf 'name: bridge-plugin\ncamus_to_rt:\n  poll_ms: 200\n  services:\n    - {match: calc, instance: "camus_{service}"}\n' \
+    >"$work/bridge.yaml"
+  "$bridge_bin" --space plugins --server "$URS_SERVER" --naming "$URS_NAMING" --host bridgehost \
+    --config "$work/bridge.yaml" >"$work/bridge.log" 2>&1 &
+  pids+=($!)
+  rt_call() { "$urs_bin" rtc call bridgehost.host_cxt/camus_calc.rtc:calculator "$@" --idl "$idl" 2>&1; }
+  offered() { rt_call calls >/dev/null; }
+  wait_for "the bridge did not offer calc to RT consumers" offered
+  reply=$(rt_call divide '{"dividend":5,"divisor":4}') || fail "urs rtc call through the bridge failed: $reply"
+  [[ "$reply" == '{"result":1.25}' ]] || fail "divide through the bridge answered '$reply'"
+  refusal=$(rt_call divide '{"dividend":2,"divisor":0}')
+  rc=$?
+  [[ $rc -eq 1 && "$refusal" == *"USER_EXCEPTION PluginExample.DivisionByZero"* ]] ||
+    fail "divide by zero through the bridge: exit $rc, '$refusal'"
+fi
 
 # Without a refused plug-in, an unknown type is a config error, as is a plugin_path that is no folder.
 printf 'plugins: [%s/libtest_calculator_plugin.so]\nagents: [{name: g, type: ghost}]\n' "$plugins" >"$work/unknown.yaml"
