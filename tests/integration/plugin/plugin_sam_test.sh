@@ -4,7 +4,8 @@
 # library without the symbols, another ABI version and a plug-in that registers nothing are each
 # refused with their path and reason while the SAM keeps serving its other agents (diagnostic and
 # the calculator); an agent of a type no plug-in gave is then dropped, not fatal. Without a refused
-# plug-in such an agent, and a plugin_path that is not a folder, are config errors (exit 2).
+# plug-in such an agent, a plugin_path that is not a folder, and params the plug-in's factory
+# refuses are config errors (exit 2).
 # With urs-bridge and omniNames, an RT consumer (urs rtc call) calls the agent through the bridge.
 #   plugin_sam_test.sh SERVER SAM URS PLUGIN_DIR WORK_DIR IDL [BRIDGE]
 set -uo pipefail
@@ -101,4 +102,10 @@ out=$("$sam_bin" --space plugins --server "$URS_SERVER" --config "$work/path.yam
 rc=$?
 [[ $rc -eq 2 && "$out" == *"plugin_path[0]: '$work/nofolder' is not a folder"* ]] ||
   fail "plugin_path not a folder: exit $rc, '$out'"
+# A plug-in's factory refusing its params stops the SAM, naming the agent.
+printf 'plugins: [%s/libtest_calculator_plugin.so]\nagents: [{name: c, type: calculator, params: {label: [1, 2]}}]\n' \
+  "$plugins" >"$work/params.yaml"
+out=$("$sam_bin" --space plugins --server "$URS_SERVER" --config "$work/params.yaml" 2>&1)
+rc=$?
+[[ $rc -eq 2 && "$out" == *"agent 'c' (type calculator): "* ]] || fail "bad params: exit $rc, '$out'"
 echo "plugin_sam: calculator plug-in served, 4 bad plug-ins refused with path and reason, diag kept serving"
