@@ -2,7 +2,8 @@
 //   no_symbol: exports neither urs_plugin_abi nor urs_plugin_register;
 //   wrong_abi: built for a plug-in ABI version no host has;
 //   registers_nothing: a correct plug-in whose registration adds no agent type;
-//   throws: a registration that throws.
+//   throws: a registration that throws (it adds a type the host has);
+//   fails: a registration that adds a type, then returns non-zero.
 
 #include "urs/agent/plugin.hpp"
 
@@ -20,5 +21,11 @@ URS_PLUGIN_ABI();
 extern "C" URS_PLUGIN_EXPORT int urs_plugin_register(urs::agent::PluginRegistry& registry) {
   registry.add({"diagnostic", "", [](const YAML::Node&) { return std::shared_ptr<urs::agent::ServiceAgent>(); }, ""});
   return 0;
+}
+#elif BAD_PLUGIN_fails
+URS_PLUGIN_ABI();
+extern "C" URS_PLUGIN_EXPORT int urs_plugin_register(urs::agent::PluginRegistry& registry) {
+  registry.add({"half", "", [](const YAML::Node&) { return std::shared_ptr<urs::agent::ServiceAgent>(); }, ""});
+  return 3;
 }
 #endif

@@ -78,6 +78,10 @@ TEST(PluginLoader, RefusesAPluginThatRegistersNothing) {
                  "registers no agent type");
 }
 
+TEST(PluginLoader, RefusesAFailedRegistrationAndDropsWhatItAdded) {
+  expect_refused(library("test_plugin_fails"), library("test_plugin_fails"), "urs_plugin_register returned 3");
+}
+
 TEST(PluginLoader, RefusesATypeTheHostAlreadyHas) {
   auto result = load_plugins({library("test_plugin_throws")}, {}, {"diagnostic"});
   ASSERT_EQ(result.refusals.size(), 1u);

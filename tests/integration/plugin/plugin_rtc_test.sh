@@ -2,7 +2,8 @@
 # plugin_rtc: urs-rtc-manager hosts the example's Calculator plug-in as an RT-Component
 # ("Calculator") next to a built-in one, on a real omniNames; `urs rtc call` reaches its service
 # port with the example's IDL loaded at run time. A plug-in refused (no symbols) is logged with its
-# path and reason, and the manager still hosts its other components.
+# path and reason, and the manager still hosts its other components (a component of a type it might
+# have given is logged and skipped).
 #   plugin_rtc_test.sh OMNINAMES RTC_MANAGER URS PLUGIN_DIR IDL WORK_DIR
 set -uo pipefail
 omninames=$1
@@ -24,6 +25,7 @@ components:
   - type: Diagnostic
   - type: Calculator
     config: {params: {label: rt-calculator}}
+  - type: Ghost
 YAML
 URS_PLUGIN_PATH=$plugins "$manager_bin" --space plugins --naming "$URS_NAMING" --host testhost --config "$work/manager.yaml" \
   --ready-file "$work/ready" >"$work/manager.log" 2>&1 &
@@ -35,6 +37,8 @@ grep -qx 'testhost.host_cxt/Calculator0.rtc' "$work/ready" || fail "Calculator0 
 grep -qx 'testhost.host_cxt/Diagnostic0.rtc' "$work/ready" || fail "Diagnostic0 not bound: $(cat "$work/ready")"
 grep -qF "plug-in $plugins/libtest_plugin_no_symbol.so refused: no symbol urs_plugin_abi" "$work/manager.log" ||
   fail "the refusal of libtest_plugin_no_symbol.so is not logged with its path and reason"
+grep -qF "component type 'Ghost' unknown" "$work/manager.log" || fail "the unknown component type Ghost is not logged"
+[[ $(wc -l <"$work/ready") -eq 2 ]] || fail "expected 2 components bound: $(cat "$work/ready")"
 
 port_path=testhost.host_cxt/Calculator0.rtc:calculator
 reply=$("$urs_bin" rtc call "$port_path" divide '{"dividend":9,"divisor":4}' --idl "$idl" 2>"$work/call.log") ||
