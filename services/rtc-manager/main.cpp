@@ -11,19 +11,22 @@
 #include <fstream>
 
 #include "components.hpp"
+#include "urs/agent/plugin.hpp"
 #include "urs/corba_agent/agent_component.hpp"
 #include "urs/devices/catalog.hpp"
 #include "urs/rtc/manager.hpp"
 #include "urs/rtc/naming.hpp"
 #include "urs/rtc/orb.hpp"
 #include "urs/util/cli.hpp"
+#include "urs/util/yaml_config.hpp"
 
 namespace {
 
 // Component types this binary can create. Registered here, explicitly, rather than by static
 // self-registration (which a linker may silently drop).
-void add_catalog(urs::rtc::Manager& manager) {
+std::set<std::string> add_catalog(urs::rtc::Manager& manager) {
   using namespace urs::rtc_manager;
+  std::set<std::string> types = {"Diagnostic", "DiagnosticCaller", "Counter", "Sink", "Connector"};
   manager.add_factory("Diagnostic", make_diagnostic);
   manager.add_factory("DiagnosticCaller", make_diagnostic_caller);
   manager.add_factory("Counter", make_counter);
@@ -32,7 +35,25 @@ void add_catalog(urs::rtc::Manager& manager) {
   for (const auto& [name, device] : urs::devices::catalog()) {
     manager.add_factory(device.component_type,
                         urs::corba_agent::agent_component_factory(device.component_type, device.make));
+    types.insert(device.component_type);
   }
+  return types;
+}
+
+// Each agent of the plug-ins becomes a component type, hosted generically as the devices are.
+// Returns the paths of the plug-ins refused.
+std::vector<std::string> add_plugins(urs::rtc::Manager& manager, const urs::rtc::ManagerConfig& config,
+                                     std::set<std::string>& types) {
+  if (config.plugins.empty()) return {};
+  auto plugins = urs::agent::load_plugins(config.plugins, urs::agent::plugin_search_path(config.plugin_path), types);
+  for (auto& loaded : plugins.agents) {
+    const std::string type = loaded.agent.component_type;
+    manager.add_factory(type, urs::corba_agent::agent_component_factory(type, std::move(loaded.agent.make)));
+    types.insert(type);
+  }
+  std::vector<std::string> refused;
+  for (const auto& refusal : plugins.refusals) refused.push_back(refusal.path);
+  return refused;
 }
 
 }  // namespace
@@ -79,12 +100,20 @@ int main(int argc, char** argv) {
   urs::rtc::Orb orb(orb_options);
   urs::rtc::NamingClient naming_client(orb, naming);
   urs::rtc::Manager manager(orb, naming_client, {space, host, config.rate_hz});
-  add_catalog(manager);
+  auto types = add_catalog(manager);
+  const auto refused = add_plugins(manager, config, types);
   std::string bound;
+  std::size_t created = 0;
   for (const auto& spec : config.components) {
+    if (!refused.empty() && types.count(spec.type) == 0) {
+      spdlog::error("{}: component type '{}' unknown (known: {}); not created (refused plug-in(s): {})", config_path,
+                    spec.type, urs::util::join(types), urs::util::join({refused.begin(), refused.end()}));
+      continue;
+    }
     try {
       auto& component = manager.create(spec);
       bound += manager.naming_path(component) + "\n";
+      ++created;
     } catch (const urs::util::ConfigError& e) {
       fmt::print(stderr, "urs-rtc-manager: {}: {}\n", config_path, e.what());
       return 2;
@@ -94,7 +123,7 @@ int main(int argc, char** argv) {
     }
   }
   if (!ready_file.empty()) urs::util::write_file_atomically(ready_file, bound);
-  spdlog::info("space {}: {} component(s) bound in naming service {}", space, config.components.size(), naming);
+  spdlog::info("space {}: {} component(s) bound in naming service {}", space, created, naming);
 
   const int signal_number = urs::util::wait_for_shutdown();
   spdlog::info("signal {}: exiting components and removing their bindings", signal_number);

@@ -12,6 +12,7 @@
 #include "sam_config.hpp"
 #include "urs/agent/agent.hpp"
 #include "urs/agent/client_sink.hpp"
+#include "urs/agent/plugin.hpp"
 #include "urs/devices/catalog.hpp"
 #include "urs/diagnostic/diagnostic_agent.hpp"
 #include "urs/planet/client.hpp"
@@ -22,7 +23,7 @@ namespace {
 using AgentFactory = std::function<std::shared_ptr<urs::agent::ServiceAgent>(const urs::sam::AgentConfig&)>;
 
 // Agent types this binary can host. Registered here, explicitly, rather than by static
-// self-registration (which a linker may silently drop).
+// self-registration (which a linker may silently drop). Plug-ins listed in the config add theirs.
 std::map<std::string, AgentFactory> agent_catalog() {
   std::map<std::string, AgentFactory> catalog = {
       {"diagnostic", [](const urs::sam::AgentConfig&) { return std::make_shared<urs::diagnostic::DiagnosticAgent>(); }},
@@ -56,12 +57,33 @@ int main(int argc, char** argv) {
   auto catalog = agent_catalog();
   urs::sam::SamConfig config;
   urs::planet::ClientOptions options;
+  std::vector<urs::agent::HostedService> services;
   try {
     urs::util::init_logging("urs-sam", log_level);
     auto endpoint = urs::util::parse_endpoint(server, "--server");
-    std::set<std::string> types;
-    for (const auto& [type, factory] : catalog) types.insert(type);
-    config = urs::sam::load_sam_config(config_path, types, urs::util::host_name());
+    config = urs::sam::load_sam_config(config_path, urs::util::host_name(), [&catalog](const urs::sam::SamConfig& partial) {
+      urs::sam::AgentTypes types;
+      for (const auto& [type, factory] : catalog) types.known.insert(type);
+      if (partial.plugins.empty()) return types;
+      auto plugins = urs::agent::load_plugins(partial.plugins, urs::agent::plugin_search_path(partial.plugin_path),
+                                              types.known);
+      for (auto& loaded : plugins.agents) {
+        types.known.insert(loaded.agent.type);
+        catalog[loaded.agent.type] = [make = std::move(loaded.agent.make)](const urs::sam::AgentConfig& agent) {
+          return make(agent.params);
+        };
+      }
+      for (const auto& refusal : plugins.refusals) types.refused.push_back(refusal.path);
+      return types;
+    });
+    for (const auto& agent : config.agents) {
+      try {
+        services.push_back({agent.name, catalog.at(agent.type)(agent), agent.properties, agent.deadline_ms});
+      } catch (const std::exception& e) {
+        throw urs::util::ConfigError("--config '" + config_path + "': agent '" + agent.name + "' (type " +
+                                     agent.type + "): " + e.what());
+      }
+    }
     options.host = endpoint.host;
     options.port = endpoint.port;
     options.token = urs::util::read_token_file(token_file);
@@ -75,9 +97,7 @@ int main(int argc, char** argv) {
   urs::planet::Client client(options);
   urs::agent::ClientEventSink sink(client);
   urs::agent::AgentHost host(config.workers, sink);
-  for (const auto& agent : config.agents) {
-    host.add({agent.name, catalog.at(agent.type)(agent), agent.properties, agent.deadline_ms});
-  }
+  for (auto& service : services) host.add(std::move(service));
 
   client.set_request_handler([&host](const urs::planet::Request& request, urs::planet::Responder responder) {
     host.dispatch(request, "", std::move(responder));

@@ -1,5 +1,7 @@
 #include "sam_config.hpp"
 
+#include <spdlog/spdlog.h>
+
 #include "urs/util/cli.hpp"
 #include "urs/util/yaml_config.hpp"
 
@@ -21,15 +23,15 @@ std::string substitute(std::string text, const std::string& host) {
 
 }  // namespace
 
-SamConfig load_sam_config(const std::string& path, const std::set<std::string>& known_types,
-                          const std::string& host) {
+SamConfig load_sam_config(const std::string& path, const std::string& host,
+                          const std::function<AgentTypes(const SamConfig& partial)>& load_types) {
   const YAML::Node root = util::load_yaml_file(path, "--config");
   if (!root.IsMap()) throw util::ConfigError("--config: '" + path + "' must be a YAML map with an 'agents' list");
 
   std::vector<std::string> errors;
   SamConfig config;
   config.name = "sam@" + host;
-  check_keys(root, "", {"name", "workers", "agents"}, errors);
+  check_keys(root, "", {"name", "workers", "plugins", "plugin_path", "agents"}, errors);
   if (root["name"]) read_scalar(root["name"], "name", config.name, errors);
   if (root["workers"]) {
     int workers = 0;
@@ -41,6 +43,15 @@ SamConfig load_sam_config(const std::string& path, const std::set<std::string>& 
       }
     }
   }
+  bool plugins_ok = util::read_string_list(root, "plugins", config.plugins, errors);
+  if (!util::read_folder_list(root, "plugin_path", config.plugin_path, errors)) plugins_ok = false;
+  if (!plugins_ok) {
+    config.plugins.clear();
+    config.plugin_path.clear();
+  }
+  const AgentTypes types = load_types(config);
+  const std::set<std::string> refused(types.refused.begin(), types.refused.end());
+  std::set<std::string> dropped;  // agents of a type a refused plug-in may have defined
   const YAML::Node agents = root["agents"];
   if (!agents || !agents.IsSequence() || agents.size() == 0) {
     errors.push_back("agents: a non-empty list of agents is required");
@@ -58,10 +69,18 @@ SamConfig load_sam_config(const std::string& path, const std::set<std::string>& 
         }
       }
       if (!node["type"]) {
-        errors.push_back(where + ".type: missing (known: " + join(known_types) + ")");
+        errors.push_back(where + ".type: missing (known: " + join(types.known) + ")");
       } else if (read_scalar(node["type"], where + ".type", agent.type, errors) &&
-                 known_types.count(agent.type) == 0) {
-        errors.push_back(where + ".type: unknown agent type '" + agent.type + "' (known: " + join(known_types) + ")");
+                 types.known.count(agent.type) == 0) {
+        const std::string problem =
+            where + ".type: unknown agent type '" + agent.type + "' (known: " + join(types.known) + ")";
+        if (refused.empty()) {
+          errors.push_back(problem);
+        } else {
+          spdlog::error("--config '{}': {}; agent '{}' not hosted (refused plug-in(s): {})", path, problem,
+                        agent.name, join(refused));
+          dropped.insert(where);
+        }
       }
       if (node["deadline_ms"]) read_scalar(node["deadline_ms"], where + ".deadline_ms", agent.deadline_ms, errors);
       if (node["properties"]) {
@@ -77,11 +96,16 @@ SamConfig load_sam_config(const std::string& path, const std::set<std::string>& 
         }
       }
       agent.params = node["params"] ? node["params"] : YAML::Node(YAML::NodeType::Map);
-      config.agents.push_back(std::move(agent));
+      if (dropped.count(where) == 0) config.agents.push_back(std::move(agent));
     });
   }
   util::throw_if_errors(errors, "--config '" + path + "'");
   return config;
+}
+
+SamConfig load_sam_config(const std::string& path, const std::set<std::string>& known_types,
+                          const std::string& host) {
+  return load_sam_config(path, host, [&known_types](const SamConfig&) { return AgentTypes{known_types, {}}; });
 }
 
 }  // namespace urs::sam

@@ -3,6 +3,8 @@
 //
 //   name: sam-lab              # optional; the SAM's peer name (default sam@<hostname>)
 //   workers: 4                 # optional; threads running agent calls (default 4)
+//   plugins: [calculator, /opt/lab/libgripper.so]   # optional; agent plug-ins (docs/sdk.md)
+//   plugin_path: [/opt/lab/plugins]                  # optional; folders searched before URS_PLUGIN_PATH
 //   agents:
 //     - name: diag-{host}      # service name in the space; {host} is replaced by the host name
 //       type: diagnostic       # one of the agent types this binary knows
@@ -13,6 +15,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <set>
 #include <string>
@@ -31,6 +34,8 @@ struct AgentConfig {
 struct SamConfig {
   std::string name;
   unsigned workers = 4;
+  std::vector<std::string> plugins;      // as written: a path (with a '/') or a name to search
+  std::vector<std::string> plugin_path;  // existing folders
   std::vector<AgentConfig> agents;
 };
 
@@ -38,5 +43,18 @@ struct SamConfig {
 // with its key path and value (e.g. "agents[1].type: unknown agent type 'foo' (known: diagnostic)").
 SamConfig load_sam_config(const std::string& path, const std::set<std::string>& known_types,
                           const std::string& host);
+
+// What the SAM can host once the plug-ins are loaded.
+struct AgentTypes {
+  std::set<std::string> known;       // built-in and plug-in agent types
+  std::vector<std::string> refused;  // paths of the plug-ins refused
+};
+
+// The same, for a SAM that loads plug-ins: `load_types` is called once, after `plugins:` and
+// `plugin_path:` are read (with both empty if either is invalid) and before the agents' types are
+// checked. When a plug-in was refused, an agent of an unknown type is dropped with an error in the
+// log rather than refused: the SAM keeps its other agents.
+SamConfig load_sam_config(const std::string& path, const std::string& host,
+                          const std::function<AgentTypes(const SamConfig& partial)>& load_types);
 
 }  // namespace urs::sam

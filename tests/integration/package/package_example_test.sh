@@ -3,7 +3,9 @@
 # programs load the package's libraries from the prefix (RUNPATH $ORIGIN/../lib) and not from the
 # build tree, builds examples/cpp/minimal against the prefix with find_package(urslink), hosts its
 # Greeter agent on the installed urs-camus-server and calls it with the installed urs: a greeting,
-# the declared exception, and the count; imports the installed Python SDK, which loads an IDL file.
+# the declared exception, and the count; builds examples/cpp/plugin the same way and calls its
+# agent hosted by the installed urs-sam (urs, the example's C++ client) and urs-rtc-manager (urs rtc
+# call); imports the installed Python SDK, which loads an IDL file.
 # As root, also checks that the installed urs-bridge loads IDL at run time with the installed
 # omniidl back-end while the sources' one is hidden.
 set -uo pipefail
@@ -11,24 +13,8 @@ root=$1
 build=$2
 work=$build/package-test
 prefix=$work/prefix
-pids=()
-cleanup() {
-  for pid in "${pids[@]}"; do kill "$pid" 2>/dev/null; done
-  for pid in "${pids[@]}"; do wait "$pid" 2>/dev/null; done
-}
-trap cleanup EXIT
-fail() {
-  echo "package_example: $*"
-  for log in "$work"/*.log; do [[ -s "$log" ]] && { echo "---- $log"; tail -40 "$log"; }; done
-  exit 1
-}
-# Polls a condition every 0.1 s for at most 30 s.
-wait_for() {
-  local what=$1
-  shift
-  for _ in $(seq 300); do "$@" && return 0; sleep 0.1; done
-  fail "$what within 30 s"
-}
+test_name=package_example
+source "$(dirname "$0")/../../support/process_test.sh"
 
 rm -rf "$work"
 mkdir -p "$work"
@@ -81,6 +67,42 @@ rc=$?
   fail "greet with an empty name: exit $rc, '$refusal' (expected the EmptyName exception)"
 count=$("$prefix/bin/urs" call greeter count 2>>"$work/call.log") || fail "count failed"
 [[ "$count" == '{"result":1}' ]] || fail "count answered '$count'"
+
+# The plug-in example (examples/cpp/plugin), built against the prefix only: the installed urs-sam
+# loads it by name from URS_PLUGIN_PATH; urs and the example's C++ client call its agent.
+cmake -S "$root/examples/cpp/plugin" -B "$work/plugin" -G Ninja -DCMAKE_PREFIX_PATH="$prefix" \
+  >"$work/plugin-configure.log" 2>&1 || fail "configuring examples/cpp/plugin failed"
+cmake --build "$work/plugin" >"$work/plugin-build.log" 2>&1 || fail "building examples/cpp/plugin failed"
+printf 'plugins: [calculator_plugin]\nagents:\n  - {name: calc, type: calculator, params: {label: packaged}}\n' \
+  >"$work/sam.yaml"
+URS_PLUGIN_PATH="$work/plugin" "$prefix/bin/urs-sam" --space example --server "$URS_SERVER" --config "$work/sam.yaml" \
+  >"$work/sam.log" 2>&1 &
+pids+=($!)
+calc_registered() { "$prefix/bin/urs" ls calc 2>/dev/null | grep -q '^calc .*PluginExample.Calculator'; }
+wait_for "the plug-in's calc was not registered" calc_registered
+reply=$("$prefix/bin/urs" call calc divide '{"dividend":1,"divisor":8}' 2>>"$work/call.log") || fail "calc divide failed"
+[[ "$reply" == '{"result":0.125}' ]] || fail "calc divide answered '$reply'"
+client=$("$work/plugin/calculator-client" --server "$URS_SERVER" --service calc 10 4 2>"$work/client.log") ||
+  fail "calculator-client failed"
+[[ "$client" == $'2.5\n2' ]] || fail "calculator-client printed '$client' (expected 2.5 and 2 calls)"
+refusal=$("$work/plugin/calculator-client" --server "$URS_SERVER" --service calc 3 0 2>&1)
+rc=$?
+[[ $rc -eq 1 && "$refusal" == *'DivisionByZero (dividend 3)'* ]] || fail "calculator-client 3 0: exit $rc, '$refusal'"
+# The same library as an RT-Component in the installed urs-rtc-manager, called with urs rtc call.
+if omninames=$(command -v omniNames); then
+  start_omninames "$omninames" "$work"
+  printf 'plugins: [%s]\ncomponents: [{type: Calculator}]\n' "$work/plugin/libcalculator_plugin.so" >"$work/rtc.yaml"
+  "$prefix/bin/urs-rtc-manager" --space example --naming "$URS_NAMING" --host pkg --config "$work/rtc.yaml" --ready-file "$work/rtc.ready" \
+    >"$work/rtc-manager.log" 2>&1 &
+  pids+=($!)
+  wait_for "the installed urs-rtc-manager did not bind Calculator0" grep -qsx pkg.host_cxt/Calculator0.rtc "$work/rtc.ready"
+  reply=$("$prefix/bin/urs" rtc call pkg.host_cxt/Calculator0.rtc:calculator divide '{"dividend":3,"divisor":2}' \
+    --idl "$root/examples/cpp/plugin/idl/Calculator.idl" 2>&1) || fail "urs rtc call divide failed: $reply"
+  [[ "$reply" == '{"result":1.5}' ]] || fail "urs rtc call divide answered '$reply'"
+else
+  echo "package_example: no omniNames: the plug-in in urs-rtc-manager not checked"
+fi
+
 # Run-time IDL loading by an installed program finds the installed omniidl back-end: the sources'
 # back-end (the build tree's default) is hidden by a bind mount in a private mount namespace.
 if [[ $(id -u) -eq 0 ]] && unshare -m true 2>/dev/null; then
@@ -100,4 +122,4 @@ if [[ $(id -u) -eq 0 ]] && unshare -m true 2>/dev/null; then
 else
   echo "package_example: not root: run-time IDL loading from the install tree not checked"
 fi
-echo "package_example: installed, example built against $prefix, greeter called through the installed server and urs"
+echo "package_example: installed, examples built against $prefix, greeter and the calculator plug-in called"

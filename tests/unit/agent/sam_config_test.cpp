@@ -75,6 +75,44 @@ TEST(SamConfig, EmptyAgentListAndBadYamlAreRefused) {
   EXPECT_THAT(error_of("agents: [\n"), HasSubstr("is not valid YAML"));
 }
 
+TEST(SamConfig, PluginsAreHandedToTheLoaderBeforeTypesAreChecked) {
+  auto path = write_temp("plugins: [calc, /opt/x/libgrip.so]\nplugin_path: [/tmp]\n"
+                         "agents: [{name: c, type: calculator, params: {label: l}}]\n");
+  std::vector<std::string> seen;
+  auto config = load_sam_config(path, "h", [&seen](const SamConfig& partial) {
+    seen = partial.plugins;
+    seen.insert(seen.end(), partial.plugin_path.begin(), partial.plugin_path.end());
+    return AgentTypes{{"diagnostic", "calculator"}, {}};
+  });
+  std::remove(path.c_str());
+  EXPECT_EQ(seen, (std::vector<std::string>{"calc", "/opt/x/libgrip.so", "/tmp"}));
+  ASSERT_EQ(config.agents.size(), 1u);
+  EXPECT_EQ(config.agents[0].type, "calculator");
+  EXPECT_EQ(config.agents[0].params["label"].as<std::string>(), "l");
+}
+
+TEST(SamConfig, BadPluginKeysAreReportedWithTheOtherErrors) {
+  auto error = error_of("plugins: calc\nplugin_path: [/tmp, /nonexistent-folder]\n"
+                        "agents: [{name: a, type: laser}]\n");
+  EXPECT_THAT(error, HasSubstr("plugins: must be a list of strings"));
+  EXPECT_THAT(error, HasSubstr("plugin_path[1]: '/nonexistent-folder' is not a folder"));
+  EXPECT_THAT(error, HasSubstr("agents[0].type: unknown agent type 'laser'"));
+  EXPECT_THAT(error_of("plugins: [[a]]\nagents: [{name: d, type: diagnostic}]\n"),
+              HasSubstr("plugins[0]: must be a string"));
+  EXPECT_THAT(error_of("plugin_path: ['']\nagents: [{name: d, type: diagnostic}]\n"),
+              HasSubstr("plugin_path[0]: must not be empty"));
+}
+
+TEST(SamConfig, AnUnknownTypeIsDroppedNotFatalOnceAPluginWasRefused) {
+  auto path = write_temp("plugins: [bad]\nagents: [{name: d, type: diagnostic}, {name: g, type: ghost}]\n");
+  auto config = load_sam_config(path, "h", [](const SamConfig&) {
+    return AgentTypes{{"diagnostic"}, {"/opt/bad.so"}};
+  });
+  std::remove(path.c_str());
+  ASSERT_EQ(config.agents.size(), 1u);
+  EXPECT_EQ(config.agents[0].name, "d");
+}
+
 TEST(SamConfig, MissingFileIsNamed) {
   try {
     load_sam_config("/nonexistent/sam.yaml", {"diagnostic"}, "h");

@@ -169,7 +169,9 @@ ManagerConfig load_manager_config(const std::string& path) {
   if (!root.IsMap()) throw util::ConfigError("--config: '" + path + "' must be a YAML map with a 'components' list");
   std::vector<std::string> errors;
   ManagerConfig config;
-  util::check_keys(root, "", {"rate", "components"}, errors);
+  util::check_keys(root, "", {"rate", "plugins", "plugin_path", "components"}, errors);
+  util::read_string_list(root, "plugins", config.plugins, errors);
+  util::read_folder_list(root, "plugin_path", config.plugin_path, errors);
   auto read_rate = [&](const YAML::Node& node, const std::string& where, double& out) {
     if (util::read_scalar(node, where, out, errors) && !(out > 0 && std::isfinite(out))) {
       errors.push_back(where + ": " + YAML::Dump(node) + " is not a positive rate in Hz");

@@ -1,5 +1,7 @@
 #include "urs/util/yaml_config.hpp"
 
+#include <sys/stat.h>
+
 #include <sstream>
 
 #include "urs/util/cli.hpp"
@@ -30,6 +32,49 @@ void check_keys(const YAML::Node& node, const std::string& where, const std::set
       errors.push_back(where + (where.empty() ? "" : ".") + key + ": unknown key (allowed: " + join(allowed) + ")");
     }
   }
+}
+
+bool read_string_list(const YAML::Node& root, const std::string& key, std::vector<std::string>& out,
+                      std::vector<std::string>& errors) {
+  const YAML::Node list = root[key];
+  if (!list) return true;
+  if (!list.IsSequence()) {
+    errors.push_back(key + ": must be a list of strings");
+    return false;
+  }
+  bool ok = true;
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    std::string value;
+    const std::string where = key + "[" + std::to_string(i) + "]";
+    if (!list[i].IsScalar() || !read_scalar(list[i], where, value, errors)) {
+      if (!list[i].IsScalar()) errors.push_back(where + ": must be a string");
+      ok = false;
+    } else if (value.empty()) {
+      errors.push_back(where + ": must not be empty");
+      ok = false;
+    } else {
+      out.push_back(value);
+    }
+  }
+  return ok;
+}
+
+bool is_directory(const std::string& path) {
+  struct stat info {};
+  return ::stat(path.c_str(), &info) == 0 && S_ISDIR(info.st_mode);
+}
+
+bool read_folder_list(const YAML::Node& root, const std::string& key, std::vector<std::string>& out,
+                      std::vector<std::string>& errors) {
+  if (!read_string_list(root, key, out, errors)) return false;
+  bool ok = true;
+  for (std::size_t i = 0; i < out.size(); ++i) {
+    if (!is_directory(out[i])) {
+      errors.push_back(key + "[" + std::to_string(i) + "]: '" + out[i] + "' is not a folder");
+      ok = false;
+    }
+  }
+  return ok;
 }
 
 void for_each_map(const YAML::Node& list, const std::string& where, const std::string& entry_shape,

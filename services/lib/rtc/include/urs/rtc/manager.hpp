@@ -99,6 +99,8 @@ class Manager {
 
 // The manager's configuration file:
 //   rate: 100                    # default execution-context rate, Hz
+//   plugins: [calculator]        # optional; agent plug-ins whose agents become component types
+//   plugin_path: [/opt/plugins]  # optional; folders searched before URS_PLUGIN_PATH (docs/sdk.md)
 //   components:
 //     - type: Diagnostic         # a type in the manager's catalog
 //       instance: Diagnostic7    # optional
@@ -109,6 +111,8 @@ class Manager {
 // Throws urs::util::ConfigError naming the file, key and value of the first error.
 struct ManagerConfig {
   double rate_hz = 100.0;
+  std::vector<std::string> plugins;      // as written: a path (with a '/') or a name to search
+  std::vector<std::string> plugin_path;  // existing folders
   std::vector<ComponentSpec> components;
 };
 ManagerConfig load_manager_config(const std::string& path);

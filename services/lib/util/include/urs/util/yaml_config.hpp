@@ -30,6 +30,16 @@ bool read_scalar(const YAML::Node& node, const std::string& where, T& out, std::
   }
 }
 
+// The list of non-empty strings at root[key], appended to `out` (nothing if the key is absent);
+// false after appending "<key>: must be a list of strings" or "<key>[i]: ..." errors.
+bool read_string_list(const YAML::Node& root, const std::string& key, std::vector<std::string>& out,
+                      std::vector<std::string>& errors);
+
+bool is_directory(const std::string& path);  // an existing folder (symbolic links followed)
+// read_string_list() whose every entry must be an existing folder ("<key>[i]: '<x>' is not a folder").
+bool read_folder_list(const YAML::Node& root, const std::string& key, std::vector<std::string>& out,
+                      std::vector<std::string>& errors);
+
 // Appends an error for every key of the map `node` not in `allowed`.
 void check_keys(const YAML::Node& node, const std::string& where, const std::set<std::string>& allowed,
                 std::vector<std::string>& errors);
