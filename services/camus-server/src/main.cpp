@@ -92,6 +92,13 @@ class CamusServer {
     options.authenticator = std::move(authenticator);
     options.heartbeat_interval = std::chrono::milliseconds(config.heartbeat_ms);
     options.heartbeat_timeout = std::chrono::milliseconds(config.heartbeat_timeout_ms);
+    options.max_hello_bytes = static_cast<uint32_t>(config.limits.max_hello_bytes);
+    options.max_reassembly_bytes = config.limits.max_reassembly_bytes;  // ranges: checked by planet::Server
+    options.max_buffered_bytes = config.limits.max_buffered_bytes;
+    options.tls = config.tls;
+    options.allow_plaintext_tokens = config.allow_plaintext_tokens;
+    options.max_connections = config.limits.max_connections;
+    options.max_connections_per_address = config.limits.max_connections_per_address;
     server_ = std::make_unique<urs::planet::Server>(options, handler_);
     server_->start();
   }
