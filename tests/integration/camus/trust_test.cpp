@@ -872,5 +872,47 @@ TEST_F(TrustTest, MemoryBeforeTheHandshakeIsBoundedAndBudgetsHold) {
   end_attack("before_handshake", {{"hello_attack_rss_peak_kib", static_cast<double>(hello_peak)}});
 }
 
+// 18,000 log lines in 20 s of fuzzing before: libprotobuf's own errors now go through spdlog and
+// obey --log-level (off: nothing at all), and the warnings one address causes are rate-limited
+// with a count of what was suppressed.
+TEST_F(TrustTest, LibprotobufLogsObeyTheLogLevelAndPeerWarningsAreRateLimited) {
+  // A Hello whose peer_name is not UTF-8: libprotobuf complains, the codec refuses the frame.
+  const std::string hello = std::string("\x08\x01\x1a\x02\xff\xfe", 6);
+  std::string frame = std::string(1, '\x0a') + static_cast<char>(hello.size()) + hello;
+  std::string wire;
+  planet::append_length_prefix(wire, static_cast<uint32_t>(frame.size()));
+  wire += frame;
+  for (const std::string level : {"off", "warn"}) {
+    SCOPED_TRACE(level);
+    const std::string port_file = dir_ + "/port-" + level;
+    Process server({URS_CAMUS_SERVER_BIN, "--space", "kr", "--listen", "127.0.0.1:0", "--port-file", port_file,
+                    "--log-level", level},
+                   dir_ + "/server-" + level + ".log");
+    ASSERT_TRUE(urs::test::wait_until([&] { return std::filesystem::exists(port_file); }, 20s));
+    const auto port = static_cast<uint16_t>(std::stoi(urs::test::read_text(port_file)));
+    for (int i = 0; i < 40; ++i) {
+      RawPeer raw(port);
+      raw.send_bytes(wire);
+      EXPECT_TRUE(raw.closed_by_server(10s));
+    }
+    server.signal(SIGTERM);
+    EXPECT_EQ(server.wait(20s), 0);
+    const std::string log = server.log();
+    if (level == "off") {
+      EXPECT_EQ(log, "");
+      continue;
+    }
+    auto count = [&](const std::string& text) {
+      size_t n = 0;
+      for (size_t at = log.find(text); at != std::string::npos; at = log.find(text, at + 1)) ++n;
+      return n;
+    };
+    EXPECT_GE(count("libprotobuf"), 1u);
+    EXPECT_LE(count("libprotobuf"), 10u) << "at most 10 libprotobuf messages per 10 s";
+    EXPECT_LE(count("planet: closing"), 5u) << "at most 5 warnings per address per 10 s";
+    EXPECT_LT(count("\n"), 40u) << log;
+  }
+}
+
 }  // namespace
 }  // namespace urs::camus_server::test
