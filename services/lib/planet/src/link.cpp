@@ -136,8 +136,8 @@ bool Link::enqueue_with(size_t size, Push&& push) {
   push();
   account_locked();
   if (writing_) return true;  // the writer picks it up in its turn
-  if (!stream_->direct_writes()) {
-    // TLS: written from the strand only.
+  if (!handshaken_.load()) {
+    // TLS before its handshake completed: the strand writes once it has.
     writing_ = true;
     lock.unlock();
     asio::post(socket_.get_executor(), [self = shared_from_this()] { self->do_write(); });
@@ -386,28 +386,22 @@ bool Link::write_now(std::error_code& error) {
       }
       if (full || !add(frame.tail.data(), frame.tail.size())) break;
     }
-    msghdr message{};
-    message.msg_iov = iov;
-    message.msg_iovlen = count;
-    const ssize_t written =
-        ::sendmsg(socket_.native_handle(), &message, MSG_DONTWAIT | MSG_NOSIGNAL);
-    if (written < 0) {
-      if (errno == EINTR) continue;
-      if (errno != EAGAIN && errno != EWOULDBLOCK) {
-        error = std::error_code(errno, std::system_category());
-      }
-      return false;
-    }
+    const long written = stream_->send_now(iov, count, error);
+    if (written <= 0) return false;  // an error, or the socket is full
     batch_sent_ += static_cast<size_t>(written);
     if (static_cast<size_t>(written) < requested) return false;  // the socket is full
   }
-  return true;
+  return !stream_->has_pending_output();  // TLS: encrypted, but not all written yet
 }
 
 void Link::do_write() {
   if (finished_) return;
   if (!handshaken_) {
     write_deferred_ = true;  // start() writes once the handshake completed
+    return;
+  }
+  if (stream_->has_pending_output()) {
+    write_rest_async();  // TLS: what send_now encrypted first
     return;
   }
   if (batch_sent_ == batch_bytes_) {
@@ -425,10 +419,6 @@ void Link::do_write() {
       if (final_pending_) finish(close_reason_);
       return;
     }
-  }
-  if (!stream_->direct_writes()) {
-    write_rest_async();
-    return;
   }
   std::error_code error;
   if (!write_now(error)) {

@@ -134,7 +134,7 @@ class Link : public std::enable_shared_from_this<Link> {
   std::array<char, 64 * 1024> read_buffer_;
   std::vector<asio::const_buffer> write_buffers_;
   bool open_ = false;
-  bool handshaken_ = false;     // the stream's (TLS) handshake completed: writes may go out
+  std::atomic<bool> handshaken_{false};  // the stream's (TLS) handshake completed: writes may go out
   bool write_deferred_ = false; // do_write ran before that
   bool finished_ = false;
   bool final_pending_ = false;
