@@ -41,6 +41,7 @@
 #include "urs/rtc/orb.hpp"
 #include "urs/rtc/tools.hpp"
 #include "camus.pb.h"
+#include "certificates.hpp"
 #include "process.hpp"
 #include "urs/planet/client.hpp"
 #include "urs/schema/schema.hpp"
@@ -155,30 +156,15 @@ class RawEcho {
 
 // ---- a CAMUS space of real processes ------------------------------------------------------
 
-// A CA and a server certificate for 127.0.0.1 in `dir` (ca.pem, server.pem, server.key), made with
-// the openssl command.
-void make_certificates(const std::string& dir) {
-  auto openssl = [](std::vector<std::string> args) {
-    args.insert(args.begin(), URS_OPENSSL_BIN);
-    auto result = urs::test::run_command(args, 60s);
-    if (result.exit_code != 0) throw std::runtime_error("openssl failed: " + result.err);
-  };
-  const std::string ec = "ec_paramgen_curve:prime256v1";
-  std::ofstream(dir + "/san.cnf") << "subjectAltName=IP:127.0.0.1\n";
-  openssl({"req", "-x509", "-newkey", "ec", "-pkeyopt", ec, "-nodes", "-days", "2", "-subj", "/CN=bench-ca",
-           "-keyout", dir + "/ca.key", "-out", dir + "/ca.pem"});
-  openssl({"req", "-newkey", "ec", "-pkeyopt", ec, "-nodes", "-subj", "/CN=bench", "-keyout", dir + "/server.key",
-           "-out", dir + "/server.csr"});
-  openssl({"x509", "-req", "-in", dir + "/server.csr", "-CA", dir + "/ca.pem", "-CAkey", dir + "/ca.key",
-           "-CAcreateserial", "-days", "2", "-extfile", dir + "/san.cnf", "-out", dir + "/server.pem"});
-}
-
 class Space {
  public:
   // With `tls`, the server speaks TLS 1.3 (certificates made in `dir`) and the SAM verifies it.
   explicit Space(const std::string& dir, bool tls = false) : dir_(dir), tls_(tls) {
     std::ofstream(dir_ + "/sam.yaml") << "agents:\n  - {name: diag, type: diagnostic}\n";
-    if (tls_) make_certificates(dir_);
+    if (tls_) {
+      urs::test::make_ca(dir_, "ca");
+      urs::test::make_leaf(dir_, "server", "bench", "ca", "IP:127.0.0.1");
+    }
     start_server(0);
     std::vector<std::string> argv{URS_SAM_BIN, "--space", "bench", "--server", address(), "--config",
                                   dir_ + "/sam.yaml", "--log-level", "warn"};

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "camus.pb.h"
+#include "certificates.hpp"
 #include "process.hpp"
 #include "urs/planet/client.hpp"
 
@@ -54,13 +55,12 @@ class TlsTest : public ::testing::Test {
           "credentials:\n"
           "  - name: viewer\n    role: client\n    token_file: viewer.token\n"
           "  - name: arm\n    role: sam\n    certificate: robot-arm.kr\n");
-    write(dir_ + "/san.cnf", "subjectAltName=IP:127.0.0.1,DNS:localhost\n");
-    ca("ca");
-    ca("other-ca");
-    leaf("server", "camus.kr", "ca", dir_ + "/san.cnf");
-    leaf("arm", "robot-arm.kr", "ca");
-    leaf("stranger", "robot-arm.kr", "other-ca");
-    leaf("nobody", "nobody.kr", "ca");
+    urs::test::make_ca(dir_, "ca");
+    urs::test::make_ca(dir_, "other-ca");
+    urs::test::make_leaf(dir_, "server", "camus.kr", "ca", "IP:127.0.0.1,DNS:localhost");
+    urs::test::make_leaf(dir_, "arm", "robot-arm.kr", "ca");
+    urs::test::make_leaf(dir_, "stranger", "robot-arm.kr", "other-ca");
+    urs::test::make_leaf(dir_, "nobody", "nobody.kr", "ca");
   }
 
   void TearDown() override {
@@ -70,25 +70,6 @@ class TlsTest : public ::testing::Test {
   }
 
   static void write(const std::string& path, const std::string& text) { std::ofstream(path) << text; }
-
-  void openssl(std::vector<std::string> args) {
-    args.insert(args.begin(), URS_OPENSSL_BIN);
-    auto result = urs::test::run_command(args, 60s);
-    ASSERT_EQ(result.exit_code, 0) << result.err;
-  }
-  void ca(const std::string& name) {
-    openssl({"req", "-x509", "-newkey", "ec", "-pkeyopt", "ec_paramgen_curve:prime256v1", "-nodes", "-days", "2",
-             "-subj", "/CN=" + name, "-keyout", dir_ + "/" + name + ".key", "-out", dir_ + "/" + name + ".pem"});
-  }
-  void leaf(const std::string& name, const std::string& cn, const std::string& ca, const std::string& ext = "") {
-    const std::string base = dir_ + "/" + name;
-    openssl({"req", "-newkey", "ec", "-pkeyopt", "ec_paramgen_curve:prime256v1", "-nodes", "-subj", "/CN=" + cn,
-             "-keyout", base + ".key", "-out", base + ".csr"});
-    std::vector<std::string> sign{"x509", "-req", "-in", base + ".csr", "-CA", dir_ + "/" + ca + ".pem", "-CAkey",
-                                  dir_ + "/" + ca + ".key", "-CAcreateserial", "-days", "2", "-out", base + ".pem"};
-    if (!ext.empty()) sign.insert(sign.end(), {"-extfile", ext});
-    openssl(sign);
-  }
 
   void start_server(const std::string& listen, std::vector<std::string> extra) {
     std::vector<std::string> argv{URS_CAMUS_SERVER_BIN, "--space", "kr", "--listen", listen, "--port-file",
