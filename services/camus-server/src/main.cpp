@@ -112,6 +112,8 @@ class CamusServer {
     return server_->set_authenticator(std::move(authenticator));
   }
 
+  void reload_tls(const urs::util::TlsConfig& tls) { server_->reload_tls(tls); }
+
   void stop() {
     if (server_) server_->stop();  // closes every session: on_close cleans up behind them
     tasks_.stop();                 // runs stay "running" in the store and resume at the next start
@@ -167,6 +169,14 @@ int main(int argc, char** argv) {
     spdlog::info("space '{}': listening on {}{}", config->space, bound,
                  config->data_dir.empty() ? " (no --data-dir: state is kept in memory only)" : "");
     int sig = urs::util::wait_for_shutdown([&] {
+      if (config->tls.enabled) {
+        try {
+          server.reload_tls(config->tls);
+          spdlog::info("SIGHUP: TLS certificate, key and client CAs re-read (for new connections)");
+        } catch (const std::exception& e) {
+          spdlog::error("SIGHUP: TLS files not reloaded, the previous ones stay in force: {}", e.what());
+        }
+      }
       if (!config->credentials.any()) {
         spdlog::info("SIGHUP: no --credentials or --token-file to re-read");
         return;

@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 #include <ifaddrs.h>
 #include <netinet/in.h>
+#include <signal.h>
 
 #include <filesystem>
 #include <fstream>
@@ -231,6 +232,39 @@ TEST_F(TlsTest, TokensOverPlainTcpComeFromLoopbackUnlessTheOperatorOptsIn) {
   EXPECT_TRUE(client.wait_connected(10s)) << client.last_error();
   EXPECT_EQ(client.welcome().identity(), "viewer");
   client.stop();
+}
+
+// A renewed certificate is taken on SIGHUP for the connections that follow; a broken one is
+// refused and the previous one stays in force.
+TEST_F(TlsTest, SighupReloadsTheServerCertificate) {
+  start_tls_server();
+  ASSERT_FALSE(HasFatalFailure());
+  auto connects = [&](const std::string& ca) {
+    auto o = options();
+    o.token = viewer_token();
+    o.tls.enabled = true;
+    o.tls.ca_file = dir_ + "/" + ca + ".pem";
+    planet::Client client(o);
+    client.start();
+    const bool ok = client.wait_connected(3s);
+    client.stop();
+    return ok;
+  };
+  EXPECT_TRUE(connects("ca"));
+  urs::test::make_leaf(dir_, "renewed", "camus.kr", "other-ca", "IP:127.0.0.1");
+  std::filesystem::copy_file(dir_ + "/renewed.pem", dir_ + "/server.pem", std::filesystem::copy_options::overwrite_existing);
+  std::filesystem::copy_file(dir_ + "/renewed.key", dir_ + "/server.key", std::filesystem::copy_options::overwrite_existing);
+  server_->signal(SIGHUP);
+  ASSERT_TRUE(urs::test::wait_until([&] { return server_->log().find("SIGHUP: TLS certificate") != std::string::npos; }, 10s))
+      << server_->log();
+  EXPECT_TRUE(connects("other-ca"));
+  EXPECT_FALSE(connects("ca"));
+
+  write(dir_ + "/server.key", "not a key\n");
+  server_->signal(SIGHUP);
+  ASSERT_TRUE(urs::test::wait_until([&] { return server_->log().find("SIGHUP: TLS files not reloaded") != std::string::npos; }, 10s));
+  EXPECT_TRUE(connects("other-ca")) << "the previous certificate stays in force";
+  EXPECT_TRUE(server_->running());
 }
 
 }  // namespace

@@ -156,8 +156,14 @@ struct ServerCore {
   // Reassembly buffers and send queues of every session (max_buffered_bytes).
   const std::shared_ptr<MemoryBudget> budget = std::make_shared<MemoryBudget>(options.max_buffered_bytes);
   // Null: plain TCP.
-  const std::shared_ptr<asio::ssl::context> tls =
+  // Null: plain TCP. Replaced by reload_tls() (guarded by auth_mutex); a connection keeps the one
+  // it was accepted with.
+  std::shared_ptr<asio::ssl::context> tls =
       options.tls.cert_file.empty() ? nullptr : detail::make_server_tls_context(options.tls);
+  std::shared_ptr<asio::ssl::context> current_tls() const {
+    std::lock_guard<std::mutex> lock(auth_mutex);
+    return tls;
+  }
   uint64_t next_session_id = 1;
   bool started = false;
   bool stopped = false;
@@ -445,8 +451,9 @@ void ServerCore::do_accept() {
             config.max_send_queue_bytes = options.max_send_queue_bytes;
             config.budget = budget;
             const uint64_t id = next_session_id++;
-            auto stream = tls ? detail::make_tls_stream(std::move(socket), tls, /*server=*/true)
-                              : detail::make_tcp_stream(std::move(socket));
+            auto context = current_tls();
+            auto stream = context ? detail::make_tls_stream(std::move(socket), context, /*server=*/true)
+                                  : detail::make_tcp_stream(std::move(socket));
             session = std::make_shared<ServerSession>(*this, id, std::move(stream), config, address);
             sessions.emplace(id, session);
             ++connections_per_address[address];
@@ -603,6 +610,15 @@ uint16_t Server::port() const { return impl_->bound_port; }
 void Server::start() { impl_->start(); }
 
 void Server::stop() { impl_->stop(); }
+
+void Server::reload_tls(const util::TlsConfig& tls) {
+  if (!impl_->current_tls()) {
+    throw std::logic_error("this Planet server speaks plain TCP: it cannot switch to TLS while running");
+  }
+  auto context = detail::make_server_tls_context(tls);  // throws, naming the file, before anything changes
+  std::lock_guard<std::mutex> lock(impl_->auth_mutex);
+  impl_->tls = std::move(context);
+}
 
 size_t Server::set_authenticator(std::shared_ptr<const Authenticator> authenticator) {
   return impl_->set_authenticator(std::move(authenticator));

@@ -102,6 +102,11 @@ class Server {
   // UNAUTHENTICATED and their sessions are no longer resumable; the others keep going. Returns
   // how many sessions were closed. Thread-safe; not from an I/O thread.
   size_t set_authenticator(std::shared_ptr<const Authenticator> authenticator);
+  // Re-reads the TLS certificate, key and client CAs (e.g. renewed, on SIGHUP) for the
+  // connections accepted from now on; open ones keep theirs. Throws std::invalid_argument naming
+  // the file that cannot be loaded (the previous settings stay), std::logic_error on a plain-TCP
+  // server. Thread-safe.
+  void reload_tls(const util::TlsConfig& tls);
 
  private:
   struct Impl;
