@@ -19,6 +19,7 @@
 #include "urs/rtc/naming.hpp"
 #include "urs/rtc/orb.hpp"
 #include "urs/util/cli.hpp"
+#include "urs/util/tls.hpp"
 
 int main(int argc, char** argv) {
   // glibc gives every thread that allocates an arena of its own, up to 8 per core; the bridge's
@@ -55,6 +56,8 @@ int main(int argc, char** argv) {
   app.add_option("--data-dir", data_dir,
                  "Directory keeping the connections of the bridge's RTCs, restored after a restart (default: none)");
   app.add_option("--log-level", log_level, urs::util::kLogLevels)->capture_default_str();
+  urs::util::TlsConfig tls;
+  urs::util::add_tls_client_flags(app, tls);
   CLI11_PARSE(app, argc, argv);
 
   urs::util::block_shutdown_signals();
@@ -71,6 +74,8 @@ int main(int argc, char** argv) {
       planet->host = endpoint.host;
       planet->port = endpoint.port;
       planet->token = urs::util::read_token_file(token_file);
+      urs::util::check_tls_client(tls);
+      planet->tls = tls;
     }
     if (!listen.empty()) {
       orb_options.endpoint = urs::rtc::endpoint_from_address(listen, "--listen");

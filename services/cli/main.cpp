@@ -25,6 +25,7 @@
 #include "urs/planet/authenticator.hpp"
 #include "urs/planet/client.hpp"
 #include "urs/util/cli.hpp"
+#include "urs/util/tls.hpp"
 
 namespace {
 
@@ -92,6 +93,8 @@ int main(int argc, char** argv) {
   app.add_option("--token-file", token_file,
                  "File holding this client's credential token (or env URS_TOKEN_FILE, or the token in URS_TOKEN)");
   app.add_option("--timeout-ms", timeout_ms, "Connection and built-in call timeout")->capture_default_str();
+  urs::util::TlsConfig tls_config;
+  urs::util::add_tls_client_flags(app, tls_config);
   app.add_option("--log-level", log_level, urs::util::kLogLevels)->capture_default_str();
 
   auto* ls = app.add_subcommand("ls", "List services (glob PATTERN)");
@@ -183,6 +186,8 @@ int main(int argc, char** argv) {
     options.port = endpoint.port;
     if (token_file.empty()) token_file = env_or("URS_TOKEN_FILE", "");
     options.token = token_file.empty() ? env_or("URS_TOKEN", "") : urs::util::read_token_file(token_file);
+    urs::util::check_tls_client(tls_config);
+    options.tls = tls_config;
   } catch (const std::exception& e) {
     std::cerr << "urs: " << e.what() << "\n";
     return kUsage;

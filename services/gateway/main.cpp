@@ -25,6 +25,7 @@
 #include "urs/gateway/world_source.hpp"
 #include "urs/rtc/orb.hpp"
 #include "urs/util/cli.hpp"
+#include "urs/util/tls.hpp"
 
 namespace gw = urs::gateway;
 
@@ -112,6 +113,8 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--port-file", port_file, "Written with the bound port once listening (for tests)");
   app.add_option("--log-level", log_level, urs::util::kLogLevels)->envname("URS_LOG_LEVEL")->capture_default_str();
+  urs::util::TlsConfig tls;
+  urs::util::add_tls_client_flags(app, tls);
   CLI11_PARSE(app, argc, argv);
 
   urs::util::block_shutdown_signals();
@@ -141,6 +144,8 @@ int main(int argc, char** argv) {
       planet->host = camus.host;
       planet->port = camus.port;
       planet->token = token;
+      urs::util::check_tls_client(tls);
+      planet->tls = tls;
       planet->peer_name = "urs-gateway@" + urs::util::host_name();
       planet->max_queued = 256;
       login_options.camus = *planet;

@@ -24,6 +24,7 @@
 #include "urs/rtc/naming.hpp"
 #include "urs/rtc/orb.hpp"
 #include "urs/util/cli.hpp"
+#include "urs/util/tls.hpp"
 
 namespace {
 
@@ -48,6 +49,7 @@ struct Options {
   std::string voice = "voice";
   std::string text = "go forward";
   std::string log_level = "warn";
+  urs::util::TlsConfig tls;
 };
 
 std::unique_ptr<urs::planet::Client> connect(const Options& o) {
@@ -58,6 +60,8 @@ std::unique_ptr<urs::planet::Client> connect(const Options& o) {
   const char* env_file = std::getenv("URS_TOKEN_FILE");
   options.token = urs::util::read_token_file(o.token_file.empty() && env_file ? env_file : o.token_file);
   options.peer_name = "urs-lab";
+  options.tls = o.tls;
+  urs::util::check_tls_client(options.tls);
   auto client = std::make_unique<urs::planet::Client>(options);
   client->start();
   if (!client->wait_connected(5s)) {
@@ -82,6 +86,7 @@ int main(int argc, char** argv) {
     command->add_option("--server", o.server, "CAMUS server HOST:PORT")->capture_default_str();
     command->add_option("--token-file", o.token_file,
                         "File holding this client's credential token (or env URS_TOKEN_FILE)");
+    urs::util::add_tls_client_flags(*command, o.tls);
   };
   auto motion_options = [&](CLI::App* command) {
     command->add_option("--service", o.service, "Navigation service on CAMUS")->capture_default_str();

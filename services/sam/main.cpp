@@ -17,6 +17,7 @@
 #include "urs/diagnostic/diagnostic_agent.hpp"
 #include "urs/planet/client.hpp"
 #include "urs/util/cli.hpp"
+#include "urs/util/tls.hpp"
 
 namespace {
 
@@ -51,6 +52,8 @@ int main(int argc, char** argv) {
   app.add_option("--token-file", token_file,
                  "File holding this SAM's credential token (a credential of role sam or operator)");
   app.add_option("--log-level", log_level, urs::util::kLogLevels)->capture_default_str();
+  urs::util::TlsConfig tls;
+  urs::util::add_tls_client_flags(app, tls);
   CLI11_PARSE(app, argc, argv);
 
   urs::util::block_shutdown_signals();
@@ -87,6 +90,8 @@ int main(int argc, char** argv) {
     options.host = endpoint.host;
     options.port = endpoint.port;
     options.token = urs::util::read_token_file(token_file);
+    urs::util::check_tls_client(tls);
+    options.tls = tls;
   } catch (const std::exception& e) {
     fmt::print(stderr, "urs-sam: {}\n", e.what());
     return 2;

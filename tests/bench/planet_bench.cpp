@@ -41,6 +41,7 @@
 #include "urs/rtc/orb.hpp"
 #include "urs/rtc/tools.hpp"
 #include "camus.pb.h"
+#include "certificates.hpp"
 #include "process.hpp"
 #include "urs/planet/client.hpp"
 #include "urs/schema/schema.hpp"
@@ -157,21 +158,27 @@ class RawEcho {
 
 class Space {
  public:
-  explicit Space(const std::string& dir) : dir_(dir) {
+  // With `tls`, the server speaks TLS 1.3 (certificates made in `dir`) and the SAM verifies it.
+  explicit Space(const std::string& dir, bool tls = false) : dir_(dir), tls_(tls) {
     std::ofstream(dir_ + "/sam.yaml") << "agents:\n  - {name: diag, type: diagnostic}\n";
+    if (tls_) {
+      urs::test::make_ca(dir_, "ca");
+      urs::test::make_leaf(dir_, "server", "bench", "ca", "IP:127.0.0.1");
+    }
     start_server(0);
-    sam_ = std::make_unique<urs::test::Process>(
-        std::vector<std::string>{URS_SAM_BIN, "--space", "bench", "--server", address(), "--config",
-                                 dir_ + "/sam.yaml", "--log-level", "warn"},
-        dir_ + "/sam.log");
+    std::vector<std::string> argv{URS_SAM_BIN, "--space", "bench", "--server", address(), "--config",
+                                  dir_ + "/sam.yaml", "--log-level", "warn"};
+    if (tls_) argv.insert(argv.end(), {"--tls-ca", ca_file()});
+    sam_ = std::make_unique<urs::test::Process>(argv, dir_ + "/sam.log");
   }
+  std::string ca_file() const { return dir_ + "/ca.pem"; }
   void start_server(int port) {
     std::filesystem::remove(dir_ + "/port");
-    server_ = std::make_unique<urs::test::Process>(
-        std::vector<std::string>{URS_SERVER_BIN, "--space", "bench", "--listen",
-                                 "127.0.0.1:" + std::to_string(port), "--data-dir", dir_ + "/data",
-                                 "--port-file", dir_ + "/port", "--log-level", "warn"},
-        dir_ + "/server.log");
+    std::vector<std::string> argv{URS_SERVER_BIN, "--space", "bench", "--listen",
+                                  "127.0.0.1:" + std::to_string(port), "--data-dir", dir_ + "/data",
+                                  "--port-file", dir_ + "/port", "--log-level", "warn"};
+    if (tls_) argv.insert(argv.end(), {"--tls-cert", dir_ + "/server.pem", "--tls-key", dir_ + "/server.key"});
+    server_ = std::make_unique<urs::test::Process>(argv, dir_ + "/server.log");
     if (!urs::test::wait_until([&] { return std::filesystem::exists(dir_ + "/port"); }, 10s)) {
       throw std::runtime_error("server did not start: " + server_->log());
     }
@@ -184,15 +191,19 @@ class Space {
 
  private:
   std::string dir_;
+  bool tls_ = false;
   int port_ = 0;
   std::unique_ptr<urs::test::Process> server_;
   std::unique_ptr<urs::test::Process> sam_;
 };
 
-std::unique_ptr<urs::planet::Client> connect(uint16_t port, urs::planet::Role role = urs::planet::CLIENT) {
+std::unique_ptr<urs::planet::Client> connect(uint16_t port, urs::planet::Role role = urs::planet::CLIENT,
+                                             const std::string& tls_ca = "") {
   urs::planet::ClientOptions options;
   options.port = port;
   options.role = role;
+  options.tls.enabled = !tls_ca.empty();
+  options.tls.ca_file = tls_ca;
   options.peer_name = "bench";
   auto client = std::make_unique<urs::planet::Client>(options);
   client->start();
@@ -309,6 +320,19 @@ int main(int argc, char** argv) {
             [&] { return urs::bench::measure([&] { expect_ok(client->call("diag", "echo", echo_payload, 5s), "echo"); },
                                 warmup, iterations, repetitions); },
             "raw TCP echo|64 B", 2.5);
+    if (wanted("Planet call over TLS 1.3 client→server→SAM→SA | 64 B")) {
+      // The same path with every connection TLS 1.3, measured in the same run.
+      std::filesystem::create_directories(dir + "/tls");
+      Space tls_space(dir + "/tls", /*tls=*/true);
+      auto tls_client = connect(tls_space.port(), urs::planet::CLIENT, tls_space.ca_file());
+      if (!urs::test::wait_until([&] { return tls_client->call("diag", "echo", echo_payload, 500ms).ok(); }, 10s)) {
+        throw std::runtime_error("diag over TLS never became callable: " + tls_space.sam().log());
+      }
+      add_row("Planet call over TLS 1.3 client→server→SAM→SA", "64 B",
+              [&] { return urs::bench::measure([&] { expect_ok(tls_client->call("diag", "echo", echo_payload, 5s), "echo"); },
+                                  warmup, iterations, repetitions); },
+              "Planet call client→server→SAM→SA|64 B", 1.2);
+    }
 
     // 921,600-byte replies.
     std::string big(921600, 'x');

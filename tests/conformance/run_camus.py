@@ -2,7 +2,8 @@
 """Runs the Planet conformance suite against a real urs-camus-server (with named credentials of
 each role) and a urs-sam hosting the diagnostic agent, all on loopback; stops them afterwards.
 
-  run_camus.py --server-bin B --sam-bin B --pythonpath DIRS [--keep]
+  run_camus.py --server-bin B --sam-bin B --pythonpath DIRS [--tls] [--keep]
+With --tls every connection is TLS 1.3 (a CA and a server certificate made with openssl).
 Exit status: the suite's (0 if every check passed or was skipped), 2 if the space did not start.
 """
 import argparse
@@ -32,6 +33,7 @@ def main():
     parser.add_argument("--sam-bin", required=True)
     parser.add_argument("--pythonpath", required=True)
     parser.add_argument("--keep", action="store_true", help="keep the work folder (logs)")
+    parser.add_argument("--tls", action="store_true", help="run the space and the suite over TLS 1.3")
     args = parser.parse_args()
 
     work = tempfile.mkdtemp(prefix="planet-conformance-")
@@ -47,6 +49,21 @@ def main():
     with open(os.path.join(work, "sam.yaml"), "w") as f:
         f.write("agents:\n  - name: diag\n    type: diagnostic\n    deadline_ms: 5000\n")
 
+    server_tls, client_tls = [], []
+    if args.tls:
+        ca, key, cert = (os.path.join(work, n) for n in ("ca.pem", "server.key", "server.pem"))
+        with open(os.path.join(work, "san.cnf"), "w") as f:
+            f.write("subjectAltName=IP:127.0.0.1\n")
+        ec = ["-newkey", "ec", "-pkeyopt", "ec_paramgen_curve:prime256v1", "-nodes"]
+        for argv in (["req", "-x509"] + ec + ["-days", "2", "-subj", "/CN=conformance-ca", "-keyout",
+                                            os.path.join(work, "ca.key"), "-out", ca],
+                     ["req"] + ec + ["-subj", "/CN=conformance", "-keyout", key, "-out", cert + ".csr"],
+                     ["x509", "-req", "-in", cert + ".csr", "-CA", ca, "-CAkey", os.path.join(work, "ca.key"),
+                      "-CAcreateserial", "-days", "2", "-extfile", os.path.join(work, "san.cnf"), "-out", cert]):
+            subprocess.run(["openssl"] + argv, check=True, capture_output=True, timeout=60)
+        server_tls = ["--tls-cert", cert, "--tls-key", key]
+        client_tls = ["--tls-ca", ca]
+
     processes = []
     logs = []
 
@@ -60,14 +77,14 @@ def main():
         port_file = os.path.join(work, "port")
         start([args.server_bin, "--space", "conformance", "--listen", "127.0.0.1:0", "--port-file", port_file,
                "--credentials", os.path.join(work, "credentials.yaml"), "--max-pending-calls-per-session", "20",
-               "--log-level", "info"], "server")
+               "--log-level", "info"] + server_tls, "server")
         if not wait_for(lambda: os.path.exists(port_file), 20):
             print("the server did not start; see", work)
             return 2
         with open(port_file) as f:
             server = "127.0.0.1:" + f.read().strip()
         start([args.sam_bin, "--space", "conformance", "--server", server, "--config", os.path.join(work, "sam.yaml"),
-               "--token-file", tokens["sam"], "--log-level", "info"], "sam")
+               "--token-file", tokens["sam"], "--log-level", "info"] + client_tls, "sam")
         if not wait_for(lambda: "service diag" in open(os.path.join(work, "server.log")).read(), 30):
             print("the SAM did not register diag; see", work)
             return 2
@@ -75,7 +92,7 @@ def main():
         suite = subprocess.run(
             [sys.executable, "-m", "planet", "--server", server, "--token-file", tokens["client"],
              "--sam-token-file", tokens["sam"], "--operator-token-file", tokens["operator"],
-             "--limit", "max_pending_calls_per_session=20", "--pythonpath", args.pythonpath],
+             "--limit", "max_pending_calls_per_session=20", "--pythonpath", args.pythonpath] + client_tls,
             env=env, timeout=240)
         code = suite.returncode
         return code

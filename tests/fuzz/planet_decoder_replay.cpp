@@ -74,6 +74,12 @@ std::vector<std::pair<std::string, std::string>> seeds() {
   outbox.push(ping);
   out.emplace_back("chunked_interleaved", std::string(1, '\0') + drain(outbox));
 
+  // The handshake state machine: a Hello, then chunked messages within the session's limits.
+  urs::planet::Outbox session(urs::planet::kMinChunkBytes);
+  session.push(big);
+  session.push(big2);
+  out.emplace_back("hello_then_chunked", std::string(1, '\0') + encode_frame(hello) + drain(session));
+
   Frame chunk;
   chunk.mutable_chunk()->set_message_id(1);
   chunk.mutable_chunk()->set_total_bytes(10);

@@ -39,15 +39,19 @@ class RawPeer {
   RawPeer(const RawPeer&) = delete;
   RawPeer& operator=(const RawPeer&) = delete;
 
-  void send_bytes(const std::string& bytes) {
+  void send_bytes(const std::string& bytes) { send_bytes_checked(bytes); }
+  void send_frame(const planet::Frame& frame) { send_bytes(planet::encode_frame(frame)); }
+  // Like send_bytes / send_frame; false once the connection failed (e.g. the server closed it).
+  bool send_bytes_checked(const std::string& bytes) {
     size_t offset = 0;
     while (offset < bytes.size()) {
       ssize_t sent = ::send(fd_, bytes.data() + offset, bytes.size() - offset, MSG_NOSIGNAL);
-      if (sent <= 0) return;
+      if (sent <= 0) return false;
       offset += static_cast<size_t>(sent);
     }
+    return true;
   }
-  void send_frame(const planet::Frame& frame) { send_bytes(planet::encode_frame(frame)); }
+  bool send_frame_checked(const planet::Frame& frame) { return send_bytes_checked(planet::encode_frame(frame)); }
   void send_hello(uint32_t version = planet::kProtocolVersion, const std::string& token = "",
                   const std::string& name = "raw", const std::string& session_secret = "",
                   planet::Role role = planet::CLIENT) {
@@ -111,7 +115,12 @@ class RawPeer {
  private:
   int fd_;
   bool eof_ = false;
-  planet::MessageDecoder decoder_{planet::CodecLimits{64u << 20, 64u << 20, 16}};
+  static planet::CodecLimits reader_limits() {
+    planet::CodecLimits limits;
+    limits.max_frame_bytes = 64u << 20;  // whatever the server sends
+    return limits;
+  }
+  planet::MessageDecoder decoder_{reader_limits()};
   std::deque<planet::Frame> frames_;
 };
 

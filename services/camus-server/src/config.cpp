@@ -75,6 +75,16 @@ std::optional<ServerConfig> parse_command_line(int argc, const char* const* argv
        10'000'000, "a number", ""},
       {"--event-queue-bytes", "bytes of those", &SemanticLimits::event_queue_bytes, 65536, uint64_t{1} << 40,
        "a number of bytes", ""},
+      {"--max-hello-bytes", "largest frame accepted before the handshake (the Hello; no chunks)",
+       &SemanticLimits::max_hello_bytes, 512, 65536, "a number of bytes", ""},
+      {"--max-reassembly-bytes", "per session: buffers of chunked messages in progress",
+       &SemanticLimits::max_reassembly_bytes, 1 << 20, uint64_t{1} << 40, "a number of bytes", ""},
+      {"--max-buffered-bytes", "all sessions: reassembly buffers and send queues together",
+       &SemanticLimits::max_buffered_bytes, 1 << 20, uint64_t{1} << 44, "a number of bytes", ""},
+      {"--max-connections", "open connections, handshaking ones included", &SemanticLimits::max_connections, 1,
+       1'000'000, "a number", ""},
+      {"--max-connections-per-address", "of those, from one source address",
+       &SemanticLimits::max_connections_per_address, 1, 1'000'000, "a number", ""},
   };
   for (auto& limit : limit_flags) {
     limit.text = std::to_string(defaults.*limit.field);
@@ -96,6 +106,11 @@ std::optional<ServerConfig> parse_command_line(int argc, const char* const* argv
   app.add_option("--default-deadline-ms", default_deadline, "deadline of calls that give none (default 10000)");
   app.add_option("--event-retention", retention, "events kept for resuming subscribers (default 100000)");
   app.add_option("--log-level", log_level, std::string("log level: ") + util::kLogLevels + " (default info)");
+  util::TlsConfig tls;
+  util::add_tls_server_flags(app, tls);
+  bool allow_plaintext_tokens = false;
+  app.add_flag("--allow-plaintext-tokens", allow_plaintext_tokens,
+               "accept tokens over plain TCP from any address (default: from loopback only; use TLS instead)");
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp&) {
@@ -160,6 +175,9 @@ std::optional<ServerConfig> parse_command_line(int argc, const char* const* argv
   }
   config.tasks_dir = tasks_dir;
   config.port_file = port_file;
+  util::check_tls_server(tls);
+  config.tls = tls;
+  config.allow_plaintext_tokens = allow_plaintext_tokens;
   return config;
 }
 

@@ -92,6 +92,13 @@ class CamusServer {
     options.authenticator = std::move(authenticator);
     options.heartbeat_interval = std::chrono::milliseconds(config.heartbeat_ms);
     options.heartbeat_timeout = std::chrono::milliseconds(config.heartbeat_timeout_ms);
+    options.max_hello_bytes = static_cast<uint32_t>(config.limits.max_hello_bytes);
+    options.max_reassembly_bytes = config.limits.max_reassembly_bytes;  // ranges: checked by planet::Server
+    options.max_buffered_bytes = config.limits.max_buffered_bytes;
+    options.tls = config.tls;
+    options.allow_plaintext_tokens = config.allow_plaintext_tokens;
+    options.max_connections = config.limits.max_connections;
+    options.max_connections_per_address = config.limits.max_connections_per_address;
     server_ = std::make_unique<urs::planet::Server>(options, handler_);
     server_->start();
   }
@@ -104,6 +111,8 @@ class CamusServer {
   size_t set_authenticator(std::shared_ptr<const urs::planet::Authenticator> authenticator) {
     return server_->set_authenticator(std::move(authenticator));
   }
+
+  void reload_tls(const urs::util::TlsConfig& tls) { server_->reload_tls(tls); }
 
   void stop() {
     if (server_) server_->stop();  // closes every session: on_close cleans up behind them
@@ -160,6 +169,14 @@ int main(int argc, char** argv) {
     spdlog::info("space '{}': listening on {}{}", config->space, bound,
                  config->data_dir.empty() ? " (no --data-dir: state is kept in memory only)" : "");
     int sig = urs::util::wait_for_shutdown([&] {
+      if (config->tls.enabled) {
+        try {
+          server.reload_tls(config->tls);
+          spdlog::info("SIGHUP: TLS certificate, key and client CAs re-read (for new connections)");
+        } catch (const std::exception& e) {
+          spdlog::error("SIGHUP: TLS files not reloaded, the previous ones stay in force: {}", e.what());
+        }
+      }
       if (!config->credentials.any()) {
         spdlog::info("SIGHUP: no --credentials or --token-file to re-read");
         return;

@@ -37,8 +37,9 @@ def expect(condition, what, seen=None):
 
 
 class Suite:
-    def __init__(self, host, port, tokens, diag, limits, handshake_timeout_s):
+    def __init__(self, host, port, tokens, diag, limits, handshake_timeout_s, tls=None):
         self.host, self.port = host, port
+        self.tls = tls                  # ssl.SSLContext, or None for plain TCP
         self.tokens = tokens            # role word -> token (client always present)
         self.diag = diag
         self.limits = limits
@@ -53,7 +54,7 @@ class Suite:
         self._open = []
 
     def connect(self):
-        conn = Connection(self.host, self.port)
+        conn = Connection(self.host, self.port, tls=self.tls)
         self._open.append(conn)
         return conn
 
@@ -174,6 +175,34 @@ def first_frame_hello(s):
     frame.ping.nonce = 1
     conn.send(frame)
     expect_goodbye(conn, pl.BAD_ARGUMENTS)
+
+
+def expect_hello_limit(conn):
+    """Before Welcome, over the Hello limit: Goodbye PAYLOAD_TOO_LARGE naming max_hello_bytes, then close."""
+    answer = conn.expect("goodbye")
+    expect(answer is not None and answer.goodbye.status == pl.PAYLOAD_TOO_LARGE and
+           "(max_hello_bytes)" in answer.goodbye.reason, "Goodbye PAYLOAD_TOO_LARGE naming max_hello_bytes", answer)
+    expect(conn.closed_by_server(), "the connection closed")
+
+
+@check("3", "before Welcome a Chunk is refused: Goodbye PAYLOAD_TOO_LARGE naming max_hello_bytes, close")
+def chunk_before_welcome(s):
+    conn = s.connect()
+    hello = pl.Frame()
+    hello.hello.version, hello.hello.token, hello.hello.peer_name = 1, s.token("client"), "conformance"
+    data = hello.SerializeToString()
+    frame = pl.Frame()
+    frame.chunk.message_id, frame.chunk.total_bytes, frame.chunk.data, frame.chunk.last = 1, len(data), data, True
+    conn.send(frame)
+    expect_hello_limit(conn)
+
+
+@check("3", "before Welcome a frame over max_hello_bytes is refused PAYLOAD_TOO_LARGE before its body is read")
+def large_frame_before_welcome(s):
+    conn = s.connect()
+    size = s.limits["max_hello_bytes"] + 1
+    conn.send_raw(size.to_bytes(4, "big") + b"\0" * 64)
+    expect_hello_limit(conn)
 
 
 @check("3", "a version other than 1 is refused (Refused INTERNAL naming the version) and the connection closes")

@@ -15,9 +15,12 @@ class Closed(Exception):
 class Connection:
     """A TCP connection speaking Planet frames. Every wait is bounded by a timeout."""
 
-    def __init__(self, host, port, timeout=10.0):
+    def __init__(self, host, port, timeout=10.0, tls=None):
+        """`tls`: an ssl.SSLContext for Planet over TLS (docs/planet.md section 1), or None for TCP."""
         self.sock = socket.create_connection((host, port), timeout=timeout)
         self.sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        if tls is not None:
+            self.sock = tls.wrap_socket(self.sock, server_hostname=host)
         self.buffer = bytearray()
         self.partial = {}          # Chunk.message_id -> bytearray
         self.next_message_id = 1

@@ -138,8 +138,12 @@ class Connection {
   int fd_ = -1;
   std::function<void(planet::Frame&&)> on_frame_;
   std::vector<planet::Frame> early_;
-  std::unique_ptr<planet::MessageDecoder> decoder_ =
-      std::make_unique<planet::MessageDecoder>(planet::CodecLimits{64u << 20, 64u << 20, 16});
+  static planet::CodecLimits reader_limits() {
+    planet::CodecLimits limits;
+    limits.max_frame_bytes = 64u << 20;  // whatever the server sends
+    return limits;
+  }
+  std::unique_ptr<planet::MessageDecoder> decoder_ = std::make_unique<planet::MessageDecoder>(reader_limits());
   std::mutex write_mutex_;
   std::thread reader_;
   std::atomic<bool> stop_{false};

@@ -767,5 +767,152 @@ TEST_F(TrustTest, SighupReloadsTheCredentials) {
   ops->stop();
 }
 
+// One piece of a chunked message, as a frame.
+planet::Frame chunk_piece(uint64_t message_id, uint64_t total, uint64_t offset, size_t size) {
+  planet::Frame frame;
+  frame.mutable_chunk()->set_message_id(message_id);
+  frame.mutable_chunk()->set_total_bytes(total);
+  frame.mutable_chunk()->set_offset(offset);
+  frame.mutable_chunk()->set_data(std::string(size, 'm'));
+  frame.mutable_chunk()->set_last(offset + size == total);
+  return frame;
+}
+
+// Three connections that never send Hello push half-finished chunked 64 MiB messages (this took
+// the server from 183 MiB to 2.8 GiB before): each is refused at its first frame, before anything
+// of the declared size is allocated. So are a chunk-wrapped Hello and a 64 MiB length prefix.
+// Then an authenticated peer pushes chunked messages past the per-session reassembly budget,
+// and connections from one address past max_connections_per_address.
+TEST_F(TrustTest, MemoryBeforeTheHandshakeIsBoundedAndBudgetsHold) {
+  begin_attack({"--max-reassembly-bytes", "67108864", "--max-connections-per-address", "24"});
+  ASSERT_FALSE(HasFatalFailure());
+  constexpr uint64_t kTotal = 64ull << 20;
+  constexpr size_t kPiece = 60 * 1024;
+  auto expect_hello_refusal = [&](RawPeer& raw, const std::string& who) {
+    auto answer = raw.read_non_ping(10s);
+    ASSERT_TRUE(answer && answer->has_goodbye()) << who << ": " << (answer ? answer->ShortDebugString() : "nothing");
+    EXPECT_EQ(answer->goodbye().status(), planet::PAYLOAD_TOO_LARGE) << who;
+    EXPECT_THAT(answer->goodbye().reason(), HasSubstr("(max_hello_bytes)")) << who;
+    EXPECT_TRUE(raw.closed_by_server(10s)) << who;
+  };
+  {
+    std::vector<std::unique_ptr<RawPeer>> attackers;
+    std::vector<std::thread> pushers;
+    for (int i = 0; i < 3; ++i) attackers.push_back(std::make_unique<RawPeer>(port_));
+    for (auto& raw : attackers) {
+      pushers.emplace_back([&raw] {
+        // Half of the message; the sends fail once the server has closed the connection.
+        for (uint64_t offset = 0; offset < kTotal / 2; offset += kPiece) {
+          if (!raw->send_frame_checked(chunk_piece(7, kTotal, offset, kPiece))) return;
+        }
+      });
+    }
+    for (auto& pusher : pushers) pusher.join();
+    sample_memory();
+    for (size_t i = 0; i < attackers.size(); ++i) expect_hello_refusal(*attackers[i], "chunk attacker " + std::to_string(i));
+  }
+  {
+    RawPeer wrapped(port_);
+    planet::Frame hello;
+    hello.mutable_hello()->set_version(1);
+    hello.mutable_hello()->set_token(token_value("viewer"));
+    hello.mutable_hello()->set_peer_name("wrapped");
+    const std::string bytes = hello.SerializeAsString();
+    planet::Frame chunk;
+    chunk.mutable_chunk()->set_message_id(1);
+    chunk.mutable_chunk()->set_total_bytes(bytes.size());
+    chunk.mutable_chunk()->set_data(bytes);
+    chunk.mutable_chunk()->set_last(true);
+    wrapped.send_frame(chunk);
+    expect_hello_refusal(wrapped, "chunk-wrapped Hello");
+  }
+  {
+    RawPeer large(port_);
+    std::string prefix;
+    planet::append_length_prefix(prefix, static_cast<uint32_t>(kTotal));
+    large.send_bytes(prefix + std::string(1024, '\0'));
+    expect_hello_refusal(large, "64 MiB length prefix");
+  }
+  sample_memory();
+  const long hello_peak = rss_peak_;
+  EXPECT_LT(hello_peak - rss_before_, 64 * 1024) << "the attack before the handshake cost over 64 MiB";
+
+  // After Welcome: three 64 MiB messages in progress at once outgrow max_reassembly_bytes 64 MiB.
+  {
+    RawPeer raw(port_);
+    raw_hello(raw, "intruder");
+    bool open = true;
+    for (uint64_t offset = 0; open && offset < kTotal - kPiece; offset += kPiece) {
+      for (uint64_t id = 1; open && id <= 3; ++id) open = raw.send_frame_checked(chunk_piece(id, kTotal, offset, kPiece));
+      if (offset % (8 << 20) < kPiece) sample_memory();
+    }
+    auto goodbye = next(raw, planet::Frame::kGoodbye, 20s);
+    ASSERT_TRUE(goodbye);
+    EXPECT_EQ(goodbye->goodbye().status(), planet::RESOURCE_EXHAUSTED);
+    EXPECT_THAT(goodbye->goodbye().reason(), HasSubstr("bytes (max_reassembly_bytes)"));
+    EXPECT_TRUE(raw.closed_by_server(10s));
+  }
+  sample_memory();
+  EXPECT_LT(rss_peak_ - rss_before_, 192 * 1024) << "a session held far more than max_reassembly_bytes";
+
+  // Connections from one address: the legitimate client, the SAM and 22 more; the next is refused.
+  {
+    std::vector<std::unique_ptr<RawPeer>> idle;
+    std::optional<planet::Frame> refused;
+    for (int i = 0; i < 40 && !refused; ++i) {
+      idle.push_back(std::make_unique<RawPeer>(port_));
+      auto frame = idle.back()->read_frame(200ms);
+      if (frame && frame->has_refused()) refused = frame;
+    }
+    ASSERT_TRUE(refused) << "40 connections from 127.0.0.1 were all accepted";
+    EXPECT_EQ(refused->refused().status(), planet::RESOURCE_EXHAUSTED);
+    EXPECT_THAT(refused->refused().reason(), HasSubstr("(max_connections_per_address 24)"));
+    EXPECT_LE(idle.size(), 23u);
+  }
+  end_attack("before_handshake", {{"hello_attack_rss_peak_kib", static_cast<double>(hello_peak)}});
+}
+
+// 18,000 log lines in 20 s of fuzzing before: libprotobuf's own errors now go through spdlog and
+// obey --log-level (off: nothing at all), and the warnings one address causes are rate-limited
+// with a count of what was suppressed.
+TEST_F(TrustTest, LibprotobufLogsObeyTheLogLevelAndPeerWarningsAreRateLimited) {
+  // A Hello whose peer_name is not UTF-8: libprotobuf complains, the codec refuses the frame.
+  const std::string hello = std::string("\x08\x01\x1a\x02\xff\xfe", 6);
+  std::string frame = std::string(1, '\x0a') + static_cast<char>(hello.size()) + hello;
+  std::string wire;
+  planet::append_length_prefix(wire, static_cast<uint32_t>(frame.size()));
+  wire += frame;
+  for (const std::string level : {"off", "warn"}) {
+    SCOPED_TRACE(level);
+    const std::string port_file = dir_ + "/port-" + level;
+    Process server({URS_CAMUS_SERVER_BIN, "--space", "kr", "--listen", "127.0.0.1:0", "--port-file", port_file,
+                    "--log-level", level},
+                   dir_ + "/server-" + level + ".log");
+    ASSERT_TRUE(urs::test::wait_until([&] { return std::filesystem::exists(port_file); }, 20s));
+    const auto port = static_cast<uint16_t>(std::stoi(urs::test::read_text(port_file)));
+    for (int i = 0; i < 40; ++i) {
+      RawPeer raw(port);
+      raw.send_bytes(wire);
+      EXPECT_TRUE(raw.closed_by_server(10s));
+    }
+    server.signal(SIGTERM);
+    EXPECT_EQ(server.wait(20s), 0);
+    const std::string log = server.log();
+    if (level == "off") {
+      EXPECT_EQ(log, "");
+      continue;
+    }
+    auto count = [&](const std::string& text) {
+      size_t n = 0;
+      for (size_t at = log.find(text); at != std::string::npos; at = log.find(text, at + 1)) ++n;
+      return n;
+    };
+    EXPECT_GE(count("libprotobuf"), 1u);
+    EXPECT_LE(count("libprotobuf"), 10u) << "at most 10 libprotobuf messages per 10 s";
+    EXPECT_LE(count("planet: closing"), 5u) << "at most 5 warnings per address per 10 s";
+    EXPECT_LT(count("\n"), 40u) << log;
+  }
+}
+
 }  // namespace
 }  // namespace urs::camus_server::test

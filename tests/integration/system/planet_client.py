@@ -17,6 +17,7 @@ def main():
     parser.add_argument("--token-file", required=True, help="the token of this client's credential")
     parser.add_argument("--pythonpath", required=True, help="colon-separated folders of generated modules")
     parser.add_argument("--sleep-ms", type=int, default=0, help="diag.sleep called without a deadline")
+    parser.add_argument("--tls-ca", help="speak TLS 1.3, verifying the server against these CAs (PEM)")
     args = parser.parse_args()
     sys.path[:0] = args.pythonpath.split(":")
     import planet_pb2
@@ -24,6 +25,11 @@ def main():
 
     host, port = args.server.rsplit(":", 1)
     sock = socket.create_connection((host, int(port)), timeout=10)
+    if args.tls_ca:
+        import ssl
+        context = ssl.create_default_context(cafile=args.tls_ca)
+        context.minimum_version = ssl.TLSVersion.TLSv1_3
+        sock = context.wrap_socket(sock, server_hostname=host)
     buffered = bytearray()
     partial = {}  # Chunk.message_id -> bytearray
 

@@ -348,12 +348,104 @@ TEST(PlanetMessageDecoder, RejectsAReassembledMessageThatDoesNotParse) {
   EXPECT_THAT(error.what(), HasSubstr("reassembled message 2 of 3 bytes"));
 }
 
+TEST(PlanetMessageDecoder, BeforeTheHandshakeOnlyOneSmallUnchunkedFrame) {
+  CodecLimits hello_limits;
+  hello_limits.max_frame_bytes = 4096;
+  hello_limits.before_handshake = true;
+  Frame hello;
+  hello.mutable_hello()->set_version(1);
+  hello.mutable_hello()->set_peer_name("p");
+  {
+    MessageDecoder decoder(hello_limits);
+    int frames = 0;
+    decoder.feed(encode_frame(hello), [&](Frame&&) { ++frames; });
+    EXPECT_EQ(frames, 1);
+  }
+  {
+    // A chunk-wrapped Hello: refused, not reassembled.
+    const std::string bytes = hello.SerializeAsString();
+    Frame wrapped;
+    *wrapped.mutable_chunk() = piece(1, bytes.size(), 0, bytes, true);
+    MessageDecoder decoder(hello_limits);
+    auto error = expect_protocol_error([&] { decoder.feed(encode_frame(wrapped), [](Frame&&) {}); });
+    EXPECT_EQ(error.code(), ProtocolErrorCode::kChunkBeforeHandshake);
+    EXPECT_EQ(error.status(), Status::PAYLOAD_TOO_LARGE);
+    EXPECT_THAT(error.what(), HasSubstr("4096 bytes (max_hello_bytes)"));
+  }
+  {
+    // A 64 MiB length: refused at the prefix, before anything of that size is allocated.
+    MessageDecoder decoder(hello_limits);
+    auto error = expect_protocol_error([&] { decoder.feed(be32(64u << 20), [](Frame&&) {}); });
+    EXPECT_EQ(error.code(), ProtocolErrorCode::kFrameTooLarge);
+    EXPECT_THAT(error.what(), AllOf(HasSubstr("67108864 bytes before the handshake"),
+                                    HasSubstr("limit of 4096 bytes (max_hello_bytes)")));
+  }
+  {
+    // After the handshake the session limits apply: chunks are reassembled.
+    MessageDecoder decoder(hello_limits);
+    CodecLimits open = hello_limits;
+    open.max_frame_bytes = 65536;
+    open.before_handshake = false;
+    decoder.set_limits(open);
+    const std::string bytes = hello.SerializeAsString();
+    Frame wrapped;
+    *wrapped.mutable_chunk() = piece(1, bytes.size(), 0, bytes, true);
+    int frames = 0;
+    decoder.feed(encode_frame(wrapped), [&](Frame&& frame) { frames += frame.has_hello(); });
+    EXPECT_EQ(frames, 1);
+  }
+}
+
+TEST(PlanetReassembler, BoundsTheBytesHeldPerConnectionAndServerWide) {
+  constexpr uint64_t kMiB = 1u << 20;
+  CodecLimits limits;
+  limits.max_message_bytes = 10 * kMiB;
+  limits.max_reassembly_bytes = 4 * kMiB;
+  const std::string head(100, 'a');  // a first piece: its buffer starts at the 1 MiB initial reserve
+  {
+    // Each message in progress holds 1 MiB (the initial reserve): the fifth is one too many.
+    Reassembler reassembler(limits);
+    for (uint64_t id = 1; id <= 4; ++id) reassembler.add(piece(id, 10 * kMiB, 0, head, false));
+    EXPECT_EQ(reassembler.held_bytes(), 4 * kMiB);
+    auto error = expect_protocol_error([&] { reassembler.add(piece(5, 10 * kMiB, 0, head, false)); });
+    EXPECT_EQ(error.code(), ProtocolErrorCode::kReassemblyLimit);
+    EXPECT_EQ(error.status(), Status::RESOURCE_EXHAUSTED);
+    EXPECT_THAT(error.what(), HasSubstr("would hold 5242880 bytes, more than the limit of 4194304 bytes "
+                                        "(max_reassembly_bytes)"));
+    EXPECT_EQ(reassembler.partial_messages(), 4u);
+    EXPECT_EQ(reassembler.held_bytes(), 4 * kMiB);
+  }
+  {
+    // Two connections share a 2 MiB budget; what one holds is handed back when it goes.
+    constexpr uint64_t kTotal = 3 * kMiB / 2;
+    limits.budget = std::make_shared<MemoryBudget>(2 * kMiB);
+    auto first = std::make_unique<Reassembler>(limits);
+    Reassembler second(limits);
+    first->add(piece(1, kTotal, 0, head, false));
+    first->add(piece(2, kTotal, 0, head, false));
+    EXPECT_EQ(limits.budget->used(), 2 * kMiB);
+    auto error = expect_protocol_error([&] { second.add(piece(1, kTotal, 0, head, false)); });
+    EXPECT_EQ(error.code(), ProtocolErrorCode::kServerBudget);
+    EXPECT_EQ(error.status(), Status::RESOURCE_EXHAUSTED);
+    EXPECT_THAT(error.what(), HasSubstr("(max_buffered_bytes)"));
+    first.reset();
+    EXPECT_EQ(limits.budget->used(), 0u);
+    second.add(piece(1, kTotal, 0, head, false));
+    EXPECT_EQ(limits.budget->used(), kMiB);
+    // A completed message is no longer counted.
+    EXPECT_TRUE(second.add(piece(1, kTotal, head.size(), std::string(kTotal - head.size(), 'b'), true)));
+    EXPECT_EQ(limits.budget->used(), 0u);
+  }
+}
+
 TEST(PlanetProtocolError, NamesEveryCode) {
   for (auto code : {ProtocolErrorCode::kFrameTooLarge, ProtocolErrorCode::kEmptyFrame,
                     ProtocolErrorCode::kMalformedFrame, ProtocolErrorCode::kMessageTooLarge,
                     ProtocolErrorCode::kTooManyPartialMessages,
                     ProtocolErrorCode::kInconsistentChunk, ProtocolErrorCode::kUnknownChunk,
-                    ProtocolErrorCode::kChunkOverflow, ProtocolErrorCode::kNestedChunk}) {
+                    ProtocolErrorCode::kChunkOverflow, ProtocolErrorCode::kNestedChunk,
+                    ProtocolErrorCode::kChunkBeforeHandshake, ProtocolErrorCode::kReassemblyLimit,
+                    ProtocolErrorCode::kServerBudget}) {
     EXPECT_NE(protocol_error_name(code), "UNKNOWN_PROTOCOL_ERROR");
   }
 }

@@ -192,6 +192,9 @@ struct ClientCore {
 
   const ClientOptions options;
   const std::string target;  // "host:port"
+  // Null: plain TCP. Built once (the CA and client certificate are read at construction).
+  const std::shared_ptr<asio::ssl::context> tls =
+      options.tls.enabled ? detail::make_client_tls_context(options.tls) : nullptr;
   std::shared_ptr<asio::io_context> io = std::make_shared<asio::io_context>();
   std::optional<asio::executor_work_guard<asio::io_context::executor_type>> work;
   std::thread thread;
@@ -239,8 +242,8 @@ struct ClientCore {
 
 class ClientLink final : public detail::Link {
  public:
-  ClientLink(ClientCore& impl, asio::ip::tcp::socket socket, const detail::LinkConfig& config)
-      : Link(impl.io, std::move(socket), config), impl_(impl) {}
+  ClientLink(ClientCore& impl, std::unique_ptr<detail::Stream> stream, const detail::LinkConfig& config)
+      : Link(impl.io, std::move(stream), config), impl_(impl) {}
 
   // Strand: the handshake succeeded.
   void open(const Welcome& welcome, const CodecLimits& limits, uint32_t chunk_bytes) {
@@ -463,7 +466,11 @@ void ClientCore::on_socket_connected(uint64_t attempt, const std::error_code& er
   config.chunk_bytes = options.chunk_bytes;
   config.max_send_queue_bytes = kClientSendQueueBytes;
   config.linger = kClientLinger;
-  link = std::make_shared<ClientLink>(*this, std::move(*connecting), config);
+  auto stream = tls ? detail::make_tls_stream(std::move(*connecting), tls, /*server=*/false,
+                                              options.tls.server_name.empty() ? options.host
+                                                                              : options.tls.server_name)
+                    : detail::make_tcp_stream(std::move(*connecting));
+  link = std::make_shared<ClientLink>(*this, std::move(stream), config);
   connecting.reset();
   phase = Phase::kHandshaking;
   // The handshake gets its own connect_timeout.

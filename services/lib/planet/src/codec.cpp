@@ -248,6 +248,9 @@ std::string_view protocol_error_name(ProtocolErrorCode code) {
     case ProtocolErrorCode::kUnknownChunk: return "UNKNOWN_CHUNK";
     case ProtocolErrorCode::kChunkOverflow: return "CHUNK_OVERFLOW";
     case ProtocolErrorCode::kNestedChunk: return "NESTED_CHUNK";
+    case ProtocolErrorCode::kChunkBeforeHandshake: return "CHUNK_BEFORE_HANDSHAKE";
+    case ProtocolErrorCode::kReassemblyLimit: return "REASSEMBLY_LIMIT";
+    case ProtocolErrorCode::kServerBudget: return "SERVER_BUDGET";
   }
   return "UNKNOWN_PROTOCOL_ERROR";
 }
@@ -259,7 +262,11 @@ Status ProtocolError::status() const {
   switch (code_) {
     case ProtocolErrorCode::kFrameTooLarge:
     case ProtocolErrorCode::kMessageTooLarge:
+    case ProtocolErrorCode::kChunkBeforeHandshake:
       return Status::PAYLOAD_TOO_LARGE;
+    case ProtocolErrorCode::kReassemblyLimit:
+    case ProtocolErrorCode::kServerBudget:
+      return Status::RESOURCE_EXHAUSTED;
     default:
       return Status::BAD_ARGUMENTS;
   }
@@ -309,6 +316,13 @@ void FrameDecoder::feed(std::string_view bytes, const FrameCallback& on_frame) {
              "zero-length frame: every frame must carry a serialized urs.planet.Frame");
       }
       // Checked before anything is allocated for the body.
+      if (expected_ > max_frame_bytes_ && before_handshake_) {
+        fail(ProtocolErrorCode::kFrameTooLarge,
+             "frame of " + n(expected_) + " bytes before the handshake exceeds the limit of " +
+                 n(max_frame_bytes_) +
+                 " bytes (max_hello_bytes): only one un-chunked Hello of at most that size may be "
+                 "sent before Welcome");
+      }
       if (expected_ > max_frame_bytes_) {
         fail(ProtocolErrorCode::kFrameTooLarge,
              "frame of " + n(expected_) + " bytes exceeds the limit of " + n(max_frame_bytes_) +
@@ -409,10 +423,17 @@ std::optional<std::string> Reassembler::add(Chunk&& chunk) {
     }
     Partial& partial = partial_[id];
     partial.total = total;
-    partial.data.swap(spare_);  // reuse the recycled buffer, if any
-    // The size is declared by the peer: reserve at most kInitialReassemblyReserve up front and let
-    // the buffer grow with the data that actually arrives.
-    partial.data.reserve(static_cast<size_t>(std::min(total, kInitialReassemblyReserve)));
+    partial.data.swap(spare_);  // reuse the recycled buffer, if any (already held: counted as is)
+    partial.accounted = partial.data.capacity();
+    held_bytes_ += partial.accounted;
+    if (limits_.budget) limits_.budget->add(partial.accounted);
+    try {
+      grow(partial, data.size(), what);
+    } catch (const ProtocolError&) {
+      forget(partial);
+      partial_.erase(id);
+      throw;
+    }
     partial.data.append(data);
     buffered_bytes_ += data.size();
     return std::nullopt;
@@ -439,16 +460,62 @@ std::optional<std::string> Reassembler::add(Chunk&& chunk) {
                   : what + ": the last piece ends at " + n(partial.data.size() + data.size()) +
                         " of " + n(total) + " bytes");
   }
-  if (complete && partial.data.capacity() < total) {
-    partial.data.reserve(static_cast<size_t>(total));  // the last piece: no doubling
-  }
+  grow(partial, data.size(), what);
   partial.data.append(data);
   buffered_bytes_ += data.size();
   if (!complete) return std::nullopt;
   std::string message = std::move(partial.data);
   buffered_bytes_ -= message.size();
+  forget(partial);
   partial_.erase(it);
   return message;
+}
+
+Reassembler::~Reassembler() {
+  for (const auto& [id, partial] : partial_) forget(partial);
+}
+
+void Reassembler::set_limits(const CodecLimits& limits) {
+  if (limits.budget != limits_.budget && held_bytes_ > 0) {
+    if (limits_.budget) limits_.budget->release(held_bytes_);
+    if (limits.budget) limits.budget->add(held_bytes_);
+  }
+  limits_ = limits;
+}
+
+void Reassembler::grow(Partial& partial, size_t more, const std::string& what) {
+  const uint64_t need = partial.data.size() + more;  // never above total (checked by the caller)
+  const uint64_t capacity = partial.data.capacity();
+  if (need <= capacity) return;
+  // The size is declared by the peer: start at kInitialReassemblyReserve at most and grow with
+  // the data that actually arrives (doubling, never beyond total).
+  const uint64_t target =
+      std::max(need, std::min(partial.total, std::max(2 * capacity, kInitialReassemblyReserve)));
+  const uint64_t extra = target - capacity;
+  if (held_bytes_ + extra > limits_.max_reassembly_bytes) {
+    fail(ProtocolErrorCode::kReassemblyLimit,
+         what + ": the chunked messages in progress on this connection would hold " +
+             n(held_bytes_ + extra) + " bytes, more than the limit of " +
+             n(limits_.max_reassembly_bytes) +
+             " bytes (max_reassembly_bytes); finish messages before starting more, or raise the "
+             "receiver's max_reassembly_bytes");
+  }
+  if (limits_.budget && !limits_.budget->fits(extra)) {
+    fail(ProtocolErrorCode::kServerBudget,
+         what + ": the server's buffers for all connections hold " + n(limits_.budget->used()) +
+             " bytes; " + n(extra) + " more would exceed the limit of " +
+             n(limits_.budget->limit()) + " bytes (max_buffered_bytes); retry later");
+  }
+  partial.data.reserve(static_cast<size_t>(target));
+  const uint64_t grown = partial.data.capacity() - partial.accounted;
+  partial.accounted += grown;
+  held_bytes_ += grown;
+  if (limits_.budget) limits_.budget->add(grown);
+}
+
+void Reassembler::forget(const Partial& partial) {
+  held_bytes_ -= partial.accounted;
+  if (limits_.budget) limits_.budget->release(partial.accounted);
 }
 
 void Reassembler::recycle(std::string&& buffer) {
@@ -460,10 +527,14 @@ void Reassembler::recycle(std::string&& buffer) {
 // ---- MessageDecoder -----------------------------------------------------------------------------
 
 MessageDecoder::MessageDecoder(const CodecLimits& limits)
-    : frames_(limits.max_frame_bytes), reassembler_(limits) {}
+    : before_handshake_(limits.before_handshake), frames_(limits.max_frame_bytes), reassembler_(limits) {
+  frames_.set_before_handshake(before_handshake_);
+}
 
 void MessageDecoder::set_limits(const CodecLimits& limits) {
+  before_handshake_ = limits.before_handshake;
   frames_.set_max_frame_bytes(limits.max_frame_bytes);
+  frames_.set_before_handshake(before_handshake_);
   reassembler_.set_limits(limits);
 }
 
@@ -472,6 +543,11 @@ void MessageDecoder::feed(std::string_view bytes, const FrameDecoder::FrameCallb
     if (!frame.has_chunk()) {
       on_message(std::move(frame));
       return;
+    }
+    if (before_handshake_) {
+      fail(ProtocolErrorCode::kChunkBeforeHandshake,
+           "a Chunk frame before the handshake: only one un-chunked Hello of at most " +
+               n(frames_.max_frame_bytes()) + " bytes (max_hello_bytes) may be sent before Welcome");
     }
     const uint64_t id = frame.chunk().message_id();
     std::optional<std::string> whole = reassembler_.add(std::move(*frame.mutable_chunk()));

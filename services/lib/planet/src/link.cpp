@@ -7,6 +7,7 @@
 #include <cerrno>
 
 #include "urs/planet/status.hpp"
+#include "urs/util/rate_limit.hpp"
 
 namespace urs::planet::detail {
 namespace {
@@ -23,7 +24,22 @@ std::string endpoint_text(const asio::ip::tcp::socket& socket) {
   return host + ":" + std::to_string(endpoint.port());
 }
 
+CodecLimits with_budget(CodecLimits limits, const std::shared_ptr<MemoryBudget>& budget) {
+  limits.budget = budget;
+  return limits;
+}
+
 }  // namespace
+
+void warn_peer(const std::string& peer_address, const std::string& message) {
+  static util::RateLimiter limiter(5, std::chrono::seconds(10));
+  if (!spdlog::should_log(spdlog::level::warn)) return;
+  const size_t colon = peer_address.rfind(':');
+  const std::string host = colon == std::string::npos ? peer_address : peer_address.substr(0, colon);
+  uint64_t suppressed = 0;
+  if (!limiter.allow(host, suppressed)) return;
+  spdlog::warn("planet: {}{}", message, util::suppressed_note(suppressed));
+}
 
 Frame make_goodbye(Status status, const std::string& reason) {
   Frame frame;
@@ -32,25 +48,56 @@ Frame make_goodbye(Status status, const std::string& reason) {
   return frame;
 }
 
-Link::Link(std::shared_ptr<asio::io_context> io, asio::ip::tcp::socket socket,
+Link::Link(std::shared_ptr<asio::io_context> io, std::unique_ptr<Stream> stream,
            const LinkConfig& config)
     : io_(std::move(io)),
-      socket_(std::move(socket)),
+      stream_(std::move(stream)),
+      socket_(stream_->socket()),
       ping_timer_(socket_.get_executor()),
       silence_timer_(socket_.get_executor()),
       linger_timer_(socket_.get_executor()),
       config_(config),
       peer_address_(endpoint_text(socket_)),
-      decoder_(config.limits),
+      decoder_(with_budget(config.limits, config.budget)),
       outbox_(config.chunk_bytes) {
   std::error_code ignored;
   socket_.set_option(asio::ip::tcp::no_delay(true), ignored);
 }
 
-Link::~Link() = default;
+Link::~Link() {
+  if (config_.budget) config_.budget->release(accounted_);
+}
+
+void Link::account_locked() {
+  if (!config_.budget) return;
+  const size_t now = outbox_.queued_bytes();
+  if (now > accounted_) config_.budget->add(now - accounted_);
+  if (now < accounted_) config_.budget->release(accounted_ - now);
+  accounted_ = now;
+}
 
 void Link::start() {
-  asio::post(socket_.get_executor(), [self = shared_from_this()] { self->do_read(); });
+  asio::post(socket_.get_executor(), [self = shared_from_this()] {
+    if (self->finished_) return;
+    self->stream_->async_handshake([self](const std::error_code& error) {
+      if (self->finished_) return;
+      if (error) {
+        self->handle_handshake_failed("TLS handshake failed: " + error.message());
+        return;
+      }
+      self->handshaken_ = true;
+      self->do_read();
+      if (self->write_deferred_) {
+        self->write_deferred_ = false;
+        self->do_write();
+      }
+    });
+  });
+}
+
+void Link::handle_handshake_failed(const std::string& reason) {
+  warn_peer(peer_address_, "closing " + describe() + ": " + reason);
+  finish(reason);
 }
 
 bool Link::enqueue(const Frame& frame) {
@@ -71,12 +118,31 @@ bool Link::enqueue_with(size_t size, Push&& push) {
                                std::to_string(config_.max_send_queue_bytes) +
                                " (the peer does not read fast enough)";
     lock.unlock();
-    spdlog::warn("planet: closing {}: {}", describe(), reason);
+    warn_peer(peer_address_, "closing " + describe() + ": " + reason);
     close_link(make_goodbye(Status::UNAVAILABLE, reason), reason);
     return false;
   }
+  if (config_.budget && !config_.budget->fits(size)) {
+    const std::string reason = "the server's buffers for all connections hold " +
+                               std::to_string(config_.budget->used()) + " bytes; a frame of " +
+                               std::to_string(size) + " bytes would exceed the limit of " +
+                               std::to_string(config_.budget->limit()) +
+                               " bytes (max_buffered_bytes)";
+    lock.unlock();
+    warn_peer(peer_address_, "closing " + describe() + ": " + reason);
+    close_link(make_goodbye(Status::RESOURCE_EXHAUSTED, reason), reason);
+    return false;
+  }
   push();
+  account_locked();
   if (writing_) return true;  // the writer picks it up in its turn
+  if (!handshaken_.load()) {
+    // TLS before its handshake completed: the strand writes once it has.
+    writing_ = true;
+    lock.unlock();
+    asio::post(socket_.get_executor(), [self = shared_from_this()] { self->do_write(); });
+    return true;
+  }
   // Nothing is being written: this thread becomes the writer and sends right away (a
   // non-blocking send, under mutex_ so that finish() cannot close the socket meanwhile) instead
   // of waking the strand. Whatever is left (the socket is full, more is queued, an error) goes
@@ -112,7 +178,7 @@ void Link::do_close(std::optional<Frame> final_frame, const std::string& reason)
   if (close_reason_.empty()) close_reason_ = reason;
   ping_timer_.cancel();
   silence_timer_.cancel();
-  if (!final_frame || !socket_.is_open()) {
+  if (!final_frame || !socket_.is_open() || !handshaken_) {
     finish(reason);
     return;
   }
@@ -122,6 +188,7 @@ void Link::do_close(std::optional<Frame> final_frame, const std::string& reason)
     std::lock_guard<std::mutex> lock(mutex_);
     outbox_.clear();
     outbox_.push(*final_frame);
+    account_locked();
     if (!writing_) writing_ = start_writing = true;
   }
   linger_timer_.expires_after(config_.linger);
@@ -139,6 +206,7 @@ void Link::finish(const std::string& reason) {
     std::lock_guard<std::mutex> lock(mutex_);
     closing_.store(true);
     outbox_.clear();
+    account_locked();
     requested = requested_reason_;
     // Closed under mutex_: enqueue() writes to the socket directly while holding it.
     std::error_code ignored;
@@ -164,7 +232,7 @@ void Link::set_heartbeat(std::chrono::milliseconds ping_interval,
 }
 
 void Link::set_limits(const CodecLimits& limits, uint32_t chunk_bytes) {
-  decoder_.set_limits(limits);
+  decoder_.set_limits(with_budget(limits, config_.budget));
   std::lock_guard<std::mutex> lock(mutex_);
   outbox_.set_chunk_bytes(chunk_bytes);
 }
@@ -191,17 +259,17 @@ void Link::arm_silence(std::chrono::steady_clock::time_point deadline) {
     }
     const std::string reason =
         "heartbeat timeout after " + std::to_string(self->silence_timeout_.count()) + " ms";
-    spdlog::warn("planet: closing {}: {}", self->describe(), reason);
+    warn_peer(self->peer_address_, "closing " + self->describe() + ": " + reason);
     self->close_link(make_goodbye(Status::UNAVAILABLE, reason), reason);
   });
 }
 
 void Link::do_read() {
   if (finished_) return;
-  socket_.async_read_some(asio::buffer(read_buffer_),
-                          [self = shared_from_this()](const std::error_code& error, size_t size) {
-                            self->on_read(error, size);
-                          });
+  stream_->async_read_some(asio::buffer(read_buffer_),
+                           [self = shared_from_this()](const std::error_code& error, size_t size) {
+                             self->on_read(error, size);
+                           });
 }
 
 void Link::on_read(const std::error_code& error, size_t size) {
@@ -209,8 +277,9 @@ void Link::on_read(const std::error_code& error, size_t size) {
   if (error) {
     // While a final frame is going out, its write (or the linger timer) ends the link.
     if (final_pending_) return;
-    finish(error == asio::error::eof ? "connection closed by peer"
-                                     : "read failed: " + error.message());
+    // A TLS peer that closes without close_notify: "stream truncated", the same for Planet.
+    const bool closed = error == asio::error::eof || error == asio::ssl::error::stream_truncated;
+    finish(closed ? "connection closed by peer" : "read failed: " + error.message());
     return;
   }
   if (!closing_.load()) {
@@ -259,8 +328,8 @@ void Link::dispatch(Frame&& frame) {
 void Link::handle_goodbye(const Goodbye&) {}
 
 void Link::handle_protocol_error(const ProtocolError& error) {
-  spdlog::warn("planet: closing {}: protocol error {}: {}", describe(),
-               protocol_error_name(error.code()), error.what());
+  warn_peer(peer_address_, "closing " + describe() + ": protocol error " +
+                              std::string(protocol_error_name(error.code())) + ": " + error.what());
   close_link(make_goodbye(error.status(), error.what()),
              std::string("protocol error: ") + error.what());
 }
@@ -277,6 +346,7 @@ bool Link::fill_batch_locked() {
     batch_bytes_ += frame->size();
     batch_.push_back(std::move(*frame));
   }
+  account_locked();
   return !batch_.empty();
 }
 
@@ -316,26 +386,24 @@ bool Link::write_now(std::error_code& error) {
       }
       if (full || !add(frame.tail.data(), frame.tail.size())) break;
     }
-    msghdr message{};
-    message.msg_iov = iov;
-    message.msg_iovlen = count;
-    const ssize_t written =
-        ::sendmsg(socket_.native_handle(), &message, MSG_DONTWAIT | MSG_NOSIGNAL);
-    if (written < 0) {
-      if (errno == EINTR) continue;
-      if (errno != EAGAIN && errno != EWOULDBLOCK) {
-        error = std::error_code(errno, std::system_category());
-      }
-      return false;
-    }
+    const long written = stream_->send_now(iov, count, error);
+    if (written <= 0) return false;  // an error, or the socket is full
     batch_sent_ += static_cast<size_t>(written);
     if (static_cast<size_t>(written) < requested) return false;  // the socket is full
   }
-  return true;
+  return !stream_->has_pending_output();  // TLS: encrypted, but not all written yet
 }
 
 void Link::do_write() {
   if (finished_) return;
+  if (!handshaken_) {
+    write_deferred_ = true;  // start() writes once the handshake completed
+    return;
+  }
+  if (stream_->has_pending_output()) {
+    write_rest_async();  // TLS: what send_now encrypted first
+    return;
+  }
   if (batch_sent_ == batch_bytes_) {
     bool idle = false;
     {
@@ -395,8 +463,8 @@ void Link::write_rest_async() {
     for (std::string_view range : frame.body) add(range.data(), range.size());
     add(frame.tail.data(), frame.tail.size());
   }
-  asio::async_write(socket_, write_buffers_,
-                    [self = shared_from_this()](const std::error_code& error, size_t) {
+  stream_->async_write(write_buffers_,
+                       [self = shared_from_this()](const std::error_code& error, size_t) {
                       if (self->finished_) return;
                       if (error) {
                         self->finish("write failed: " + error.message());

@@ -1,8 +1,8 @@
 #pragma once
-// One Planet TCP connection, shared by the server's sessions and the client: read loop into a
-// MessageDecoder, write loop out of an Outbox, heartbeats, and an orderly close that sends a final
-// frame (Goodbye or Refused) before shutting the socket. The only code in the library that
-// touches a socket besides the acceptor and the client's connector.
+// One Planet connection (plain TCP or TLS, see stream.hpp), shared by the server's sessions and
+// the client: read loop into a MessageDecoder, write loop out of an Outbox, heartbeats, and an
+// orderly close that sends a final frame (Goodbye or Refused) before shutting the socket. The only
+// code in the library that touches a socket besides the acceptor and the client's connector.
 //
 // Threading: every handler of a Link runs on its strand (the socket's executor). enqueue(),
 // close_link(), closing() and peer_address() are thread-safe; everything marked "strand" must be
@@ -23,6 +23,7 @@
 #include <string>
 #include <vector>
 
+#include "stream.hpp"
 #include "urs/planet/codec.hpp"
 
 namespace urs::planet::detail {
@@ -32,19 +33,28 @@ struct LinkConfig {
   uint32_t chunk_bytes = 64u << 10;             // outgoing frames above this are chunked
   size_t max_send_queue_bytes = 256ull << 20;   // beyond it the link closes itself
   std::chrono::milliseconds linger{1000};       // how long a final frame may take to go out
+  // Shared by every link of a server (null: none): counts this link's send queue and
+  // reassembly buffers; a frame that would take it over its limit closes the link.
+  std::shared_ptr<MemoryBudget> budget;
 };
 
 Frame make_goodbye(Status status, const std::string& reason);
 
+// Logs `message` at warn, at most 5 per 10 s per source address (the host of `peer_address`,
+// "host:port"), with the number suppressed in between: a peer cannot flood the log. For what a
+// peer causes (protocol errors, refusals, timeouts).
+void warn_peer(const std::string& peer_address, const std::string& message);
+
 class Link : public std::enable_shared_from_this<Link> {
  public:
-  Link(std::shared_ptr<asio::io_context> io, asio::ip::tcp::socket socket,
+  Link(std::shared_ptr<asio::io_context> io, std::unique_ptr<Stream> stream,
        const LinkConfig& config);
   virtual ~Link();
   Link(const Link&) = delete;
   Link& operator=(const Link&) = delete;
 
-  // Starts the read loop. Thread-safe; call once.
+  // Starts the TLS handshake, if any, then the read loop. Frames queued before the handshake
+  // completes go out after it. Thread-safe; call once.
   void start();
   // Queues a frame; never blocks. False if the link is closing or closed, or if the frame would
   // take the send queue over max_send_queue_bytes (then the link closes with UNAVAILABLE).
@@ -72,6 +82,11 @@ class Link : public std::enable_shared_from_this<Link> {
   // Strand (or after the io threads are gone): closes now, without a final frame.
   void finish(const std::string& reason);
   asio::any_io_executor executor() { return socket_.get_executor(); }
+  // Strand, once the TLS handshake completed: the verified client-certificate name, or empty.
+  std::string peer_certificate_name() const { return stream_->peer_certificate_name(); }
+  bool secure() const { return stream_->secure(); }
+  // Strand: the TLS handshake failed; default: log (rate-limited) and close.
+  virtual void handle_handshake_failed(const std::string& reason);
 
   // Strand. A complete frame other than Goodbye (and, once open, Ping and Pong).
   virtual void handle_frame(Frame&& frame) = 0;
@@ -97,6 +112,8 @@ class Link : public std::enable_shared_from_this<Link> {
   // `error` set, when the write failed.
   bool write_now(std::error_code& error);
   void clear_batch();
+  // With mutex_ held: brings this link's share of the budget in line with the send queue.
+  void account_locked();
   void do_write();
   void write_rest_async();
   void do_close(std::optional<Frame> final_frame, const std::string& reason);
@@ -104,7 +121,8 @@ class Link : public std::enable_shared_from_this<Link> {
   void arm_silence(std::chrono::steady_clock::time_point deadline);
 
   std::shared_ptr<asio::io_context> io_;  // first: destroyed last
-  asio::ip::tcp::socket socket_;
+  std::unique_ptr<Stream> stream_;
+  asio::ip::tcp::socket& socket_;         // the TCP socket under stream_
   asio::steady_timer ping_timer_;
   asio::steady_timer silence_timer_;
   asio::steady_timer linger_timer_;
@@ -116,6 +134,8 @@ class Link : public std::enable_shared_from_this<Link> {
   std::array<char, 64 * 1024> read_buffer_;
   std::vector<asio::const_buffer> write_buffers_;
   bool open_ = false;
+  std::atomic<bool> handshaken_{false};  // the stream's (TLS) handshake completed: writes may go out
+  bool write_deferred_ = false; // do_write ran before that
   bool finished_ = false;
   bool final_pending_ = false;
   std::string close_reason_;
@@ -130,6 +150,7 @@ class Link : public std::enable_shared_from_this<Link> {
   Outbox outbox_;
   bool writing_ = false;  // someone owns the batch: a do_write chain, or a direct write in enqueue
   std::string requested_reason_;
+  size_t accounted_ = 0;  // send-queue bytes counted in config_.budget
 
   // The frames being written, owned by whoever set writing_ (under mutex_): the strand, or an
   // enqueue() writing directly while it holds mutex_.

@@ -40,6 +40,30 @@ std::string peer_name_problem(const std::string& name) {
   return {};
 }
 
+// Over a connection limit: one Refused{RESOURCE_EXHAUSTED} if the socket takes it at once (it
+// is small and the socket new), then close. Nothing is read from the peer.
+void refuse_connection(asio::ip::tcp::socket socket, const std::string& address, const std::string& reason) {
+  detail::warn_peer(address + ":0", "refused a connection from " + address + ": " + reason);
+  Frame refused;
+  refused.mutable_refused()->set_status(Status::RESOURCE_EXHAUSTED);
+  refused.mutable_refused()->set_reason(reason);
+  const std::string bytes = encode_frame(refused);
+  std::error_code ignored;
+  socket.non_blocking(true, ignored);
+  socket.write_some(asio::buffer(bytes), ignored);
+  socket.shutdown(asio::ip::tcp::socket::shutdown_both, ignored);
+  socket.close(ignored);
+}
+
+bool is_loopback(const std::string& host) {
+  std::error_code error;
+  const asio::ip::address address = asio::ip::make_address(host, error);
+  if (error) return false;
+  if (address.is_loopback()) return true;
+  return address.is_v6() && address.to_v6().is_v4_mapped() &&
+         asio::ip::make_address_v4(asio::ip::v4_mapped, address.to_v6()).is_loopback();
+}
+
 void validate(const ServerOptions& options) {
   std::vector<std::string> errors;
   auto ms = [](milliseconds value) { return std::to_string(value.count()) + " ms"; };
@@ -58,6 +82,22 @@ void validate(const ServerOptions& options) {
     errors.push_back("max_send_queue_bytes " + std::to_string(options.max_send_queue_bytes) +
                      " must be at least chunk_bytes (" + std::to_string(options.chunk_bytes) + ")");
   }
+  if (options.max_hello_bytes < kMinChunkBytes || options.max_hello_bytes > options.chunk_bytes) {
+    errors.push_back("max_hello_bytes " + std::to_string(options.max_hello_bytes) + " must be between " +
+                     std::to_string(kMinChunkBytes) + " and chunk_bytes (" + std::to_string(options.chunk_bytes) + ")");
+  }
+  if (options.max_reassembly_bytes < options.max_message_bytes) {
+    errors.push_back("max_reassembly_bytes " + std::to_string(options.max_reassembly_bytes) +
+                     " must be at least max_message_bytes (" + std::to_string(options.max_message_bytes) + ")");
+  }
+  if (options.max_buffered_bytes < options.max_reassembly_bytes ||
+      options.max_buffered_bytes < options.max_send_queue_bytes) {
+    errors.push_back("max_buffered_bytes " + std::to_string(options.max_buffered_bytes) +
+                     " must be at least max_reassembly_bytes and max_send_queue_bytes");
+  }
+  if (options.max_connections == 0 || options.max_connections_per_address == 0) {
+    errors.push_back("max_connections and max_connections_per_address must be at least 1");
+  }
   if (options.io_threads == 0) errors.push_back("io_threads must be at least 1");
   if (options.session_resume_window.count() < 0) {
     errors.push_back("session_resume_window " + ms(options.session_resume_window) + " must be >= 0");
@@ -70,6 +110,10 @@ void validate(const ServerOptions& options) {
 }
 
 }  // namespace
+
+bool token_transport_allowed(bool tls, bool allow_plaintext_tokens, const std::string& peer_host) {
+  return tls || allow_plaintext_tokens || is_loopback(peer_host);
+}
 
 class ServerSession;
 
@@ -84,6 +128,11 @@ struct ServerCore {
   void on_session_closed(uint64_t id);
   bool on_io_thread() const;
   std::shared_ptr<const Authenticator> current_authenticator() const;
+  // What a session may send once open (before Welcome: hello_limits()).
+  CodecLimits session_limits() const;
+  CodecLimits hello_limits() const;
+  // With `mutex` held: why a new connection from `address` is refused, or empty.
+  std::string connection_problem_locked(const std::string& address) const;
   size_t set_authenticator(std::shared_ptr<const Authenticator> replacement);
 
   const ServerOptions options;
@@ -103,6 +152,18 @@ struct ServerCore {
   std::mutex mutex;
   std::condition_variable changed;
   std::map<uint64_t, std::shared_ptr<ServerSession>> sessions;  // handshaking and open
+  std::map<std::string, size_t> connections_per_address;         // of `sessions`, by source address
+  // Reassembly buffers and send queues of every session (max_buffered_bytes).
+  const std::shared_ptr<MemoryBudget> budget = std::make_shared<MemoryBudget>(options.max_buffered_bytes);
+  // Null: plain TCP.
+  // Null: plain TCP. Replaced by reload_tls() (guarded by auth_mutex); a connection keeps the one
+  // it was accepted with.
+  std::shared_ptr<asio::ssl::context> tls =
+      options.tls.cert_file.empty() ? nullptr : detail::make_server_tls_context(options.tls);
+  std::shared_ptr<asio::ssl::context> current_tls() const {
+    std::lock_guard<std::mutex> lock(auth_mutex);
+    return tls;
+  }
   uint64_t next_session_id = 1;
   bool started = false;
   bool stopped = false;
@@ -111,12 +172,16 @@ struct ServerCore {
 // One accepted connection: handshake, then frames to the SessionHandler.
 class ServerSession final : public detail::Link, public Session {
  public:
-  ServerSession(ServerCore& server, uint64_t id, asio::ip::tcp::socket socket,
-                const detail::LinkConfig& config)
-      : Link(server.io, std::move(socket), config),
+  ServerSession(ServerCore& server, uint64_t id, std::unique_ptr<detail::Stream> stream,
+                const detail::LinkConfig& config, std::string source_address)
+      : Link(server.io, std::move(stream), config),
         server_(server),
         id_(id),
+        source_address_(std::move(source_address)),
         handshake_timer_(executor()) {}
+
+  // The peer's address without the port (what max_connections_per_address counts).
+  const std::string& source_address() const { return source_address_; }
 
   // Starts the handshake timer and the read loop.
   void begin() {
@@ -129,7 +194,7 @@ class ServerSession final : public detail::Link, public Session {
         const std::string reason = "no Hello within " +
                                    std::to_string(self->server_.options.handshake_timeout.count()) +
                                    " ms";
-        spdlog::warn("planet: closing {}: {}", self->describe(), reason);
+        detail::warn_peer(self->peer_address(), "closing " + self->describe() + ": " + reason);
         self->close_link(detail::make_goodbye(Status::DEADLINE_EXCEEDED, reason), reason);
       });
       self->start();
@@ -191,15 +256,15 @@ class ServerSession final : public detail::Link, public Session {
   SessionPtr self() { return std::static_pointer_cast<ServerSession>(shared_from_this()); }
 
   void protocol_violation(const std::string& reason) {
-    spdlog::warn("planet: closing {}: {}", describe(), reason);
+    detail::warn_peer(peer_address(), "closing " + describe() + ": " + reason);
     close_link(detail::make_goodbye(Status::BAD_ARGUMENTS, reason), reason);
   }
 
   // The peer's declared name is quoted only once it is known to be printable and short.
   void refuse(Status status, const std::string& reason, const Hello& hello) {
     const bool printable = peer_name_problem(hello.peer_name()).empty();
-    spdlog::warn("planet: refused peer '{}' from {}: {}", printable ? hello.peer_name() : "?", peer_address(),
-                 reason);
+    detail::warn_peer(peer_address(), "refused peer '" + (printable ? hello.peer_name() : std::string("?")) +
+                                          "' from " + peer_address() + ": " + reason);
     Frame refused;
     refused.mutable_refused()->set_status(status);
     refused.mutable_refused()->set_reason(reason);
@@ -207,7 +272,7 @@ class ServerSession final : public detail::Link, public Session {
   }
 
   // The verified client-certificate name; empty on a connection without one (plain TCP).
-  std::string certificate_name() const { return {}; }
+  std::string certificate_name() const { return peer_certificate_name(); }
 
   void handshake(Frame&& frame) {
     handshake_timer_.cancel();
@@ -227,6 +292,14 @@ class ServerSession final : public detail::Link, public Session {
     }
     if (auto why = peer_name_problem(hello.peer_name()); !why.empty()) {
       refuse(Status::BAD_ARGUMENTS, "peer_name is not valid: " + why, hello);
+      return;
+    }
+    if (!hello.token().empty() &&
+        !token_transport_allowed(secure(), options.allow_plaintext_tokens, source_address_)) {
+      refuse(Status::UNAUTHENTICATED,
+             "a token over plain TCP is accepted from loopback only: connect with TLS (--tls), or the operator "
+             "starts the server with --allow-plaintext-tokens",
+             hello);
       return;
     }
     Admission admission;
@@ -273,6 +346,7 @@ class ServerSession final : public detail::Link, public Session {
 
     opened_ = true;
     mark_open();
+    set_limits(server_.session_limits(), options.chunk_bytes);  // Hello limits no more
     set_heartbeat(options.heartbeat_interval, options.heartbeat_timeout);
     spdlog::info("planet: {} open: {} (role {}), session {}{}", describe(), identity_.name,
                  role_word(identity_.role), identity_.session, opened.resumed ? " resumed" : "");
@@ -286,6 +360,7 @@ class ServerSession final : public detail::Link, public Session {
 
   ServerCore& server_;
   const uint64_t id_;
+  const std::string source_address_;
   asio::steady_timer handshake_timer_;
   Hello hello_;        // written once on the strand before on_open; read-only afterwards
   Identity identity_;  // likewise
@@ -342,8 +417,9 @@ void ServerCore::start() {
       }
     });
   }
-  spdlog::info("planet: server listening on {}:{} (space '{}', instance {})", options.host,
-               bound_port, options.space, instance);
+  spdlog::info("planet: server listening on {}:{} (space '{}', instance {}, {})", options.host, bound_port,
+               options.space, instance,
+               !tls ? "plain TCP" : options.tls.ca_file.empty() ? "TLS 1.3" : "TLS 1.3, client certificates verified");
 }
 
 void ServerCore::do_accept() {
@@ -360,22 +436,68 @@ void ServerCore::do_accept() {
           return;
         }
         std::shared_ptr<ServerSession> session;
+        std::error_code address_error;
+        const auto remote = socket.remote_endpoint(address_error);
+        const std::string address = address_error ? "?" : remote.address().to_string();
+        std::string refusal;
         {
           std::lock_guard<std::mutex> lock(mutex);
           if (stopped) return;  // the socket closes as it goes out of scope
-          detail::LinkConfig config;
-          config.limits.max_frame_bytes = options.chunk_bytes;
-          config.limits.max_message_bytes = options.max_message_bytes;
-          config.chunk_bytes = options.chunk_bytes;
-          config.max_send_queue_bytes = options.max_send_queue_bytes;
-          const uint64_t id = next_session_id++;
-          session = std::make_shared<ServerSession>(*this, id, std::move(socket), config);
-          sessions.emplace(id, session);
+          refusal = connection_problem_locked(address);
+          if (refusal.empty()) {
+            detail::LinkConfig config;
+            config.limits = hello_limits();
+            config.chunk_bytes = options.chunk_bytes;
+            config.max_send_queue_bytes = options.max_send_queue_bytes;
+            config.budget = budget;
+            const uint64_t id = next_session_id++;
+            auto context = current_tls();
+            auto stream = context ? detail::make_tls_stream(std::move(socket), context, /*server=*/true)
+                                  : detail::make_tcp_stream(std::move(socket));
+            session = std::make_shared<ServerSession>(*this, id, std::move(stream), config, address);
+            sessions.emplace(id, session);
+            ++connections_per_address[address];
+          }
+        }
+        if (!refusal.empty()) {
+          refuse_connection(std::move(socket), address, refusal);
+          do_accept();
+          return;
         }
         spdlog::debug("planet: accepted {}", session->remote_address());
         session->begin();
         do_accept();
       });
+}
+
+CodecLimits ServerCore::session_limits() const {
+  CodecLimits limits;
+  limits.max_frame_bytes = options.chunk_bytes;
+  limits.max_message_bytes = options.max_message_bytes;
+  limits.max_reassembly_bytes = options.max_reassembly_bytes;
+  return limits;
+}
+
+CodecLimits ServerCore::hello_limits() const {
+  CodecLimits limits = session_limits();
+  limits.max_frame_bytes = options.max_hello_bytes;
+  limits.before_handshake = true;
+  return limits;
+}
+
+std::string ServerCore::connection_problem_locked(const std::string& address) const {
+  if (sessions.size() >= options.max_connections) {
+    return "the server has " + std::to_string(sessions.size()) + " connections open, the limit (max_connections " +
+           std::to_string(options.max_connections) + "); retry later";
+  }
+  auto it = connections_per_address.find(address);
+  const size_t from_address = it == connections_per_address.end() ? 0 : it->second;
+  if (from_address >= options.max_connections_per_address) {
+    return std::to_string(from_address) + " connections are open from " + address +
+           ", the limit (max_connections_per_address " + std::to_string(options.max_connections_per_address) +
+           "); retry later";
+  }
+  return {};
 }
 
 std::shared_ptr<const Authenticator> ServerCore::current_authenticator() const {
@@ -414,7 +536,11 @@ size_t ServerCore::set_authenticator(std::shared_ptr<const Authenticator> replac
 
 void ServerCore::on_session_closed(uint64_t id) {
   std::lock_guard<std::mutex> lock(mutex);
-  sessions.erase(id);
+  auto it = sessions.find(id);
+  if (it == sessions.end()) return;
+  auto count = connections_per_address.find(it->second->source_address());
+  if (count != connections_per_address.end() && --count->second == 0) connections_per_address.erase(count);
+  sessions.erase(it);
   changed.notify_all();
 }
 
@@ -484,6 +610,15 @@ uint16_t Server::port() const { return impl_->bound_port; }
 void Server::start() { impl_->start(); }
 
 void Server::stop() { impl_->stop(); }
+
+void Server::reload_tls(const util::TlsConfig& tls) {
+  if (!impl_->current_tls()) {
+    throw std::logic_error("this Planet server speaks plain TCP: it cannot switch to TLS while running");
+  }
+  auto context = detail::make_server_tls_context(tls);  // throws, naming the file, before anything changes
+  std::lock_guard<std::mutex> lock(impl_->auth_mutex);
+  impl_->tls = std::move(context);
+}
 
 size_t Server::set_authenticator(std::shared_ptr<const Authenticator> authenticator) {
   return impl_->set_authenticator(std::move(authenticator));

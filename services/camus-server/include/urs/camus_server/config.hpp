@@ -8,6 +8,7 @@
 
 #include "urs/camus_server/credentials_file.hpp"
 #include "urs/util/cli.hpp"
+#include "urs/util/tls.hpp"
 
 namespace urs::camus_server {
 
@@ -23,6 +24,12 @@ struct SemanticLimits {
   uint64_t event_queue = 10000;                 // publishes and subscribes waiting for the bus
   uint64_t event_queue_per_session = 1000;      // of those, from one session
   uint64_t event_queue_bytes = 64ull << 20;
+  // Transport (planet::ServerOptions): before the handshake, memory, connections.
+  uint64_t max_hello_bytes = 4096;              // the one frame accepted before Welcome
+  uint64_t max_reassembly_bytes = 128ull << 20; // per session: chunked messages in progress
+  uint64_t max_buffered_bytes = 1ull << 30;     // all sessions: reassembly buffers + send queues
+  uint64_t max_connections = 10000;
+  uint64_t max_connections_per_address = 1000;
 };
 
 struct ServerConfig {
@@ -37,6 +44,8 @@ struct ServerConfig {
   uint32_t default_deadline_ms = 10000;
   uint64_t event_retention = 100000;
   SemanticLimits limits;
+  util::TlsConfig tls;                  // --tls-cert/--tls-key/--tls-client-ca
+  bool allow_plaintext_tokens = false;  // tokens over plain TCP from non-loopback peers
   std::string log_level = "info";
 };
 

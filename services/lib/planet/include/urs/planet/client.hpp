@@ -26,6 +26,7 @@
 #include "camus.pb.h"
 #include "planet.pb.h"
 #include "urs/planet/status.hpp"
+#include "urs/util/tls.hpp"
 
 namespace urs::planet {
 
@@ -44,6 +45,10 @@ struct ClientOptions {
   size_t max_queued = 10000;              // calls + publishes waiting for a connection
   uint64_t max_message_bytes = 64ull << 20;
   uint32_t chunk_bytes = 64u << 10;
+  // TLS 1.3 when tls.enabled: the server's certificate is verified against tls.ca_file (else the
+  // system's CAs) and must name tls.server_name (else `host`); tls.cert_file/key_file present a
+  // client certificate (mutual TLS).
+  util::TlsConfig tls;
 };
 
 using ReplyHandler = std::function<void(CallResult)>;

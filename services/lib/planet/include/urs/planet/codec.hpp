@@ -13,6 +13,7 @@
 //
 // Threading: none of these classes is thread-safe; each belongs to one connection.
 
+#include <atomic>
 #include <cstddef>
 #include <cstdint>
 #include <deque>
@@ -56,6 +57,9 @@ enum class ProtocolErrorCode {
   kUnknownChunk,            // a continuation piece of a message id never started
   kChunkOverflow,           // pieces add up to more than total_bytes
   kNestedChunk,             // a reassembled message is itself a Chunk
+  kChunkBeforeHandshake,    // a Chunk frame before the handshake completed
+  kReassemblyLimit,         // chunked messages in progress over max_reassembly_bytes
+  kServerBudget,            // the server-wide max_buffered_bytes would be exceeded
 };
 
 // Stable name of a code, e.g. "FRAME_TOO_LARGE".
@@ -67,18 +71,45 @@ class ProtocolError : public std::runtime_error {
  public:
   ProtocolError(ProtocolErrorCode code, const std::string& message);
   ProtocolErrorCode code() const { return code_; }
-  // The Status to report to the peer in Goodbye: PAYLOAD_TOO_LARGE for size limits, else
-  // BAD_ARGUMENTS.
+  // The Status to report to the peer in Goodbye: PAYLOAD_TOO_LARGE for size limits (and any
+  // chunk before the handshake), RESOURCE_EXHAUSTED for memory budgets, else BAD_ARGUMENTS.
   Status status() const;
 
  private:
   ProtocolErrorCode code_;
 };
 
+// Bytes held by all connections of a process together (reassembly buffers and send queues),
+// against one limit (ServerOptions::max_buffered_bytes). Thread-safe; a check followed by add()
+// may overshoot by what other threads add in between (bounded by one frame or piece each).
+class MemoryBudget {
+ public:
+  explicit MemoryBudget(uint64_t limit) : limit_(limit) {}
+  MemoryBudget(const MemoryBudget&) = delete;
+  MemoryBudget& operator=(const MemoryBudget&) = delete;
+
+  bool fits(uint64_t bytes) const { return used_.load(std::memory_order_relaxed) + bytes <= limit_; }
+  void add(uint64_t bytes) { used_.fetch_add(bytes, std::memory_order_relaxed); }
+  void release(uint64_t bytes) { used_.fetch_sub(bytes, std::memory_order_relaxed); }
+  uint64_t used() const { return used_.load(std::memory_order_relaxed); }
+  uint64_t limit() const { return limit_; }
+
+ private:
+  const uint64_t limit_;
+  std::atomic<uint64_t> used_{0};
+};
+
 struct CodecLimits {
   uint64_t max_frame_bytes = 64u << 10;       // largest single frame after the prefix
   uint64_t max_message_bytes = 64ull << 20;   // largest reassembled (chunked) message
   size_t max_partial_messages = 16;           // chunked messages in progress at once
+  // Bytes the buffers of chunked messages in progress may hold together (their capacity).
+  uint64_t max_reassembly_bytes = UINT64_MAX;
+  // Before the handshake: max_frame_bytes is the Hello limit (named max_hello_bytes in errors)
+  // and a Chunk frame is a protocol error (nothing of a declared size is ever allocated).
+  bool before_handshake = false;
+  // Shared by every connection of a server (null: none); reassembly buffers are counted in it.
+  std::shared_ptr<MemoryBudget> budget;
 };
 
 // Splits a byte stream into Frames. Accepts arbitrary slices: a frame may arrive in any number of
@@ -88,6 +119,8 @@ class FrameDecoder {
   using FrameCallback = std::function<void(Frame&&)>;
 
   explicit FrameDecoder(uint64_t max_frame_bytes);
+  // Before the handshake: the limit is named max_hello_bytes in errors.
+  void set_before_handshake(bool before) { before_handshake_ = before; }
 
   // Consumes all of `bytes`, calling `on_frame` for each complete frame, in order. Throws
   // ProtocolError on an over-limit length (checked before anything is allocated), a zero length,
@@ -105,6 +138,7 @@ class FrameDecoder {
   void deliver(const char* data, size_t size, const FrameCallback& on_frame);
 
   uint64_t max_frame_bytes_;
+  bool before_handshake_ = false;
   unsigned char header_[kLengthPrefixBytes] = {};
   size_t header_have_ = 0;
   uint64_t expected_ = 0;  // body length once the header is complete
@@ -116,10 +150,15 @@ class FrameDecoder {
 class Reassembler {
  public:
   explicit Reassembler(const CodecLimits& limits);
+  ~Reassembler();  // hands what it holds back to the budget
+  Reassembler(const Reassembler&) = delete;
+  Reassembler& operator=(const Reassembler&) = delete;
 
   // Adds one piece. Returns the serialized Frame when `chunk.last` completes it, else nullopt.
   // Throws ProtocolError if total_bytes exceeds max_message_bytes (before allocating), if more
-  // than max_partial_messages would be in progress, or if the pieces are inconsistent.
+  // than max_partial_messages would be in progress, if the buffers would grow over
+  // max_reassembly_bytes or the shared budget (checked before growing), or if the pieces are
+  // inconsistent.
   std::optional<std::string> add(Chunk&& chunk);
   // Hands back the buffer of a message returned by add() once the caller is done with it, so
   // that the next chunked message reuses its memory (already mapped: no page faults) instead of
@@ -127,18 +166,26 @@ class Reassembler {
   void recycle(std::string&& buffer);
   static constexpr size_t kMaxRecycledBytes = 4u << 20;
 
-  void set_limits(const CodecLimits& limits) { limits_ = limits; }
+  void set_limits(const CodecLimits& limits);
   size_t partial_messages() const { return partial_.size(); }
   uint64_t buffered_bytes() const { return buffered_bytes_; }
+  // Capacity of the buffers of messages in progress (what max_reassembly_bytes bounds).
+  uint64_t held_bytes() const { return held_bytes_; }
 
  private:
   struct Partial {
     uint64_t total = 0;
     std::string data;
+    uint64_t accounted = 0;  // of data.capacity(), in held_bytes_ and the budget
   };
   CodecLimits limits_;
   std::map<uint64_t, Partial> partial_;
+  // Grows `partial` so that `more` bytes fit, within the limits; keeps held_bytes_ and the budget.
+  void grow(Partial& partial, size_t more, const std::string& what);
+  void forget(const Partial& partial);
+
   uint64_t buffered_bytes_ = 0;
+  uint64_t held_bytes_ = 0;
   std::string spare_;  // a recycled buffer, empty, for the next message
 };
 
@@ -156,6 +203,7 @@ class MessageDecoder {
   size_t partial_messages() const { return reassembler_.partial_messages(); }
 
  private:
+  bool before_handshake_;
   FrameDecoder frames_;
   Reassembler reassembler_;
 };

@@ -18,6 +18,7 @@
 
 #include "planet.pb.h"
 #include "urs/planet/authenticator.hpp"
+#include "urs/util/tls.hpp"
 
 namespace urs::planet {
 
@@ -36,6 +37,19 @@ struct ServerOptions {
   uint64_t max_message_bytes = 64ull << 20;             // largest reassembled message accepted
   uint32_t chunk_bytes = 64u << 10;                     // larger frames are sent as chunks
   size_t max_send_queue_bytes = 256ull << 20;           // per session; beyond it the session is closed
+  // Before Welcome a connection may send one un-chunked frame of at most this size (its Hello);
+  // a larger length or any Chunk is refused before anything of the declared size is allocated.
+  uint32_t max_hello_bytes = 4096;
+  uint64_t max_reassembly_bytes = 128ull << 20;  // per session: chunked messages in progress
+  uint64_t max_buffered_bytes = 1ull << 30;      // all sessions: reassembly buffers + send queues
+  size_t max_connections = 10000;                // open connections, handshaking ones included
+  size_t max_connections_per_address = 1000;     // of those, from one source address
+  // TLS 1.3 on every connection when tls.cert_file is set; tls.ca_file verifies client
+  // certificates (mutual TLS: a verified certificate's subject CN names a credential).
+  util::TlsConfig tls;
+  // A Hello carrying a token over plain TCP is refused unless it comes from a loopback address,
+  // or this is set (the operator accepts that tokens cross the network in clear).
+  bool allow_plaintext_tokens = false;
   unsigned io_threads = 2;
 };
 
@@ -66,6 +80,11 @@ class SessionHandler {
   virtual void on_close(const SessionPtr& session, const std::string& reason) = 0;
 };
 
+// Whether a Hello's token may be accepted: over TLS always; over plain TCP only from a loopback
+// address (127.0.0.0/8, ::1, ::ffff:127.x) unless `allow_plaintext_tokens`. `peer_host` is the
+// peer's address without the port.
+bool token_transport_allowed(bool tls, bool allow_plaintext_tokens, const std::string& peer_host);
+
 class Server {
  public:
   // Binds and listens; throws std::runtime_error naming the address on failure.
@@ -83,6 +102,11 @@ class Server {
   // UNAUTHENTICATED and their sessions are no longer resumable; the others keep going. Returns
   // how many sessions were closed. Thread-safe; not from an I/O thread.
   size_t set_authenticator(std::shared_ptr<const Authenticator> authenticator);
+  // Re-reads the TLS certificate, key and client CAs (e.g. renewed, on SIGHUP) for the
+  // connections accepted from now on; open ones keep theirs. Throws std::invalid_argument naming
+  // the file that cannot be loaded (the previous settings stay), std::logic_error on a plain-TCP
+  // server. Thread-safe.
+  void reload_tls(const util::TlsConfig& tls);
 
  private:
   struct Impl;
