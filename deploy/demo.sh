@@ -59,7 +59,7 @@ retry 60 robot_listed || { echo "demo: jp's robot did not appear in kr" >&2; exi
 
 host=$(hostname -f 2>/dev/null || hostname)
 step "the dashboards (log in with the space's credential; URS_DEMO_KEEP=1 keeps them up afterwards)"
-echo "kr: http://$host:${URS_KR_DASHBOARD_PORT:-8765}/  credential: the content of ${URS_KR_TOKEN_FILE:-$root/compose/config/kr.token}"
+echo "kr: http://$host:${URS_KR_DASHBOARD_PORT:-8765}/  credential: the content of ${URS_KR_OPERATOR_TOKEN_FILE:-$root/compose/config/kr-operator.token} (kr's operators')"
 echo "jp: http://$host:${URS_JP_DASHBOARD_PORT:-8766}/  credential: the content of ${URS_JP_TOKEN_FILE:-$root/compose/config/jp.token}"
 echo "Foxglove / Lichtblick: Open connection -> Foxglove WebSocket -> the ws://...?session=... URL each dashboard shows after login"
 

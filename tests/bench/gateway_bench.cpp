@@ -121,6 +121,18 @@ int main(int argc, char** argv) {
   std::string json_path, markdown_path;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
+    if (a == "--help" || a == "-h") {
+      std::cout << "usage: urs-gateway-bench [--clients N] [--seconds S] [--rate HZ] [--quick] [--json FILE] "
+                   "[--markdown FILE]\n"
+                   "  --clients N      WebSocket clients subscribed to /poses (default 10)\n"
+                   "  --seconds S      how long poses are timed (default 60; deploy/bench.sh: 600)\n"
+                   "  --rate HZ        the localizer's rate (default 50, at most 100)\n"
+                   "  --quick          at most 8 s; fails only if a client got nothing or was dropped\n"
+                   "  --json FILE, --markdown FILE   the figures, also written there\n"
+                   "Reports per client the poses delivered (Hz), the latency from the localizer's sample to\n"
+                   "the client (median, p99, max) and the gateway's resident memory (means of the first and last tenths of the run).\n";
+      return 0;
+    }
     auto next = [&]() -> std::string {
       if (i + 1 >= argc) throw std::invalid_argument(a + " needs a value");
       return argv[++i];

@@ -20,10 +20,17 @@
 #       link makes cross-space calls fail fast with a reason, and reconnecting restores them;
 #       shared state: jp's RTC lifecycle states and robot pose are entries of kr's context, and
 #       leave it with jp's bridge; kr refuses a Planet client without its token.
+#   the dashboards (headless Chromium, tests/integration/gateway/browser_test.py --url): kr's, logged
+#       in with kr's operators' credential, lists every service of both spaces, sees jp's robot
+#       driven around the square by the demo step, and calls jp's diagnostic echo from the form;
+#       jp's activates and deactivates one of jp's components. Screenshots in
+#       BUILD_DIR/artifacts/dashboard/{kr,jp}/.
 # Always tears the project down (containers, networks, volumes); a failing step prints the logs.
 #   tests/e2e/containers/run.sh [SOURCE_DIR [BUILD_DIR]]
 # Environment: URS_COMPOSE (compose command, default `docker compose` when present, else
 # docker-compose), URS_E2E_SKIP_IMAGE_BUILD=1 (use the urslink/*:dev images as they are).
+# The dashboards are published on free host ports (URS_KR_DASHBOARD_PORT / URS_JP_DASHBOARD_PORT
+# are chosen here, so a running demo on 8765/8766 does not clash).
 set -uo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 root=${1:-$(cd "$here/../../.." && pwd)}
@@ -44,7 +51,21 @@ else
   die "neither 'docker compose' nor docker-compose is installed (Debian: apt-get install docker-compose)"
 fi
 
+for f in /usr/bin/chromium /usr/bin/chromedriver; do
+  [[ -x $f ]] || die "$f is missing (Debian: apt-get install chromium chromium-driver); the dashboard step needs it"
+done
+/usr/bin/python3 -c 'import selenium' 2>/dev/null || die "python3-selenium is missing (Debian: apt-get install python3-selenium)"
+
 project=urs-e2e-$$
+# Free host ports for the two dashboards (a demo may hold 8765/8766); read back with `dc port`.
+free_port() { /usr/bin/python3 -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])'; }
+export URS_KR_DASHBOARD_PORT=${URS_E2E_KR_DASHBOARD_PORT:-$(free_port)}
+export URS_JP_DASHBOARD_PORT=${URS_E2E_JP_DASHBOARD_PORT:-$(free_port)}
+while [[ $URS_JP_DASHBOARD_PORT == "$URS_KR_DASHBOARD_PORT" ]]; do URS_JP_DASHBOARD_PORT=$(free_port); done
+# The credentials compose mounts as secrets (deploy/images/build.sh writes them too).
+"$root/compose/make-token.sh" >/dev/null
+"$root/compose/make-token.sh" "${URS_KR_OPERATOR_TOKEN_FILE:-$root/compose/config/kr-operator.token}" >/dev/null
+"$root/compose/make-token.sh" "${URS_JP_TOKEN_FILE:-$root/compose/config/jp.token}" >/dev/null
 compose_file=$root/compose/docker-compose.yml
 dc() { timeout "${DC_TIMEOUT:-180}" "${compose_cmd[@]}" -p "$project" -f "$compose_file" "$@"; }
 
@@ -168,9 +189,41 @@ out=$(jp rtc call "bridge-jp.host_cxt/kr_diag-$sam1.rtc:diagnostic" echo '{"text
   || fail "cross-space RT call: $(cat "$tmp/cli.err")"
 [[ "$out" == '{"result":"from jp to kr"}' ]] || fail "cross-space RT echo answered $out"
 
-step "demo: a kr client drives jp's robot around the square (waypoint errors < 50 mm)"
+step "demo: a kr client drives jp's robot around the square (waypoint errors < 50 mm), kr's dashboard watching"
+# kr's dashboard in headless Chromium, logged in with kr's operators' credential: every service of
+# both spaces listed (kr's registry as `urs ls` shows it, and jp's catalog: the jp/... names),
+# jp's robot seen driving the square below, an echo of jp's called from the form.
+shots=$build/artifacts/dashboard
+rm -rf "$shots/kr" "$shots/jp"
+mkdir -p "$shots/kr" "$shots/jp"
+kr_url="http://127.0.0.1:$(dc port gateway-kr 8765 | head -1 | sed 's/.*://')/"
+jp_url="http://127.0.0.1:$(dc port gateway-jp 8765 | head -1 | sed 's/.*://')/"
+kr ls --json >"$tmp/kr-ls.json" || fail "urs ls --json: $(cat "$tmp/cli.err")"
+python3 - "$tmp/kr-ls.json" >"$tmp/kr-services" <<'PY' || fail "urs ls --json: unexpected output"
+import json, sys
+names = [s["name"] for s in json.load(open(sys.argv[1]))["services"]]
+assert any(n.startswith("jp/") for n in names), names
+for n in names:
+    print("kr/" + n)              # kr's registry, jp's imported services included
+    if n.startswith("jp/"):
+        print(n)                  # jp's catalog over the link
+PY
+say "kr's dashboard at $kr_url expects $(wc -l <"$tmp/kr-services") services; jp's at $jp_url"
+t_browser=$SECONDS
+/usr/bin/python3 "$root/tests/integration/gateway/browser_test.py" --url "$kr_url" \
+  --credential-file "${URS_KR_OPERATOR_TOKEN_FILE:-$root/compose/config/kr-operator.token}" --out "$shots/kr" \
+  --spaces kr,jp --expect-services "$tmp/kr-services" --robot watch --ready-file "$tmp/browser.ready" \
+  >"$tmp/browser-kr.log" 2>&1 &
+browser_pid=$!
+browser_ready() { [[ -e $tmp/browser.ready ]] || ! kill -0 "$browser_pid" 2>/dev/null; }
+eventually 180 browser_ready || { kill "$browser_pid"; cat "$tmp/browser-kr.log"; fail "kr's dashboard not ready within 180 s"; }
+[[ -e $tmp/browser.ready ]] || { wait "$browser_pid"; cat "$tmp/browser-kr.log"; fail "kr's dashboard: $(tail -1 "$tmp/browser-kr.log")"; }
 lab_in kr square --via camus --server camus-server:7600 --service jp/robot1.navigation --trace poll \
-  --time-scale 4 --label kr >/dev/null || fail "square path: $(cat "$tmp/cli.err")"
+  --time-scale 4 --label kr >/dev/null || { kill "$browser_pid"; fail "square path: $(cat "$tmp/cli.err")"; }
+wait "$browser_pid"; browser_rc=$?
+cat "$tmp/browser-kr.log"
+((browser_rc == 0)) || fail "kr's dashboard in Chromium (screenshots in $shots/kr)"
+say "kr's dashboard checked in $((SECONDS - t_browser)) s (square included); screenshots: $(ls "$shots"/kr/*.png | tr '\n' ' ')"
 python3 - "$tmp/out/square-kr.json" <<'PY' || fail "square path: waypoint errors"
 import json, sys
 run = json.load(open(sys.argv[1]))
@@ -203,6 +256,17 @@ assert abs(pose["x"] - 1.5) < 0.2 and abs(pose["y"] - 1.0) < 0.2, pose  # back w
 PY
 }
 eventually 30 robot_pose || fail "jp's robot pose is not in kr's context: $(cat "$tmp/pose.json")"
+
+step "jp's dashboard: a component of jp activated and deactivated, a call from the form"
+# jp has no CAMUS server: its gateway compares the login with its credential (secret jp-token).
+t=$SECONDS
+/usr/bin/python3 "$root/tests/integration/gateway/browser_test.py" --url "$jp_url" \
+  --credential-file "${URS_JP_TOKEN_FILE:-$root/compose/config/jp.token}" --out "$shots/jp" \
+  --spaces jp,kr --robot none --must-activate --component "$mgr1.host_cxt/Diagnostic0.rtc" >"$tmp/browser-jp.log" 2>&1
+browser_rc=$?
+cat "$tmp/browser-jp.log"
+((browser_rc == 0)) || fail "jp's dashboard in Chromium (screenshots in $shots/jp)"
+say "jp's dashboard checked in $((SECONDS - t)) s; screenshots: $(ls "$shots"/jp/*.png | tr '\n' ' ')"
 
 step "kr: a Planet client without the space's token is refused"
 dc run --rm -T -e URS_TOKEN_FILE= cli-kr ls >/dev/null 2>"$tmp/cli.err" && fail "a client without the token was let in"

@@ -9,13 +9,18 @@ cannot act. Screenshots are written to OUT_DIR.
     browser_test.py BUILD_DIR SOURCE_DIR OUT_DIR
 
 Against spaces already running (the compose spaces, say), a generic scenario: log in, every space
-of the graph drawn with services, a robot's marker moving after a moveTo called from the form, a
-component activated and deactivated where one can be, an echo called from the form:
+of the graph drawn with services (and every service --expect-services names), a robot's marker
+moving (after a moveTo called from the form; with --robot watch, driven around the square and
+back by someone else, who may start once --ready-file is written), a component activated and deactivated
+where one can be (--must-activate: one must be), an echo called from the form (another space's
+when there is one):
 
-    browser_test.py --url http://localhost:8765/ --credential-file compose/config/kr.token \
-        --out DIR [--spaces kr,jp]
+    browser_test.py --url http://localhost:8765/ --credential-file compose/config/kr-operator.token \
+        --out DIR [--spaces kr,jp] [--expect-services FILE] [--robot move|watch|none] \
+        [--ready-file FILE] [--must-activate] [--component PATH]
 """
 import json
+import math
 import os
 import sys
 import time
@@ -196,10 +201,12 @@ def scenario(space, out):
         driver.quit()
 
 
-def remote_scenario(url, credential, out, spaces):
+def remote_scenario(url, credential, out, spaces, expected=(), robot_mode="move", ready_file=None,
+                    must_activate=False, component=None):
     driver = browser()
     shot = lambda name: driver.save_screenshot(os.path.join(out, name + ".png"))
     js = driver.execute_script
+    t0 = time.monotonic()
     try:
         log_in(driver, url, credential)
         until("role operator", lambda: driver.find_element(By.ID, "role").text == "operator")
@@ -209,29 +216,71 @@ def remote_scenario(url, credential, out, spaces):
             until("services of %s listed" % space, lambda: js(
                 'return [...document.querySelectorAll("#services tr[data-service]")]'
                 '.some((r) => r.dataset.service.startsWith(arguments[0] + "/"));', space), 60)
+        if expected:
+            def missing():
+                rows = set(js('return [...document.querySelectorAll("#services tr[data-service]")].map((r) => r.dataset.service);'))
+                return [name for name in expected if name not in rows]
+            try:
+                until("every expected service listed", lambda: not missing(), 60)
+            except AssertionError:
+                raise AssertionError("services not listed: %s" % missing())
         robot = until("a robot on the map", lambda: js(
             'const g = document.querySelector("g.robot"); return g ? [g.dataset.robot, +g.dataset.x, +g.dataset.y] : null;'), 60)
         shot("remote-overview")
-        space, name = robot[0].split("/", 1)
-        operations = js('return [...document.querySelectorAll("#operation option")].map((o) => o.value);')
-        # The robot's navigation as this space calls it: imported from its space ("jp/robot1.navigation")
-        # or its own ("robot1.navigation").
+        position = lambda: js('const g = document.querySelector(\'g.robot[data-robot="\' + arguments[0] + \'"]\');'
+                              'return g ? [+g.dataset.x, +g.dataset.y] : null;', robot[0])
         local = driver.find_element(By.ID, "space-name").text
-        wanted = ("" if space == local else space + "/") + name + ".navigation/moveTo"
-        move = [o for o in operations if o == wanted]
-        assert move, "no %s among %d operations" % (wanted, len(operations))
-        target_x = 4.0 if robot[1] < 3.0 else 2.0
-        reply = call_from_form(driver, move[0], {"x": target_x, "y": 2.0})
-        assert not driver.find_element(By.ID, "call-result").get_attribute("class") == "failure", reply
-        until("%s's marker moving towards (%s, 2.0)" % (robot[0], target_x), lambda: js(
-            'const g = document.querySelector(\'g.robot[data-robot="\' + arguments[0] + \'"]\');'
-            'return g && Math.hypot(+g.dataset.x - arguments[1], +g.dataset.y - arguments[2]) > 0.3;',
-            robot[0], robot[1], robot[2]), 60)
-        shot("remote-robot-moving")
-        inactive = js('const rows = [...document.querySelectorAll("#components tr[data-component]")]'
-                      '.filter((r) => r.querySelector("td.state").textContent === "Inactive" &&'
-                      ' r.querySelector(\'button[data-transition="activate"]:not([disabled])\'));'
-                      'return rows.length ? rows[0].dataset.component : null;')
+        operations = js('return [...document.querySelectorAll("#operation option")].map((o) => o.value);')
+        print("browser: %s logged in, %d services, %d operations, %s on the map after %.1f s" % (
+            url, js('return document.querySelectorAll("#services tr[data-service]").length;'), len(operations),
+            robot[0], time.monotonic() - t0), flush=True)
+        if ready_file:  # whoever runs the robot may start now: the marker is watched from here on
+            open(ready_file, "w").write("ready\n")
+        if robot_mode == "watch":
+            # Something else drives the robot (the square-path task): the marker must move and cover
+            # the square's extent; positions are sampled as fast as the page redraws.
+            seen = {"xs": [robot[1]], "ys": [robot[2]], "samples": 0, "shot": False}
+            def covered():
+                p = position()
+                if p:
+                    seen["xs"].append(p[0])
+                    seen["ys"].append(p[1])
+                    seen["samples"] += 1
+                    if not seen["shot"] and math.hypot(p[0] - robot[1], p[1] - robot[2]) > 0.5:
+                        seen["shot"] = True
+                        shot("remote-robot-moving")
+                dx, dy = max(seen["xs"]) - min(seen["xs"]), max(seen["ys"]) - min(seen["ys"])
+                # the square's extent covered, and the marker back where it was first seen
+                return dx >= 3.0 and dy >= 1.5 and p and math.hypot(p[0] - robot[1], p[1] - robot[2]) < 0.3
+            until("%s's marker driving around the square (x and y ranges >= 3.0 and 1.5 m of its 3.5 x 2 m, "
+                  "then back within 0.3 m of (%.2f, %.2f))" % (robot[0], robot[1], robot[2]), covered, 240)
+            print("browser: %s's marker covered x %.2f..%.2f, y %.2f..%.2f (%d samples)" % (
+                robot[0], min(seen["xs"]), max(seen["xs"]), min(seen["ys"]), max(seen["ys"]), seen["samples"]), flush=True)
+            until("a trail drawn", lambda: js('return document.querySelectorAll("#map .trail").length > 0;'), 30)
+            shot("remote-robot-square")
+        elif robot_mode == "move":
+            space, name = robot[0].split("/", 1)
+            # The robot's navigation as this space calls it: imported from its space ("jp/robot1.navigation")
+            # or its own ("robot1.navigation").
+            wanted = ("" if space == local else space + "/") + name + ".navigation/moveTo"
+            move = [o for o in operations if o == wanted]
+            assert move, "no %s among %d operations" % (wanted, len(operations))
+            target_x = 4.0 if robot[1] < 3.0 else 2.0
+            reply = call_from_form(driver, move[0], {"x": target_x, "y": 2.0})
+            assert not driver.find_element(By.ID, "call-result").get_attribute("class") == "failure", reply
+            until("%s's marker moving towards (%s, 2.0)" % (robot[0], target_x), lambda: (lambda p: p and
+                  math.hypot(p[0] - robot[1], p[1] - robot[2]) > 0.3)(position()), 60)
+            shot("remote-robot-moving")
+        activatable = lambda: js('return [...document.querySelectorAll("#components tr[data-component]")]'
+                                 '.filter((r) => r.querySelector("td.state").textContent === "Inactive" &&'
+                                 ' r.querySelector(\'button[data-transition="activate"]:not([disabled])\'))'
+                                 '.map((r) => r.dataset.component);')
+        if component:
+            inactive = until("%s Inactive with an enabled activate button" % component,
+                             lambda: component if component in activatable() else None, 60)
+        else:
+            inactive = (activatable() or [None])[0]
+        assert inactive or not must_activate, "no Inactive component with an enabled activate button in %s" % url
         if inactive:
             # Only the gateway's own space's components can be driven: the row with the buttons.
             row = '#components tr[data-space="%s"][data-component="%s"]' % (local, inactive)
@@ -239,19 +288,27 @@ def remote_scenario(url, credential, out, spaces):
                                'return td ? td.textContent : null;', row)
             assert click(driver, row + ' button[data-transition="activate"]')
             until("%s Active" % inactive, lambda: state() == "Active", 30)
+            js('document.querySelector(arguments[0]).scrollIntoView()', row)
             shot("remote-component-active")
             assert click(driver, row + ' button[data-transition="deactivate"]')
             until("%s Inactive again" % inactive, lambda: state() == "Inactive", 30)
         echo = [o for o in operations if o.endswith("/echo")]
+        # Rather an echo of another space (imported as "<space>/<service>"): the call crosses the link.
+        echo.sort(key=lambda o: o.split("/")[0] not in drawn or o.split("/")[0] == local)
         if echo:
             reply = call_from_form(driver, echo[0], {"text": "hello from the browser"})
             assert json.loads(reply) == {"result": "hello from the browser"}, reply
+            driver.execute_script("document.getElementById('call-panel').scrollIntoView()")
             shot("remote-call")
-        print("browser: %s: spaces %s, %s moved, %s, %s" % (url, drawn, robot[0],
+        print("browser: %s: spaces %s, %s %s, %s, %s (%.1f s)" % (url, drawn, robot[0],
+              {"watch": "seen driving the square", "move": "moved from the form", "none": "on the map"}[robot_mode],
               "%s activated and deactivated" % inactive if inactive else "no component to activate",
-              "%s answered" % echo[0] if echo else "no echo operation"), flush=True)
+              "%s answered" % echo[0] if echo else "no echo operation", time.monotonic() - t0), flush=True)
+        severe = [e for e in driver.get_log("browser") if e["level"] == "SEVERE"]
+        assert not severe, "the page logged errors: %s" % severe
     except BaseException:
         shot("remote-failure")
+        print("browser log:", driver.get_log("browser"))
         raise
     finally:
         driver.quit()
@@ -265,11 +322,20 @@ def main():
         parser.add_argument("--credential-file", required=True)
         parser.add_argument("--out", required=True)
         parser.add_argument("--spaces", default="")
+        parser.add_argument("--expect-services", help="file of '<space>/<service>' lines that must all be listed")
+        parser.add_argument("--robot", choices=["move", "watch", "none"], default="move",
+                            help="move: moveTo from the form; watch: something else drives it around the square")
+        parser.add_argument("--ready-file", help="written once logged in with the robot on the map")
+        parser.add_argument("--must-activate", action="store_true", help="fail if no component can be activated")
+        parser.add_argument("--component", help="the component to activate and deactivate (default: the first Inactive)")
         args = parser.parse_args()
         os.makedirs(args.out, exist_ok=True)
         credential = open(args.credential_file).read().strip()
-        remote_scenario(args.url, credential, args.out, [s for s in args.spaces.split(",") if s])
-        print("browser: every check passed; screenshots in %s" % args.out)
+        expected = [line.strip() for line in open(args.expect_services) if line.strip()] if args.expect_services else []
+        remote_scenario(args.url, credential, args.out, [s for s in args.spaces.split(",") if s], expected,
+                        args.robot, args.ready_file, args.must_activate, args.component)
+        print("browser: every check passed; screenshots in %s: %s" % (
+            args.out, " ".join(sorted(f for f in os.listdir(args.out) if f.endswith(".png")))))
         return
     build, source, out = sys.argv[1], sys.argv[2], sys.argv[3]
     os.makedirs(out, exist_ok=True)
