@@ -5,7 +5,8 @@
 // --only TEXT measures only the rows ("path | payload") and measurements whose label contains
 // TEXT (every --only given must match), to profile one path; the processes are started anyway.
 //
-// Rows: raw TCP echo (the floor) and a Planet call client → urs-camus-server → urs-sam → agent;
+// Rows: raw TCP echo (the floor) and a Planet call client → urs-camus-server → urs-sam → agent,
+// from the C++ client and from the Python SDK's (python_echo_bench.py, a process of its own);
 // a direct omniORB call (static stubs) and the bridged paths both ways through urs-bridge;
 // a direct Fast DDS request/reply (a DdsLink here, urs-dds-echo in its own process) and the cross-space paths both ways through two
 // bridges linked by DDS over UDP; each for a 64-byte and a 921,600-byte payload. Also throughput
@@ -257,6 +258,35 @@ double throughput(int clients, int per_client, MakeCall make_call) {
   return clients * per_client / std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
+// The Python SDK's client on the same space: tests/bench/python_echo_bench.py run in a process of
+// its own (/usr/bin/python3 with python3-protobuf), its summary read from the JSON it prints.
+urs::bench::Summary python_client_echo(const std::string& dir, uint16_t port, bool quick) {
+  const std::string log = dir + "/python-bench.log";
+  const std::string command = "/usr/bin/python3 '" URS_PYTHON_ECHO_BENCH "' --json --server 127.0.0.1:" +
+                              std::to_string(port) + (quick ? " --quick" : "") + " 2>'" + log + "'";
+  FILE* pipe = ::popen(command.c_str(), "r");
+  if (pipe == nullptr) throw std::runtime_error("cannot run " + command);
+  std::string out;
+  char buffer[512];
+  while (std::fgets(buffer, sizeof(buffer), pipe) != nullptr) out += buffer;
+  const int status = ::pclose(pipe);
+  auto field = [&](const std::string& key) {
+    const size_t at = out.find("\"" + key + "\": ");
+    if (status != 0 || at == std::string::npos) {
+      throw std::runtime_error("python_echo_bench.py (exit status " + std::to_string(status) + ") printed no " + key +
+                               ": " + out + urs::test::read_text(log));
+    }
+    return std::stod(out.substr(at + key.size() + 4));
+  };
+  urs::bench::Summary summary;
+  summary.median_us = field("median_us");
+  summary.p99_us = field("p99_us");
+  summary.min_median_us = field("min_median_us");
+  summary.max_median_us = field("max_median_us");
+  summary.samples = static_cast<size_t>(field("samples"));
+  return summary;
+}
+
 std::string fmt_us(double us) {
   char b[32];
   std::snprintf(b, sizeof(b), us >= 1000 ? "%.2f ms" : "%.1f us", us >= 1000 ? us / 1000 : us);
@@ -320,6 +350,8 @@ int main(int argc, char** argv) {
             [&] { return urs::bench::measure([&] { expect_ok(client->call("diag", "echo", echo_payload, 5s), "echo"); },
                                 warmup, iterations, repetitions); },
             "raw TCP echo|64 B", 2.5);
+    add_row("Planet call, Python client (urslink)→server→SAM→SA", "64 B",
+            [&] { return python_client_echo(dir, space.port(), quick); }, "Planet call client→server→SAM→SA|64 B", 0);
     if (wanted("Planet call over TLS 1.3 client→server→SAM→SA | 64 B")) {
       // The same path with every connection TLS 1.3, measured in the same run.
       std::filesystem::create_directories(dir + "/tls");

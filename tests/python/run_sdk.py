@@ -56,15 +56,16 @@ def free_port():
 
 
 class Space:
-    """urs-camus-server, urs-sam (diag) and the example's Python agent, in a temporary folder
-    (omniNames and urs-bridge too, for the RT check)."""
+    """urs-camus-server, urs-sam (diag, or the agents of `sam_agents`) and the example's Python
+    agent, in a temporary folder (omniNames and urs-bridge too, for the RT check)."""
 
-    def __init__(self, args):
+    def __init__(self, args, name="sdk", sam_config="agents:\n  - name: diag\n    type: diagnostic\n    deadline_ms: 5000\n"):
         for binary in ("server_bin", "sam_bin", "cli_bin", "bridge_bin"):
             if getattr(args, binary, ""):
                 setattr(args, binary, os.path.abspath(getattr(args, binary)))
         self.args = args
-        self.work = tempfile.mkdtemp(prefix="urslink-sdk-")
+        self.name = name
+        self.work = tempfile.mkdtemp(prefix="urslink-%s-" % name)
         self.port = free_port()
         self.server = "127.0.0.1:%d" % self.port
         self.tokens = {}
@@ -79,7 +80,7 @@ class Space:
             for role in self.tokens:
                 f.write("  - name: sdk-%s\n    role: %s\n    token_file: %s.token\n" % (role, role, role))
         with open(os.path.join(self.work, "sam.yaml"), "w") as f:
-            f.write("agents:\n  - name: diag\n    type: diagnostic\n    deadline_ms: 5000\n")
+            f.write(sam_config)
 
     def path(self, name):
         return os.path.join(self.work, name)
@@ -94,7 +95,7 @@ class Space:
             return f.read()
 
     def start_server(self):
-        self.start("server", [self.args.server_bin, "--space", "sdk", "--listen", self.server,
+        self.start("server", [self.args.server_bin, "--space", self.name, "--listen", self.server,
                               "--credentials", self.path("credentials.yaml"), "--log-level", "info"])
 
     def stop(self, name):
@@ -109,20 +110,21 @@ class Space:
             p.kill()
             p.wait()
 
-    def up(self, agent=True):
+    def up(self, agent=True, sam_service="diag"):
         self.start_server()
         if not wait_for(lambda: "listening on" in self.log("server"), 20):
             return "the server did not start"
-        self.start("sam", [self.args.sam_bin, "--space", "sdk", "--server", self.server, "--config",
+        self.start("sam", [self.args.sam_bin, "--space", self.name, "--server", self.server, "--config",
                            self.path("sam.yaml"), "--token-file", self.tokens["sam"], "--log-level", "info"])
+        sam_registered = lambda: re.search(r"^%s " % re.escape(sam_service), self.urs("ls").stdout, re.M)  # noqa: E731
         if not agent:
-            return None if wait_for(lambda: "diag" in self.urs("ls").stdout, 30) else "the SAM did not register diag"
+            return None if wait_for(sam_registered, 30) else "the SAM did not register " + sam_service
         self.start("agent", [PY, os.path.join(EXAMPLE, "thermostat_agent.py"), "--server", self.server,
                              "--token-file", self.tokens["sam"], "--room", "kitchen"])
         if not wait_for(lambda: "serving thermo" in self.log("agent") and self.urs_ok("ls"), 30):
             return "the Python agent did not register thermo"
-        if not wait_for(lambda: "diag" in self.urs("ls").stdout, 30):
-            return "the SAM did not register diag"
+        if not wait_for(sam_registered, 30):
+            return "the SAM did not register " + sam_service
         return None
 
     def urs(self, *argv, token="client"):
@@ -138,6 +140,19 @@ class Space:
             self.stop(name)
         for log in self.logs:
             log.close()
+
+    def clean_up(self, failed, keep, logs=("server", "sam", "agent")):
+        """After down(): prints the tail of each log when something failed, and keeps the work
+        folder then (or with `keep`), else removes it."""
+        if failed:
+            for name in logs:
+                if os.path.exists(self.path(name + ".log")):
+                    print("---- %s %s log (tail)" % (self.name, name))
+                    print(self.log(name)[-3000:])
+        if keep or failed:
+            print("work folder:", self.work)
+        else:
+            shutil.rmtree(self.work, ignore_errors=True)
 
 
 # ---- checks ------------------------------------------------------------------------------------
@@ -505,6 +520,30 @@ CHECKS = [("urs_call_python_agent", check_urs_call), ("python_client_example", c
           ("python_reconnect", check_reconnect)]
 
 
+def run_checks(checks, subject, only=""):
+    """Runs each (name, check) on `subject` (async ones bounded to 120 s), printing PASS, SKIP or
+    FAIL and why; returns the number of failures."""
+    failures = 0
+    for name, check in checks:
+        if only and not re.search(only, name):
+            continue
+        try:
+            if asyncio.iscoroutinefunction(check):
+                asyncio.run(asyncio.wait_for(check(subject), 120))
+            else:
+                check(subject)
+            print("PASS", name, flush=True)
+        except Skip as why:
+            print("SKIP", name + ":", why, flush=True)
+        except Failed as error:
+            failures += 1
+            print("FAIL", name + ":", error, flush=True)
+        except Exception as error:
+            failures += 1
+            print("FAIL", name + ": raised %s: %s" % (type(error).__name__, error), flush=True)
+    return failures
+
+
 def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("--server-bin", required=True)
@@ -523,35 +562,11 @@ def main():
             print("SETUP FAILED:", problem)
             failures = -1
             return 2
-        for name, check in CHECKS:
-            if args.only and not re.search(args.only, name):
-                continue
-            try:
-                if asyncio.iscoroutinefunction(check):
-                    asyncio.run(asyncio.wait_for(check(space), 120))
-                else:
-                    check(space)
-                print("PASS", name, flush=True)
-            except Skip as why:
-                print("SKIP", name + ":", why, flush=True)
-            except Failed as error:
-                failures += 1
-                print("FAIL", name + ":", error, flush=True)
-            except Exception as error:
-                failures += 1
-                print("FAIL", name + ": raised %s: %s" % (type(error).__name__, error), flush=True)
+        failures = run_checks(CHECKS, space, args.only)
         return 1 if failures else 0
     finally:
         space.down()
-        if failures:
-            for name in ("server", "sam", "agent"):
-                if os.path.exists(space.path(name + ".log")):
-                    print("---- %s log (tail)" % name)
-                    print(space.log(name)[-3000:])
-        if args.keep or failures:
-            print("work folder:", space.work)
-        else:
-            shutil.rmtree(space.work, ignore_errors=True)
+        space.clean_up(failures, args.keep)
 
 
 if __name__ == "__main__":
