@@ -278,13 +278,16 @@ TEST(DdsReplier, ExecutesEachRequestOnceAndNoneAfterItsDeadline) {
   const DdsDomains domains;
   std::mutex mutex;
   std::vector<std::string> served;
+  std::vector<std::future<void>> answering;  // replies leave the DDS listener thread, as the bridge's do
   bridge::DdsLink replier(link_options(domains[0], "svc"), [] {},
                           [&](bridge::IncomingCall call, std::function<void(planet::CallResult)> reply) {
-                            {
-                              std::lock_guard lock(mutex);
-                              served.push_back(call.request_id);
+                            std::lock_guard lock(mutex);
+                            served.push_back(call.request_id);
+                            if (reply) {
+                              answering.push_back(std::async(std::launch::async, [payload = call.payload, reply = std::move(reply)] {
+                                reply(planet::CallResult::success(payload));
+                              }));
                             }
-                            if (reply) reply(planet::CallResult::success(call.payload));
                           });
   auto served_now = [&] {
     std::lock_guard lock(mutex);

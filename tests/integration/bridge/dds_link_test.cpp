@@ -13,6 +13,7 @@
 #include <future>
 #include <mutex>
 #include <set>
+#include <vector>
 
 #include "dds_domain.hpp"
 #include "process.hpp"
@@ -147,9 +148,14 @@ TEST(DdsCalls, ACallWaitsForItsSpacesBridgeToMatchAndOnlyThatLong) {
   const DdsDomains domains;
   bridge::DdsLink calling(link_options(domains[0], "a"), [] {}, [](bridge::IncomingCall, auto) {});
   auto answer = std::async(std::launch::async, [&] { return calling.call("late", "svc", "echo", "ping", 10s); });
+  std::vector<std::future<void>> answering;  // replies leave the DDS listener thread, as the bridge's do
+  std::mutex answering_mutex;
   bridge::DdsLink late(link_options(domains[0], "late"), [] {},
-                       [](bridge::IncomingCall call, std::function<void(planet::CallResult)> reply) {
-                         reply(planet::CallResult::success(call.operation + ":" + call.payload));
+                       [&](bridge::IncomingCall call, std::function<void(planet::CallResult)> reply) {
+                         std::lock_guard lock(answering_mutex);
+                         answering.push_back(std::async(std::launch::async, [call = std::move(call), reply = std::move(reply)] {
+                           reply(planet::CallResult::success(call.operation + ":" + call.payload));
+                         }));
                        });
   ASSERT_EQ(answer.wait_for(30s), std::future_status::ready);
   const auto result = answer.get();

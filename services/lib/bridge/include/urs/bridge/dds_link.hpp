@@ -79,8 +79,10 @@ class DdsLink {
   // The other spaces' catalog changed (an entry written, disposed, or its bridge lost or back):
   // read catalog() for what it holds now. Runs on a DDS thread; must not block.
   using CatalogHandler = std::function<void()>;
-  // A call to this space's services. `reply` may be called once, from any thread (not for a
-  // oneway call).
+  // A call to this space's services. Runs on a DDS listener thread. `reply` may be called once
+  // (not for a oneway call), from any thread but that one: answering inside the handler may create
+  // the reply writer there, which can deadlock Fast DDS 2.9's in-process delivery (the bridge
+  // answers from its agent host's workers).
   using CallHandler = std::function<void(IncomingCall call, std::function<void(planet::CallResult)> reply)>;
 
   // Joins the domain; throws std::runtime_error if DDS refuses (bad domain, bad peer address).
