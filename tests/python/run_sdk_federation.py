@@ -27,8 +27,8 @@ sys.path.insert(0, HERE)
 import run_sdk  # noqa: E402  (its Space, expect and wait_for; it puts python/ on the path)
 from run_sdk import EXAMPLE, Failed, Space, expect, free_port, run_checks, urslink, wait_for  # noqa: E402
 
-sys.path.insert(0, os.path.join(run_sdk.ROOT, "tests", "integration", "gateway"))
-from space import lock_dds_domain  # noqa: E402  (the lock every test linking spaces takes)
+sys.path.insert(0, os.path.join(run_sdk.ROOT, "tests", "support"))
+from dds_domain import lock_dds_domain  # noqa: E402  (the lock every test linking spaces takes)
 
 A, B = "sdka", "sdkb"
 RT_HOST = "bhost"

@@ -8,7 +8,6 @@ camera RTC as a CAMUS service, the diagnostic agent as an RTC) and urs-gateway. 
     with Space(build_dir, source_dir, "conformance") as space:
         space.gateway_url  ->  "ws://127.0.0.1:PORT/"
 """
-import fcntl
 import json
 import os
 import shutil
@@ -19,6 +18,9 @@ import sys
 import tempfile
 import time
 import urllib.request
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "support"))
+from dds_domain import lock_dds_domain  # noqa: E402  (the lock every test linking spaces takes)
 
 TOKEN = "gateway-test-token"
 VIEWER_TOKEN = "gateway-test-viewer"
@@ -41,20 +43,6 @@ def wait_for(what, condition, timeout):
             return
         time.sleep(0.05)
     raise TimeoutError("%s did not happen within %s s" % (what, timeout))
-
-
-def lock_dds_domain():
-    """A DDS domain of its own, locked as the other tests and deploy/lab.sh lock theirs."""
-    os.makedirs("/tmp/urs-dds-domains", exist_ok=True)
-    for i in range(221):
-        domain = 10 + (os.getpid() + i) % 221
-        f = open("/tmp/urs-dds-domains/%d" % domain, "a")
-        try:
-            fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            return domain, f
-        except OSError:
-            f.close()
-    raise RuntimeError("no free DDS domain (locks in /tmp/urs-dds-domains)")
 
 
 class Space:

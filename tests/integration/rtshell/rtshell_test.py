@@ -28,6 +28,9 @@ import sys
 import time
 import traceback
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "support"))
+from dds_domain import lock_dds_domain  # noqa: E402  (the lock every test linking spaces takes)
+
 PACKAGES = ["rtshell-aist==4.2.10", "rtctree-aist==4.2.5", "rtsprofile-aist==4.1.6", "salome-omniorb==4.2.5",
             # rtsprofile imports yaml without declaring it
             "PyYAML"]
@@ -109,22 +112,6 @@ def free_port():
             except OSError:
                 continue
     raise Failure("no free TCP port")
-
-
-def dds_domain(work):
-    """Reserves a DDS domain id as tests/support/dds_domain.cpp does (a lock per id)."""
-    folder = "/tmp/urs-dds-domains"
-    os.makedirs(folder, mode=0o1777, exist_ok=True)
-    start = os.getpid() % 221
-    for step in range(221):
-        domain = 10 + (start + step) % 221
-        handle = open(f"{folder}/{domain}", "a")
-        try:
-            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            return domain, handle
-        except OSError:
-            handle.close()
-    raise Failure("no free DDS domain")
 
 
 class Space:
@@ -355,7 +342,7 @@ def main():
     args = parser.parse_args()
     os.makedirs(args.work, exist_ok=True)
     ensure_venv(args.venv)
-    domain, domain_lock = dds_domain(args.work)
+    domain, domain_lock = lock_dds_domain()
     space = Space(args)
     try:
         space.start_naming()
