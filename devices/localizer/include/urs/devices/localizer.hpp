@@ -42,7 +42,7 @@ struct LocalizerConfig {
   uint32_t seed = 0;               // of the noise; 0 = a different one each run
 };
 
-// Throws urs::util::ConfigError naming every bad key.
+// Throws urs::devices::ParamError (urs/devices/params.hpp) naming every bad key.
 LocalizerConfig parse_localizer_config(const YAML::Node& params);
 
 class LocalizerAgent : public agent::TypedAgent, public agent::Tunable {

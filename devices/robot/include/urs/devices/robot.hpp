@@ -48,7 +48,7 @@ struct RobotConfig {
   Feedback feedback = Feedback::localizer;
 };
 
-// Throws urs::util::ConfigError naming every bad key.
+// Throws urs::devices::ParamError (urs/devices/params.hpp) naming every bad key.
 RobotConfig parse_robot_config(const YAML::Node& params);
 
 class RobotAgent : public agent::TypedAgent, public agent::Tunable {
