@@ -5,8 +5,8 @@
 
 #include "urs/devices/robot_motion.hpp"
 #include "urs/devices/params.hpp"
+#include "urs/devices/sim_loop.hpp"
 #include "urs/util/number.hpp"
-#include "urs/world/sim_loop.hpp"
 #include "urs/world/world.hpp"
 
 namespace urs::devices {
@@ -39,7 +39,7 @@ LocalizerAgent::LocalizerAgent(LocalizerConfig config)
       noise_xy_(config_.noise_xy),
       noise_theta_(config_.noise_theta),
       random_(config_.seed != 0 ? config_.seed : std::random_device{}()),
-      loop_(std::make_unique<world::SimLoop>()) {
+      loop_(std::make_unique<SimLoop>()) {
   on<URC::Localization_getPose_Request, URC::Localization_getPose_Reply>(
       "getPose", [this](const auto&, auto& rep, const CallContext&) {
         std::lock_guard<std::mutex> lock(mutex_);

@@ -7,8 +7,8 @@
 
 #include "Navigation.pb.h"
 #include "urs/devices/params.hpp"
+#include "urs/devices/sim_loop.hpp"
 #include "urs/util/number.hpp"
-#include "urs/world/sim_loop.hpp"
 #include "urs/world/world.hpp"
 
 namespace urs::devices {
@@ -67,7 +67,7 @@ RobotAgent::RobotAgent(RobotConfig config)
       tolerance_(config_.tolerance),
       fusion_gain_(config_.fusion_gain),
       state_(URC::NAVIGATION_STATE_IDLE),
-      loop_(std::make_unique<world::SimLoop>()) {
+      loop_(std::make_unique<SimLoop>()) {
   truth_.pose = config_.start;
   if (config_.feedback == RobotConfig::Feedback::ground_truth) estimate_.reset(truth_.pose);
 

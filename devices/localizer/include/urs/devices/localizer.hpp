@@ -23,11 +23,12 @@
 
 namespace urs::world {
 class World;
-class SimLoop;
 struct PoseSample;
 }  // namespace urs::world
 
 namespace urs::devices {
+
+class SimLoop;
 
 struct LocalizerConfig {
   std::string name = "localizer";  // DDS participant name
@@ -71,7 +72,7 @@ class LocalizerAgent : public agent::TypedAgent, public agent::Tunable {
   std::mt19937 random_;
   agent::EventSink* events_ = nullptr;
   std::unique_ptr<world::World> world_;
-  std::unique_ptr<world::SimLoop> loop_;
+  std::unique_ptr<SimLoop> loop_;
 };
 
 std::shared_ptr<agent::ServiceAgent> make_localizer_agent(const YAML::Node& params);
