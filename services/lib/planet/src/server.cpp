@@ -406,16 +406,7 @@ void ServerCore::start() {
   work.emplace(io->get_executor());
   asio::post(accept_strand, [this] { do_accept(); });
   for (unsigned i = 0; i < options.io_threads; ++i) {
-    threads.emplace_back([this] {
-      for (;;) {
-        try {
-          io->run();
-          return;
-        } catch (const std::exception& exception) {
-          spdlog::error("planet: server I/O thread caught: {}", exception.what());
-        }
-      }
-    });
+    threads.emplace_back([this] { detail::run_io(*io, "server"); });
   }
   spdlog::info("planet: server listening on {}:{} (space '{}', instance {}, {})", options.host, bound_port,
                options.space, instance,
