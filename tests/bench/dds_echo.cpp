@@ -3,27 +3,20 @@
 // process would hand samples over in memory). Space "dds-b": answers every call at once with its
 // payload, and "blob" with a 921,600-byte reply. Writes READY_FILE once joined; exits on SIGTERM.
 
-#include <signal.h>
-
-#include <fstream>
 #include <iostream>
 #include <string>
 
 #include "Diagnostic.pb.h"
 #include "urs/agent/agent.hpp"
 #include "urs/bridge/dds_link.hpp"
+#include "urs/util/cli.hpp"
 
 int main(int argc, char** argv) {
   if (argc != 3) {
     std::cerr << "usage: urs-dds-echo DOMAIN READY_FILE\n";
     return 2;
   }
-  // Every thread (Fast DDS's too) inherits the mask; the main thread takes the signal with sigwait.
-  sigset_t stop;
-  sigemptyset(&stop);
-  sigaddset(&stop, SIGTERM);
-  sigaddset(&stop, SIGINT);
-  pthread_sigmask(SIG_BLOCK, &stop, nullptr);
+  urs::util::block_shutdown_signals();  // every thread (Fast DDS's too) inherits the mask
 
   URS::Diagnostic_blob_Reply big;
   big.set_result(std::string(921600, 'x'));
@@ -43,9 +36,8 @@ int main(int argc, char** argv) {
           if (!cancelled) reply(urs::planet::CallResult::success(call.operation == "blob" ? big_reply : call.payload));
         });
       });
-  std::ofstream(argv[2]) << "ready\n";
-  int signal = 0;
-  sigwait(&stop, &signal);
+  urs::util::write_file_atomically(argv[2], "ready\n");
+  urs::util::wait_for_shutdown();
   replier.stop();
   return 0;
 }
