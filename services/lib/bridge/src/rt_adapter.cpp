@@ -9,6 +9,7 @@
 #include "urs/bridge/provider_port.hpp"
 #include "urs/corba_agent/corba_proxy.hpp"
 #include "urs/rtc/data_port.hpp"
+#include "urs/rtc/naming_watch.hpp"
 #include "urs/rtc/nvlist.hpp"
 #include "urs/rtc/tools.hpp"
 
@@ -88,7 +89,8 @@ RtAdapter::RtAdapter(rtc::Orb& orb, rtc::NamingClient& naming, const InterfaceCa
       own_path_(std::move(own_path)) {}
 
 void RtAdapter::watch(bool every_component) {
-  // 1. What the naming service holds now (only components some rule may concern).
+  // 1. What the naming service holds now (only components some rule may concern); 1 and 2 are
+  //    the naming watch rtc::Connector runs too (urs/rtc/naming_watch.hpp).
   auto concerned = [this, every_component](const std::string& path) {
     if (path == own_path_) return false;
     if (every_component) return true;
@@ -103,20 +105,16 @@ void RtAdapter::watch(bool every_component) {
     }
     return false;
   };
-  std::map<std::string, std::string> bound;  // path -> IOR
+  rtc::ComponentBindings bound;
   try {
-    for (const auto& entry : naming_.list_objects("")) {
-      if (entry.kind != "rtc" || !concerned(entry.path)) continue;
-      CORBA::Object_var object = naming_.try_resolve(entry.path);
-      if (!CORBA::is_nil(object)) bound[entry.path] = orb_.object_to_string(object);
-    }
+    bound = std::move(*rtc::read_component_bindings(naming_, orb_, concerned));  // never stopped early
   } catch (const std::exception& e) {
     if (warned_.insert("naming").second) spdlog::warn("bridge: naming service {}: {}", naming_.address(), e.what());
     return;
   }
   warned_.erase("naming");
 
-  auto forget = [this](const std::string& path, const char* why) {
+  auto forget = [this](const std::string& path, const std::string& why) {
     auto it = known_.find(path);
     if (it == known_.end()) return;
     for (const auto& [link, connector_id] : it->second->links) {
@@ -127,16 +125,14 @@ void RtAdapter::watch(bool every_component) {
   };
 
   // 2. Components gone or replaced.
-  for (auto it = known_.begin(); it != known_.end();) {
-    const auto now_bound = bound.find(it->first);
-    const bool gone = now_bound == bound.end() || now_bound->second != it->second->ior;
-    const std::string path = (it++)->first;
-    if (gone) forget(path, now_bound == bound.end() ? "unbound" : "rebound to another object");
+  for (const auto& changed : rtc::changed_bindings(known_, bound, [](const auto& known) { return known->ior; })) {
+    forget(changed.path, changed.why);
   }
 
   // 3. New components: read their ports.
   const auto now = Clock::now();
-  for (const auto& [path, ior] : bound) {
+  for (const auto& [path, binding] : bound) {
+    const std::string& ior = binding.ior;
     auto& known = known_[path];
     if (known && (known->reachable || now < known->retry_at)) continue;
     known = std::make_shared<Known>();
@@ -203,7 +199,7 @@ void RtAdapter::watch(bool every_component) {
       forget(path, "stopped answering");
       auto& again = known_[path];  // keep it out of the choice until the binding changes or a retry
       again = std::make_shared<Known>();
-      again->ior = bound.count(path) ? bound[path] : "";
+      again->ior = bound.count(path) ? bound.at(path).ior : "";
       again->retry_at = Clock::now() + kRetryPeriod;
       continue;
     }
