@@ -107,7 +107,7 @@ RouteReconciler route_everything(ServiceOffering& target, const std::string& dir
   return RouteReconciler(direction, {rule({"*"}, "{name}")}, target, 10s);
 }
 
-TEST(RouteReconcilerTest, OffersWhatTheRulesAdmitUnderTheirTemplate) {
+TEST(BridgeCoreTest, OffersWhatTheRulesAdmitUnderTheirTemplate) {
   MemorySide camus("camus"), rt("rt");
   camus.add_own("tts");
   camus.add_own("nav");
@@ -124,7 +124,7 @@ TEST(RouteReconcilerTest, OffersWhatTheRulesAdmitUnderTheirTemplate) {
   EXPECT_EQ(routes.routes()[0].name, "Camusnav");
 }
 
-TEST(RouteReconcilerTest, AStableOfferIsOfferedOnce) {
+TEST(BridgeCoreTest, AStableOfferIsOfferedOnce) {
   MemorySide camus("camus"), rt("rt");
   camus.add_own("tts");
   RouteReconciler routes = route_everything(rt);
@@ -135,7 +135,7 @@ TEST(RouteReconcilerTest, AStableOfferIsOfferedOnce) {
   EXPECT_EQ(rt.offered, 1);
 }
 
-TEST(RouteReconcilerTest, WithdrawsWhatVanished) {
+TEST(BridgeCoreTest, WithdrawsWhatVanished) {
   MemorySide camus("camus"), rt("rt");
   camus.add_own("tts");
   camus.add_own("nav");
@@ -152,7 +152,7 @@ TEST(RouteReconcilerTest, WithdrawsWhatVanished) {
   EXPECT_TRUE(routes.routes().empty());
 }
 
-TEST(RouteReconcilerTest, NothingCarryingAnOriginNorABuiltInIsBridged) {
+TEST(BridgeCoreTest, NothingCarryingAnOriginNorABuiltInIsBridged) {
   MemorySide camus("camus");
   camus.add_own("tts");
   camus.add_own("camus.registry");
@@ -165,7 +165,7 @@ TEST(RouteReconcilerTest, NothingCarryingAnOriginNorABuiltInIsBridged) {
   EXPECT_EQ(rt.names(), (std::set<std::string>{"tts"}));
 }
 
-TEST(RouteReconcilerTest, TwoDirectionsBetweenTheSameSidesMakeNoLoop) {
+TEST(BridgeCoreTest, TwoDirectionsBetweenTheSameSidesMakeNoLoop) {
   MemorySide camus("camus"), rt("rt");
   camus.add_own("tts");
   rt.add_own("Robot0.nav");
@@ -180,7 +180,7 @@ TEST(RouteReconcilerTest, TwoDirectionsBetweenTheSameSidesMakeNoLoop) {
   EXPECT_EQ(rt.offered + camus.offered, 2);
 }
 
-TEST(RouteReconcilerTest, TheFirstMatchingRuleNamesTheStandIn) {
+TEST(BridgeCoreTest, TheFirstMatchingRuleNamesTheStandIn) {
   MemorySide rt("rt"), camus("camus");
   const Offer nav = make_offer("c1|nav", "lab.host_cxt/Robot0.rtc", "URC::Navigation", {{"instance", "Robot0"}, {"port", "nav"}});
   const Offer arm = make_offer("c2|arm", "lab.host_cxt/Arm0.rtc", "URC::Manipulator", {{"instance", "Arm0"}, {"port", "arm"}});
@@ -198,7 +198,7 @@ TEST(RouteReconcilerTest, TheFirstMatchingRuleNamesTheStandIn) {
   EXPECT_EQ(camus.stand_in("robot.Robot0.nav").deadline_ms, 500u);
 }
 
-TEST(RouteReconcilerTest, RuleMatchingAndTemplates) {
+TEST(BridgeCoreTest, RuleMatchingAndTemplates) {
   const Offer remote = make_offer("jp/tts", "jp/tts", "Demo::Speech", {{"space", "jp"}, {"service", "tts"}});
   const RouteRule as_camus = rule({"jp/*"}, "{space}/{service}", {"*/secret*"});
   const std::vector<RouteRule> rules{rule({"kr/*"}, "kr.{service}"), as_camus};
@@ -216,7 +216,7 @@ TEST(RouteReconcilerTest, RuleMatchingAndTemplates) {
   EXPECT_FALSE(allowed("x", {}, {}));                                      // nothing allowed by default
 }
 
-TEST(RouteReconcilerTest, TheTargetSideMakesTheNameUsable) {
+TEST(BridgeCoreTest, TheTargetSideMakesTheNameUsable) {
   MemorySide camus("camus"), rt("rt");
   camus.add_own("text to speech");
   RouteReconciler routes = route_everything(rt);
@@ -224,7 +224,7 @@ TEST(RouteReconcilerTest, TheTargetSideMakesTheNameUsable) {
   EXPECT_EQ(rt.names(), (std::set<std::string>{"text_to_speech"}));
 }
 
-TEST(RouteReconcilerTest, ADisputedNameGoesToOneOfferAndPassesOnWhenItLeaves) {
+TEST(BridgeCoreTest, ADisputedNameGoesToOneOfferAndPassesOnWhenItLeaves) {
   MemorySide camus("camus"), rt("rt");
   camus.add_own("b.tts");
   camus.add_own("a.tts");
@@ -250,7 +250,7 @@ TEST(RouteReconcilerTest, ADisputedNameGoesToOneOfferAndPassesOnWhenItLeaves) {
   EXPECT_EQ(rt.stand_in("tts").offer.key, "0.tts");
 }
 
-TEST(RouteReconcilerTest, ARefusedOfferIsTriedAgainAfterTheRetryPeriod) {
+TEST(BridgeCoreTest, ARefusedOfferIsTriedAgainAfterTheRetryPeriod) {
   MemorySide camus("camus"), rt("rt");
   camus.add_own("tts");
   rt.refusing.insert("tts");
@@ -266,7 +266,7 @@ TEST(RouteReconcilerTest, ARefusedOfferIsTriedAgainAfterTheRetryPeriod) {
   EXPECT_TRUE(rt.holds("tts"));
 }
 
-TEST(RouteReconcilerTest, ARestartedTargetIsOfferedEverythingAgain) {
+TEST(BridgeCoreTest, ARestartedTargetIsOfferedEverythingAgain) {
   MemorySide camus("camus"), rt("rt");
   camus.add_own("tts");
   camus.add_own("nav");
@@ -282,7 +282,7 @@ TEST(RouteReconcilerTest, ARestartedTargetIsOfferedEverythingAgain) {
   EXPECT_EQ(rt.offered, 4);
 }
 
-TEST(RouteReconcilerTest, ARestartedSourceIsRoutedAgainUnderTheSameNames) {
+TEST(BridgeCoreTest, ARestartedSourceIsRoutedAgainUnderTheSameNames) {
   MemorySide camus("camus"), rt("rt");
   camus.add_own("tts");
   RouteReconciler routes = route_everything(rt);
@@ -295,7 +295,7 @@ TEST(RouteReconcilerTest, ARestartedSourceIsRoutedAgainUnderTheSameNames) {
   EXPECT_TRUE(rt.holds("tts"));
 }
 
-TEST(RouteReconcilerTest, ANewRevisionIsRoutedAgainAndNewPropertiesUpdated) {
+TEST(BridgeCoreTest, ANewRevisionIsRoutedAgainAndNewPropertiesUpdated) {
   MemorySide dds("dds"), camus("camus");
   dds.add_own("jp/tts");
   RouteReconciler routes = route_everything(camus, "DDS -> CAMUS");
