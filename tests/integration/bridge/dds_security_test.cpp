@@ -36,7 +36,7 @@ void pki(const std::vector<std::string>& args) {
 
 // The federation "fed" (kr calls jp and jp calls kr; member xx may call no one) and a rogue CA
 // that issued its own "jp"; made once for the whole test program.
-class Federation : public ::testing::Test {
+class SecuredLink : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     dir_ = new std::string(make_temp_dir("dds-security"));
@@ -57,15 +57,7 @@ class Federation : public ::testing::Test {
   }
 
   static bridge::DdsSecurity member(const std::string& pki_dir, const std::string& space) {
-    const std::string root = *dir_ + "/" + pki_dir;
-    bridge::DdsSecurity security;
-    security.identity_ca = root + "/ca.pem";
-    security.certificate = root + "/" + space + "/identity.pem";
-    security.private_key = root + "/" + space + "/identity.key";
-    security.governance = root + "/governance.p7s";
-    security.permissions = root + "/" + space + "/permissions.p7s";
-    security.crl = root + "/crl.pem";
-    return security;
+    return bridge::security_from_folder(*dir_ + "/" + pki_dir, space);
   }
 
   static bridge::DdsOptions options(uint32_t domain, const std::string& space, bridge::DdsSecurity security) {
@@ -124,11 +116,11 @@ class Federation : public ::testing::Test {
   static std::string* dir_;
   std::vector<pid_t> children_;
 };
-std::string* Federation::dir_ = nullptr;
+std::string* SecuredLink::dir_ = nullptr;
 
 auto no_calls = [](bridge::IncomingCall, std::function<void(planet::CallResult)>) {};
 
-TEST_F(Federation, MembersSeeAndCallEachOther) {
+TEST_F(SecuredLink, MembersSeeAndCallEachOther) {
   const DdsDomains domains;
   serve_kr(domains[0]);
   bridge::DdsLink jp(options(domains[0], "jp", member("fed", "jp")), [] {}, no_calls);
@@ -140,7 +132,7 @@ TEST_F(Federation, MembersSeeAndCallEachOther) {
 
 // While member jp sees kr and calls it, a participant without security and one whose certificate
 // comes from another CA (claiming to be jp) see nothing of kr and reach no one.
-TEST_F(Federation, NoOneOutsideTheFederationJoins) {
+TEST_F(SecuredLink, NoOneOutsideTheFederationJoins) {
   const DdsDomains domains;
   serve_kr(domains[0]);
   bridge::DdsLink plain(options(domains[0], "intruder", {}), [] {}, no_calls);
@@ -158,7 +150,7 @@ TEST_F(Federation, NoOneOutsideTheFederationJoins) {
 }
 
 // Member xx's permissions grant it no calls: DDS refuses its request writer, and the call says so.
-TEST_F(Federation, AMemberCallsOnlyTheSpacesItsPermissionsGrant) {
+TEST_F(SecuredLink, AMemberCallsOnlyTheSpacesItsPermissionsGrant) {
   const DdsDomains domains;
   serve_kr(domains[0]);
   bridge::DdsLink xx(options(domains[0], "xx", member("fed", "xx")), [] {}, no_calls);
@@ -174,7 +166,7 @@ std::string joined(const std::vector<std::string>& problems) {
   return text;
 }
 
-TEST_F(Federation, ABadFileIsNamedWithWhatIsWrong) {
+TEST_F(SecuredLink, ABadFileIsNamedWithWhatIsWrong) {
   EXPECT_TRUE(bridge::check_dds_security(member("fed", "kr"), "kr").empty())
       << joined(bridge::check_dds_security(member("fed", "kr"), "kr"));
   struct Case {
@@ -213,7 +205,7 @@ TEST_F(Federation, ABadFileIsNamedWithWhatIsWrong) {
 }
 
 // A revoked member is refused by the check and cannot rejoin: the others' CRL names it.
-TEST_F(Federation, ARevokedMemberCannotRejoin) {
+TEST_F(SecuredLink, ARevokedMemberCannotRejoin) {
   const std::string fed = *dir_ + "/fed";
   pki({"member", fed, "old", "--calls", "kr"});
   EXPECT_TRUE(bridge::check_dds_security(member("fed", "old"), "old").empty());

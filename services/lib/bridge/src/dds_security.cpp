@@ -111,9 +111,15 @@ StorePtr store_of(X509* ca) {
 
 }  // namespace
 
-std::string certificate_subject(const std::string& path) {
-  X509Ptr certificate = read_certificate(path);
-  return certificate ? rfc2253(X509_get_subject_name(certificate.get())) : std::string();
+DdsSecurity security_from_folder(const std::string& folder, const std::string& space) {
+  DdsSecurity security;
+  security.identity_ca = folder + "/ca.pem";
+  security.certificate = folder + "/" + space + "/identity.pem";
+  security.private_key = folder + "/" + space + "/identity.key";
+  security.governance = folder + "/governance.p7s";
+  security.permissions = folder + "/" + space + "/permissions.p7s";
+  if (std::filesystem::exists(folder + "/crl.pem")) security.crl = folder + "/crl.pem";
+  return security;
 }
 
 std::vector<std::string> check_dds_security(const DdsSecurity& s, const std::string& space) {

@@ -23,6 +23,10 @@ struct DdsSecurity {
   const std::string& documents_ca() const { return permissions_ca.empty() ? identity_ca : permissions_ca; }
 };
 
+// The files of `space` in a folder laid out by deploy/pki.sh: ca.pem, governance.p7s, crl.pem (if
+// present) and <space>/{identity.pem,identity.key,permissions.p7s}.
+DdsSecurity security_from_folder(const std::string& folder, const std::string& space);
+
 // What is wrong with `security` for a participant of `space` (one sentence each, naming the file),
 // or nothing. Checks that every file is readable; the identity is signed by identity_ca, within its
 // validity and not revoked by the CRL; the key is the identity's; both documents are signed by the
@@ -33,8 +37,5 @@ std::vector<std::string> check_dds_security(const DdsSecurity& security, const s
 // The participant properties that enable the builtin plugins with these files (file:// URIs of
 // absolute paths).
 std::vector<std::pair<std::string, std::string>> dds_security_properties(const DdsSecurity& security);
-
-// The subject of the PEM certificate in `path`, in RFC 2253 order ("CN=kr,O=..."); "" if unreadable.
-std::string certificate_subject(const std::string& path);
 
 }  // namespace urs::bridge
