@@ -1,7 +1,9 @@
-// urs-dds-echo DOMAIN READY_FILE: the far end of urs-bench's direct Fast DDS request/reply row, in
-// a process of its own so that the row measures UDP between processes (two participants of one
-// process would hand samples over in memory). Space "dds-b": answers every call at once with its
-// payload, and "blob" with a 921,600-byte reply. Writes READY_FILE once joined; exits on SIGTERM.
+// urs-dds-echo DOMAIN READY_FILE [PKI_FOLDER]: the far end of urs-bench's direct Fast DDS
+// request/reply rows, in a process of its own so that a row measures UDP between processes (two
+// participants of one process would hand samples over in memory). Space "dds-b": answers every call
+// at once with its payload, and "blob" with a 921,600-byte reply. With PKI_FOLDER (deploy/pki.sh's
+// layout, a member "dds-b") it joins with DDS-Security. Writes READY_FILE once joined; exits on
+// SIGTERM.
 
 #include <iostream>
 #include <string>
@@ -12,8 +14,8 @@
 #include "urs/util/cli.hpp"
 
 int main(int argc, char** argv) {
-  if (argc != 3) {
-    std::cerr << "usage: urs-dds-echo DOMAIN READY_FILE\n";
+  if (argc != 3 && argc != 4) {
+    std::cerr << "usage: urs-dds-echo DOMAIN READY_FILE [PKI_FOLDER]\n";
     return 2;
   }
   urs::util::block_shutdown_signals();  // every thread (Fast DDS's too) inherits the mask
@@ -26,6 +28,7 @@ int main(int argc, char** argv) {
   options.space = "dds-b";
   options.bridge = "b";
   options.udp_only = true;
+  if (argc == 4) options.security = urs::bridge::security_from_folder(argv[3], options.space);
   // Replies go out from a worker, as a bridge's do: a reply written on the DDS listener thread
   // would wait there for its writer to match, which that very thread has to discover.
   urs::agent::WorkerPool replier(1);

@@ -372,7 +372,7 @@ int main(int argc, char** argv) {
     }
 
     // ---- the RT side, a bridge in the space, and two spaces linked over DDS -------------------
-    const urs::test::DdsDomains domains(2);  // the spaces' link; the direct DDS row's
+    const urs::test::DdsDomains domains(3);  // the spaces' link; the direct DDS rows', plain and secured
     const int domain = static_cast<int>(domains[0]);
     urs::test::NamingService naming(dir + "/naming");
     auto manager = start_with_config(dir, "rtc", "components:\n  - type: Diagnostic\n",
@@ -432,6 +432,35 @@ int main(int argc, char** argv) {
     a_options.udp_only = true;
     urs::bridge::DdsLink dds_a(a_options, [] {}, [](urs::bridge::IncomingCall, auto) {});
     expect_ok(dds_a.call("dds-b", "echo", "echo", echo_payload, 5s), "direct DDS");
+    // The same with DDS-Security (a federation made by deploy/pki.sh, data encrypted), on a domain
+    // of its own.
+    const std::string pki = dir + "/pki";
+    for (const std::vector<std::string>& step :
+         {std::vector<std::string>{"init", pki}, {"governance", pki}, {"member", pki, "dds-a", "--calls", "dds-b"},
+          {"member", pki, "dds-b"}}) {
+      std::vector<std::string> argv{URS_PKI_SCRIPT};
+      argv.insert(argv.end(), step.begin(), step.end());
+      const auto made = urs::test::run_command(argv, 60s);
+      if (made.exit_code != 0) throw std::runtime_error("deploy/pki.sh " + step[0] + ": " + made.err);
+    }
+    auto secured_echo = std::make_unique<urs::test::Process>(
+        urs::bench::server_command({URS_DDS_ECHO_BIN, std::to_string(domains[2]), dir + "/secured-echo.ready", pki}),
+        dir + "/secured-echo.log");
+    if (!urs::test::wait_until([&] { return std::filesystem::exists(dir + "/secured-echo.ready"); }, 30s)) {
+      throw std::runtime_error("urs-dds-echo with security did not start: " + secured_echo->log());
+    }
+    urs::bridge::DdsOptions secured_options = a_options;
+    secured_options.domain = domains[2];
+    secured_options.security = urs::bridge::security_from_folder(pki, "dds-a");
+    urs::bridge::DdsLink secured_a(secured_options, [] {}, [](urs::bridge::IncomingCall, auto) {});
+    const auto handshake_start = std::chrono::steady_clock::now();
+    if (!urs::test::wait_until([&] { return secured_a.call("dds-b", "echo", "echo", echo_payload, 1s).ok(); }, 30s)) {
+      throw std::runtime_error("the secured DDS echo never answered: " + secured_echo->log());
+    }
+    char handshake[96];
+    std::snprintf(handshake, sizeof(handshake), "%.0f ms (authentication, then the first call's writer matched)",
+                  std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - handshake_start).count());
+    extras.push_back({"DDS-Security: joining until the first call is answered", handshake});
 
     const std::string text(64, 'x');
     for (const bool big_payload : {false, true}) {
@@ -459,6 +488,9 @@ int main(int argc, char** argv) {
           size,
           {{kOmni, stub_call(direct), "", 0},
            {kDds, [&] { expect_ok(dds_a.call("dds-b", "x", op, payload, 10s), "DDS"); }, "", 0},
+           {"Fast DDS request/reply, UDP, DDS-Security encrypted (direct)",
+            [&] { expect_ok(secured_a.call("dds-b", "x", op, payload, 10s), "secured DDS"); }, kDds + at,
+            big_payload ? 1.5 : 1.3},
            {"", planet_call("diag"), "", 0},  // the Planet call's round of this group (no row of its own)
            {"bridged RTC→CAMUS: client→server→bridge→RTC", planet_call("rt.diag"), kBridgeHops + at, big_payload ? 0 : 1.15},
            {"bridged SA→RT: stub→bridge→server→SAM→SA", stub_call(imported), kBridgeHops + at, 0},
@@ -467,8 +499,8 @@ int main(int argc, char** argv) {
           w, n);
       if (!summaries.empty()) {
         // The native hops each bridged path traverses, added up repetition by repetition.
-        rows.push_back({kBridgeHops, size, urs::bench::sum_of({&summaries[2], &summaries[0]}), "", 0, groups});
-        rows.push_back({kHops, size, urs::bench::sum_of({&summaries[2], &summaries[1], &summaries[0]}), "", 0, groups});
+        rows.push_back({kBridgeHops, size, urs::bench::sum_of({&summaries[3], &summaries[0]}), "", 0, groups});
+        rows.push_back({kHops, size, urs::bench::sum_of({&summaries[3], &summaries[1], &summaries[0]}), "", 0, groups});
       }
     }
 
