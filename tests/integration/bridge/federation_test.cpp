@@ -22,6 +22,7 @@
 #include <fastdds/dds/subscriber/SampleInfo.hpp>
 #include <fastdds/dds/subscriber/Subscriber.hpp>
 #include <fastdds/dds/topic/TypeSupport.hpp>
+#include <filesystem>
 #include <future>
 #include <iostream>
 
@@ -51,8 +52,32 @@ namespace gp = google::protobuf;
 
 constexpr auto kLease = 1500ms;
 
-class Federation : public BridgeSpaceTest {
+// Run twice: on a plain link, and on a link secured with DDS-Security (a federation PKI made by
+// deploy/pki.sh once for the program: kr and jp, each granted calls to the other, and "obs", the
+// tests' own observer, granted none).
+class Federation : public BridgeSpaceTest, public ::testing::WithParamInterface<bool> {
  protected:
+  static void SetUpTestSuite() {
+    pki_ = new std::string(make_temp_dir("federation-pki"));
+    for (const std::vector<std::string>& step :
+         {std::vector<std::string>{"init", *pki_}, {"governance", *pki_}, {"member", *pki_, "kr", "--calls", "jp"},
+          {"member", *pki_, "jp", "--calls", "kr"}, {"member", *pki_, "obs"}}) {
+      std::vector<std::string> argv{URS_PKI_SCRIPT};
+      argv.insert(argv.end(), step.begin(), step.end());
+      const CommandResult made = run_command(argv, 60s);
+      ASSERT_EQ(made.exit_code, 0) << made.out << made.err;
+    }
+  }
+  static void TearDownTestSuite() {
+    std::filesystem::remove_all(*pki_);
+    delete pki_;
+  }
+  virtual bool secured() const { return GetParam(); }
+  // The files of the tests' own participants on the link: none on a plain link.
+  bridge::DdsSecurity observer_security() const {
+    return secured() ? bridge::security_from_folder(*pki_, "obs") : bridge::DdsSecurity{};
+  }
+
   void SetUp() override {
     space_ = "kr";
     BridgeSpaceTest::SetUp();
@@ -83,8 +108,10 @@ class Federation : public BridgeSpaceTest {
 
   std::string dds(const std::string& discovery = "") const {
     return "dds:\n  domain: " + std::to_string(domain_) + "\n  lease_ms: " + std::to_string(kLease.count()) +
-           "\n  udp_only: true\n" + discovery;
+           "\n  udp_only: true\n" + (secured() ? "  security: {pki: \"" + *pki_ + "\"}\n" : "") + discovery;
   }
+
+  static std::string* pki_;
 
   void start_jp(const std::string& discovery = "") {
     jp_ = launch_bridge("bridge-jp",
@@ -165,7 +192,18 @@ class Federation : public BridgeSpaceTest {
   std::unique_ptr<Process> kr_;
 };
 
-TEST_F(Federation, EachSpacesServicesAreCallableFromTheOther) {
+std::string* Federation::pki_ = nullptr;
+
+INSTANTIATE_TEST_SUITE_P(Link, Federation, ::testing::Values(false, true),
+                         [](const ::testing::TestParamInfo<bool>& info) { return info.param ? "Secured" : "Plain"; });
+
+// Tests of a plain link only (another vendor's tool reading it; the discovery server).
+class PlainFederation : public Federation {
+ protected:
+  bool secured() const override { return false; }
+};
+
+TEST_P(Federation, EachSpacesServicesAreCallableFromTheOther) {
   ASSERT_TRUE(wait_for_service("jp/rt.Diagnostic0", 20s)) << kr_->log() << jp_->log();
   EXPECT_NE(listed("jp/rt.Diagnostic0").find("dds:jp/rt.Diagnostic0"), std::string::npos);
 
@@ -226,7 +264,7 @@ TEST_F(Federation, EachSpacesServicesAreCallableFromTheOther) {
   EXPECT_EQ(to_jp.result(), "from jp's RT side");
 }
 
-TEST_F(Federation, ADeadBridgesServicesVanishWithinTheLeaseAndReturnWithIt) {
+TEST_P(Federation, ADeadBridgesServicesVanishWithinTheLeaseAndReturnWithIt) {
   ASSERT_TRUE(wait_for_service("jp/rt.Diagnostic0", 20s)) << kr_->log();
   jp_->kill9();
   const auto killed = Clock::now();
@@ -258,8 +296,10 @@ TEST_F(Federation, ADeadBridgesServicesVanishWithinTheLeaseAndReturnWithIt) {
 }
 
 // Sites that pass no multicast: bridge-jp is a Fast DDS discovery server, bridge-kr its client
-// (a client discovers nothing but through its servers), and the spaces link as before.
-TEST_F(Federation, SpacesLinkThroughADiscoveryServer) {
+// (a client discovers nothing but through its servers), and the spaces link as before. On a plain
+// link only: Fast DDS 2.9's discovery server and DDS-Security do not go together (the
+// configuration refuses it, config_test).
+TEST_F(PlainFederation, SpacesLinkThroughADiscoveryServer) {
   jp_.reset();
   kr_.reset();
   ASSERT_TRUE(wait_service_gone("jp/rt.Diagnostic0", 15s));
@@ -271,15 +311,17 @@ TEST_F(Federation, SpacesLinkThroughADiscoveryServer) {
   EXPECT_NE(kr_->log().find("discovery server"), std::string::npos) << kr_->log();
 }
 
-// What a third space sees of the others' state over DDS: a plain participant of the link.
+// What a third space sees of the others' state over DDS: a participant of the link (a member "obs"
+// on a secured link).
 struct StateObserver {
-  explicit StateObserver(uint32_t domain, std::chrono::milliseconds lease) {
+  StateObserver(uint32_t domain, std::chrono::milliseconds lease, bridge::DdsSecurity security) {
     bridge::DdsOptions options;
     options.domain = domain;
     options.space = "obs";
     options.bridge = "observer";
     options.lease = lease;
     options.udp_only = true;
+    options.security = std::move(security);
     link = std::make_unique<bridge::DdsLink>(options, [] {}, [](bridge::IncomingCall, auto) {});
     bridge::StateHandlers handlers;
     handlers.component = [this](const bridge::ComponentState& c, bool alive) {
@@ -318,8 +360,8 @@ struct StateObserver {
   std::unique_ptr<bridge::StateLink> state;  // last: destroyed first
 };
 
-TEST_F(Federation, SpacesShareStateOverDds) {
-  StateObserver observer(static_cast<uint32_t>(domain_), kLease);
+TEST_P(Federation, SpacesShareStateOverDds) {
+  StateObserver observer(static_cast<uint32_t>(domain_), kLease, observer_security());
   const std::string diag = "jphost.host_cxt/Diagnostic0.rtc";
 
   // jp's RTC lifecycle states reach kr's context, and follow the component's transitions.
@@ -413,13 +455,19 @@ TEST_F(Federation, SpacesShareStateOverDds) {
 }
 
 // Every sample written on urs/state/context, as a plain DDS reader of the link sees it (keep-all:
-// tombstones included, which StateLink's own reader folds away).
+// tombstones included, which StateLink's own reader folds away); a member on a secured link.
 class ContextTap {
  public:
-  explicit ContextTap(uint32_t domain) {
+  ContextTap(uint32_t domain, const bridge::DdsSecurity& security) {
     namespace fdds = eprosima::fastdds::dds;
     auto* factory = fdds::DomainParticipantFactory::get_instance();
-    participant_ = factory->create_participant(domain, fdds::PARTICIPANT_QOS_DEFAULT);
+    fdds::DomainParticipantQos participant_qos = factory->get_default_participant_qos();
+    if (security.enabled()) {
+      for (const auto& [name, value] : bridge::dds_security_properties(security)) {
+        participant_qos.properties().properties().emplace_back(name, value);
+      }
+    }
+    participant_ = factory->create_participant(domain, participant_qos);
     type_.register_type(participant_);
     topic_ = participant_->create_topic("urs/state/context", type_.get_type_name(), fdds::TOPIC_QOS_DEFAULT);
     fdds::DataReaderQos qos = fdds::DATAREADER_QOS_DEFAULT;
@@ -459,10 +507,10 @@ class ContextTap {
 // kr shares all of its context, which also holds what it imported from jp ("jp/..." keys, source
 // "dds:jp"): neither those entries nor their removals (when jp's bridge is lost) are written on the
 // link as kr's, while kr's own keys and their removals are.
-TEST_F(Federation, ImportedStateIsNeverSharedAgainNorItsRemoval) {
+TEST_P(Federation, ImportedStateIsNeverSharedAgainNorItsRemoval) {
   kr_.reset();
   start_kr("", "\"*\"");
-  ContextTap tap(static_cast<uint32_t>(domain_));
+  ContextTap tap(static_cast<uint32_t>(domain_), observer_security());
   const std::string imported = "jp/component/jphost.host_cxt/Diagnostic0.rtc";
   ASSERT_TRUE(wait_until([&] { return context(imported).has_value(); }, 20s)) << kr_->log();
   ASSERT_EQ(urs({"context", "set", "room.before", "1"}).exit_code, 0);
@@ -522,7 +570,7 @@ struct DynamicReading {
 // Another party's generic tool: a reader with no type compiled in reads every topic of the link,
 // catalog, descriptions, state and calls, and the devices' poses, with the types the bridges and
 // devices announce in discovery (XTypes TypeObjects), each exactly as idl/dds/*.idl declares it.
-TEST_F(Federation, EveryTopicOfTheLinkReadsWithTypesAnnouncedAtRunTime) {
+TEST_F(PlainFederation, EveryTopicOfTheLinkReadsWithTypesAnnouncedAtRunTime) {
   Process reader({URS_DYNAMIC_READER_BIN, std::to_string(domain_), "urs/", "120"}, dir_ + "/dynamic_reader.log");
   auto reading = [&] { return DynamicReading(reader.log()); };
   // And the devices' own topics, on jp's devices domain.

@@ -105,6 +105,27 @@ TEST_F(BridgeConfigTest, EveryStateAndDiscoveryErrorIsNamedWithItsKey) {
             std::string::npos);
 }
 
+// DDS-Security: deploy/pki.sh's folder, or the files by name (a named file overriding the folder's);
+// one of the two, with a certificate, is required; unknown keys are named.
+TEST_F(BridgeConfigTest, SecurityTakesThePkiFolderOrTheFiles) {
+  const BridgeConfig folder = load("dds: {security: {pki: /run/secrets/federation, crl: /etc/urs/crl.pem}}\n");
+  EXPECT_EQ(folder.dds.security_pki, "/run/secrets/federation");
+  EXPECT_EQ(folder.dds.link.security.crl, "/etc/urs/crl.pem");
+  EXPECT_FALSE(folder.dds.link.security.enabled());  // until the bridge fills it from the folder
+
+  const BridgeConfig files = load("dds: {security: {identity_ca: ca.pem, certificate: kr.pem, private_key: kr.key,\n"
+                                  "                  governance: g.p7s, permissions: p.p7s}}\n");
+  EXPECT_TRUE(files.dds.link.security.enabled());
+  EXPECT_EQ(files.dds.link.security.documents_ca(), "ca.pem");
+
+  EXPECT_FALSE(load("dds: {domain: 3}\n").dds.link.security.enabled());
+  EXPECT_NE(refused("dds: {security: {}}\n").find("dds.security: give 'pki'"), std::string::npos);
+  EXPECT_NE(refused("dds: {security: {pki: x, password: y}}\n").find("dds.security.password"), std::string::npos);
+  EXPECT_NE(refused("dds: {discovery: {servers: [\"a:11811\"]}, security: {pki: x}}\n")
+                .find("dds.security: cannot be combined with dds.discovery"),
+            std::string::npos);
+}
+
 // The participant lease: 20 s by default (no shorter than other vendors' own leases, so that a
 // pause shorter than it drops nobody), never below the liveliness lease, within 100..600000 ms.
 TEST_F(BridgeConfigTest, ParticipantLeaseDefaultsLongAndIsNeverBelowTheLease) {

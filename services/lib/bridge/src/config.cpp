@@ -143,7 +143,7 @@ void read_dds(const YAML::Node& node, DdsConfig& dds, std::vector<std::string>& 
     return;
   }
   util::check_keys(node, "dds", {"domain", "lease_ms", "participant_lease_ms", "udp_only", "socket_buffer_bytes", "initial_peers", "discovery",
-                                 "export", "import", "state"},
+                                 "security", "export", "import", "state"},
                    errors);
   if (node["domain"] && util::read_scalar(node["domain"], "dds.domain", dds.link.domain, errors) && dds.link.domain > 232) {
     errors.push_back("dds.domain: " + std::to_string(dds.link.domain) + " is outside 0..232");
@@ -205,6 +205,29 @@ void read_dds(const YAML::Node& node, DdsConfig& dds, std::vector<std::string>& 
     }
     if (dds.link.discovery_listen.empty() && dds.link.discovery_servers.empty()) {
       errors.push_back("dds.discovery: give 'listen' (be the server) or 'servers' (use them)");
+    }
+  }
+  if (const YAML::Node security = node["security"]) {
+    util::check_keys(security, "dds.security",
+                     {"pki", "identity_ca", "certificate", "private_key", "permissions_ca", "governance", "permissions", "crl"},
+                     errors);
+    DdsSecurity& files = dds.link.security;
+    const std::vector<std::pair<const char*, std::string*>> fields{
+        {"pki", &dds.security_pki},           {"identity_ca", &files.identity_ca},
+        {"certificate", &files.certificate},  {"private_key", &files.private_key},
+        {"permissions_ca", &files.permissions_ca}, {"governance", &files.governance},
+        {"permissions", &files.permissions},  {"crl", &files.crl}};
+    for (const auto& [key, field] : fields) {
+      if (security[key]) util::read_scalar(security[key], std::string("dds.security.") + key, *field, errors);
+    }
+    if (dds.security_pki.empty() && files.certificate.empty()) {
+      errors.push_back("dds.security: give 'pki' (deploy/pki.sh's folder) or the files, 'certificate' among them");
+    }
+    if (!dds.link.discovery_listen.empty() || !dds.link.discovery_servers.empty()) {
+      // DDS-Security rewrites each participant's GUID prefix from its certificate, so the
+      // well-known prefix a discovery server's clients expect never matches (Fast DDS 2.9).
+      errors.push_back("dds.security: cannot be combined with dds.discovery (Fast DDS 2.9's discovery server "
+                       "does not work with DDS-Security); use dds.initial_peers between sites without multicast");
     }
   }
   if (const YAML::Node out = node["export"]) {

@@ -17,6 +17,14 @@ DdsAdapter::DdsAdapter(const BridgeConfig& config, planet::Client* client, DdsLi
   DdsOptions options = config.dds.link;
   options.space = config.space;
   options.bridge = config.name;
+  if (!config.dds.security_pki.empty()) {  // the folder's files where the configuration names none
+    const DdsSecurity folder = security_from_folder(config.dds.security_pki, config.space);
+    for (auto field : {&DdsSecurity::identity_ca, &DdsSecurity::certificate, &DdsSecurity::private_key,
+                       &DdsSecurity::permissions_ca, &DdsSecurity::governance, &DdsSecurity::permissions,
+                       &DdsSecurity::crl}) {
+      if ((options.security.*field).empty()) options.security.*field = folder.*field;
+    }
+  }
   link_ = std::make_unique<DdsLink>(options, std::move(catalog_changed),
                                     [this](IncomingCall call, std::function<void(planet::CallResult)> reply) {
                                       serve_call(std::move(call), std::move(reply));
@@ -24,8 +32,9 @@ DdsAdapter::DdsAdapter(const BridgeConfig& config, planet::Client* client, DdsLi
   std::string discovery;
   if (!options.discovery_listen.empty()) discovery = ", discovery server at " + options.discovery_listen;
   for (const auto& server : options.discovery_servers) discovery += ", discovery server " + server;
-  spdlog::info("bridge {}: space {} joined DDS domain {}{}{}", config.name, config.space, options.domain,
-               options.udp_only ? " (UDP only)" : "", discovery);
+  spdlog::info("bridge {}: space {} joined DDS domain {}{}{}{}", config.name, config.space, options.domain,
+               options.udp_only ? " (UDP only)" : "", discovery,
+               options.security.enabled() ? ", secured (DDS-Security, identity " + options.security.certificate + ")" : "");
   try {
     state_ = std::make_unique<SpaceState>(config, *link_, client);
   } catch (const std::exception& e) {

@@ -35,6 +35,10 @@
 //     udp_only: false               # true between containers (no shared memory)
 //     socket_buffer_bytes: 4194304
 //     initial_peers: [bridge-kr]    # HOST or HOST:PORT, for networks without multicast
+//     security:                     # DDS-Security between spaces (docs/federation.md, "A secured link")
+//       pki: /run/secrets/federation  # deploy/pki.sh's folder: ca.pem, governance.p7s, crl.pem, <space>/...
+//       # or, each overriding the folder's: identity_ca, certificate, private_key, permissions_ca,
+//       # governance, permissions, crl
 //     discovery:                    # or a Fast DDS discovery server (docs/federation.md):
 //       listen: "0.0.0.0:11811"     #   this bridge is the server (with id `id`, default 0)
 //       servers: ["site-a:11811"]   #   or a client of these servers (the N-th has id N)
@@ -127,6 +131,9 @@ struct DdsConfig {
   // domain, lease, participant_lease, udp_only, socket_buffer_bytes, initial_peers, discovery_*;
   // `space` and `bridge` are left empty here (the bridge sets them from BridgeConfig).
   DdsOptions link = bridge_link_defaults();
+  // dds.security.pki: a folder laid out by deploy/pki.sh whose files of this space (as the bridge
+  // learns its space) fill link.security where dds.security names no file of its own.
+  std::string security_pki;
   std::vector<std::string> export_allow{"*"};
   std::vector<std::string> export_deny;
   std::vector<std::string> import_allow{"*"};
