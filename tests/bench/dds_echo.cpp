@@ -1,29 +1,24 @@
-// urs-dds-echo DOMAIN READY_FILE: the far end of urs-bench's direct Fast DDS request/reply row, in
-// a process of its own so that the row measures UDP between processes (two participants of one
-// process would hand samples over in memory). Space "dds-b": answers every call at once with its
-// payload, and "blob" with a 921,600-byte reply. Writes READY_FILE once joined; exits on SIGTERM.
+// urs-dds-echo DOMAIN READY_FILE [PKI_FOLDER]: the far end of urs-bench's direct Fast DDS
+// request/reply rows, in a process of its own so that a row measures UDP between processes (two
+// participants of one process would hand samples over in memory). Space "dds-b": answers every call
+// at once with its payload, and "blob" with a 921,600-byte reply. With PKI_FOLDER (deploy/pki.sh's
+// layout, a member "dds-b") it joins with DDS-Security. Writes READY_FILE once joined; exits on
+// SIGTERM.
 
-#include <signal.h>
-
-#include <fstream>
 #include <iostream>
 #include <string>
 
 #include "Diagnostic.pb.h"
 #include "urs/agent/agent.hpp"
 #include "urs/bridge/dds_link.hpp"
+#include "urs/util/cli.hpp"
 
 int main(int argc, char** argv) {
-  if (argc != 3) {
-    std::cerr << "usage: urs-dds-echo DOMAIN READY_FILE\n";
+  if (argc != 3 && argc != 4) {
+    std::cerr << "usage: urs-dds-echo DOMAIN READY_FILE [PKI_FOLDER]\n";
     return 2;
   }
-  // Every thread (Fast DDS's too) inherits the mask; the main thread takes the signal with sigwait.
-  sigset_t stop;
-  sigemptyset(&stop);
-  sigaddset(&stop, SIGTERM);
-  sigaddset(&stop, SIGINT);
-  pthread_sigmask(SIG_BLOCK, &stop, nullptr);
+  urs::util::block_shutdown_signals();  // every thread (Fast DDS's too) inherits the mask
 
   URS::Diagnostic_blob_Reply big;
   big.set_result(std::string(921600, 'x'));
@@ -33,6 +28,7 @@ int main(int argc, char** argv) {
   options.space = "dds-b";
   options.bridge = "b";
   options.udp_only = true;
+  if (argc == 4) options.security = urs::bridge::security_from_folder(argv[3], options.space);
   // Replies go out from a worker, as a bridge's do: a reply written on the DDS listener thread
   // would wait there for its writer to match, which that very thread has to discover.
   urs::agent::WorkerPool replier(1);
@@ -43,9 +39,8 @@ int main(int argc, char** argv) {
           if (!cancelled) reply(urs::planet::CallResult::success(call.operation == "blob" ? big_reply : call.payload));
         });
       });
-  std::ofstream(argv[2]) << "ready\n";
-  int signal = 0;
-  sigwait(&stop, &signal);
+  urs::util::write_file_atomically(argv[2], "ready\n");
+  urs::util::wait_for_shutdown();
   replier.stop();
   return 0;
 }

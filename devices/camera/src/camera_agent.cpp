@@ -10,14 +10,15 @@
 #include "urs/camera/image_codec.hpp"
 #include "urs/camera/recognizer.hpp"
 #include "urs/camera/world_pose.hpp"
-#include "urs/util/cli.hpp"
-#include "urs/util/yaml_config.hpp"
+#include "urs/devices/params.hpp"
 
 namespace urs::camera {
 namespace {
 
 using agent::CallContext;
 using agent::Outcome;
+using devices::ParamError;
+using devices::ParamReader;
 
 Outcome not_ready(const std::string& reason) {
   auto exception = std::make_shared<URC::NotReady>();
@@ -32,100 +33,64 @@ Outcome invalid_argument(const std::string& parameter, const std::string& reason
   return Outcome::raise(exception, "InvalidArgument: " + parameter + ": " + reason);
 }
 
-// True if `node` is present and a map; appends errors for a non-map and for unknown keys.
-bool present_map(const YAML::Node& node, const std::string& where, const std::set<std::string>& allowed,
-                 std::vector<std::string>& errors) {
-  if (!node) return false;
-  if (!node.IsMap()) {
-    errors.push_back(where + ": must be a map");
-    return false;
-  }
-  util::check_keys(node, where, allowed, errors);
-  return true;
-}
-
-// Reads those of the listed keys of the map `node` that are present into their targets.
-template <class T>
-void read_present(const YAML::Node& node, const std::string& where,
-                  const std::vector<std::pair<const char*, T*>>& fields, std::vector<std::string>& errors) {
-  for (const auto& [key, target] : fields) {
-    if (node[key]) util::read_scalar(node[key], where + "." + key, *target, errors);
-  }
-}
-
 }  // namespace
 
 CameraParams parse_camera_params(const YAML::Node& params) {
   CameraParams out;
   World world = default_lab();
   CameraModel camera;
-  std::vector<std::string> errors;
-  if (params && !params.IsNull()) {
-    if (!params.IsMap()) throw util::ConfigError("camera params: must be a map");
-    util::check_keys(params, "", {"device", "event_prefix", "scan_hz", "pose", "world", "camera", "room", "markers"}, errors);
-    if (params["device"]) util::read_scalar(params["device"], "device", out.device, errors);
-    if (params["event_prefix"]) util::read_scalar(params["event_prefix"], "event_prefix", out.event_prefix, errors);
-    if (params["scan_hz"]) util::read_scalar(params["scan_hz"], "scan_hz", out.scan_hz, errors);
-    if (out.scan_hz < 0 || out.scan_hz > 30) errors.push_back("scan_hz: must be in 0..30");
-    if (out.event_prefix.empty()) errors.push_back("event_prefix: must not be empty");
-    if (present_map(params["pose"], "pose", {"x", "y", "theta"}, errors)) {
-      read_present<double>(params["pose"], "pose", {{"x", &out.pose.x}, {"y", &out.pose.y}, {"theta", &out.pose.theta}},
-                           errors);
-    }
-    if (present_map(params["world"], "world", {"domain", "robot"}, errors)) {
-      CameraParams::WorldLink link;
-      read_present<uint32_t>(params["world"], "world", {{"domain", &link.domain}}, errors);
-      read_present<std::string>(params["world"], "world", {{"robot", &link.robot}}, errors);
-      if (link.robot.empty()) errors.push_back("world.robot: required (the robot whose pose the camera rides on)");
-      if (link.domain > 232) errors.push_back("world.domain: must be a DDS domain id, 0..232");
-      if (params["pose"]) errors.push_back("pose: not allowed with world (the pose comes from the world state)");
-      out.world = link;
-    }
-    if (present_map(params["camera"], "camera", {"width", "height", "hfov_deg", "mount_height"}, errors)) {
-      read_present<unsigned>(params["camera"], "camera", {{"width", &camera.width}, {"height", &camera.height}},
-                             errors);
-      read_present<double>(params["camera"], "camera",
-                           {{"hfov_deg", &camera.hfov_deg}, {"mount_height", &camera.mount_height}}, errors);
-    }
-    if (present_map(params["room"], "room", {"width", "depth", "wall_height"}, errors)) {
-      read_present<double>(params["room"], "room",
-                           {{"width", &world.room.width}, {"depth", &world.room.depth},
-                            {"wall_height", &world.room.wall_height}},
-                           errors);
-    }
-    if (const YAML::Node markers = params["markers"]) {
-      if (!markers.IsSequence()) {
-        errors.push_back("markers: must be a list");
-      } else {
-        world.markers.clear();
-        for (size_t i = 0; i < markers.size(); ++i) {
-          WallMarker m;
-          const std::string where = "markers[" + std::to_string(i) + "]";
-          if (present_map(markers[i], where, {"id", "x", "y", "z", "size"}, errors)) {
-            read_present<double>(markers[i], where, {{"x", &m.x}, {"y", &m.y}, {"z", &m.z}, {"size", &m.size}},
-                                 errors);
-            read_present<int>(markers[i], where, {{"id", &m.id}}, errors);
-            if (!markers[i]["id"] || !markers[i]["x"] || !markers[i]["y"]) {
-              errors.push_back(where + ": id, x and y are required");
-            }
-          }
-          world.markers.push_back(m);
-        }
+  ParamReader p("camera", params, {"device", "event_prefix", "scan_hz", "pose", "world", "camera", "room", "markers"});
+  out.device = p.integer("device", out.device, 0u, 255u);
+  out.event_prefix = p.text("event_prefix", out.event_prefix);
+  out.scan_hz = p.number("scan_hz", out.scan_hz, 0, 30);
+  if (auto pose = p.section("pose", {"x", "y", "theta"})) {
+    out.pose.x = pose->number("x", out.pose.x, -1000, 1000);
+    out.pose.y = pose->number("y", out.pose.y, -1000, 1000);
+    out.pose.theta = pose->number("theta", out.pose.theta, -10, 10);
+  }
+  if (auto link = p.section("world", {"domain", "robot"})) {
+    CameraParams::WorldLink world_link;
+    world_link.domain = link->domain("domain", world_link.domain);
+    if (!link->has("robot")) link->fail("robot", "required (the robot whose pose the camera rides on)");
+    world_link.robot = link->text("robot", world_link.robot);
+    if (p.has("pose")) p.fail("pose", "not allowed with world (the pose comes from the world state)");
+    out.world = world_link;
+  }
+  if (auto model = p.section("camera", {"width", "height", "hfov_deg", "mount_height"})) {
+    camera.width = model->integer("width", camera.width, 16u, 4096u);
+    camera.height = model->integer("height", camera.height, 16u, 4096u);
+    camera.hfov_deg = model->number("hfov_deg", camera.hfov_deg, 1, 179);
+    camera.mount_height = model->number("mount_height", camera.mount_height, 0, 100);
+  }
+  if (auto room = p.section("room", {"width", "depth", "wall_height"})) {
+    world.room.width = room->number("width", world.room.width, 0.1, 1000);
+    world.room.depth = room->number("depth", world.room.depth, 0.1, 1000);
+    world.room.wall_height = room->number("wall_height", world.room.wall_height, 0.1, 100);
+  }
+  if (p.has("markers")) {
+    world.markers.clear();
+    for (auto& entry : p.sections("markers", {"id", "x", "y", "z", "size"})) {
+      for (const char* key : {"id", "x", "y"}) {
+        if (!entry.has(key)) entry.fail(key, "required");
       }
+      WallMarker m;
+      m.id = entry.integer("id", m.id, 0, 1000000);
+      m.x = entry.number("x", m.x, -1000, 1000);
+      m.y = entry.number("y", m.y, -1000, 1000);
+      m.z = entry.number("z", m.z, 0, 100);
+      m.size = entry.number("size", m.size, 0.01, 10);
+      world.markers.push_back(m);
     }
   }
-  if (errors.empty()) {
+  if (!p.failed()) {
+    // What no single key's range expresses: every marker on a wall, fitting it, encodable.
     try {
       out.scene = std::make_shared<const Scene>(std::move(world), camera);
     } catch (const std::invalid_argument& e) {
-      errors.push_back(e.what());
+      p.fail("markers", e.what());
     }
   }
-  if (!errors.empty()) {
-    std::string message = "camera params: " + std::to_string(errors.size()) + " error(s):";
-    for (const auto& e : errors) message += "\n  " + e;
-    throw util::ConfigError(message);
-  }
+  p.finish();
   return out;
 }
 
@@ -260,7 +225,7 @@ std::shared_ptr<agent::ServiceAgent> make_camera_agent(const YAML::Node& params)
     try {
       poses = std::make_shared<WorldPoseSource>(parsed.world->domain, parsed.world->robot);
     } catch (const std::runtime_error& e) {
-      throw util::ConfigError(std::string("camera params: world: ") + e.what());
+      throw ParamError("camera", {{"world", e.what()}});
     }
   } else {
     poses = std::make_shared<FixedPose>(parsed.pose);

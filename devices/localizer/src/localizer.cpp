@@ -4,9 +4,9 @@
 #include <stdexcept>
 
 #include "urs/devices/robot_motion.hpp"
+#include "urs/devices/params.hpp"
+#include "urs/devices/sim_loop.hpp"
 #include "urs/util/number.hpp"
-#include "urs/world/params.hpp"
-#include "urs/world/sim_loop.hpp"
 #include "urs/world/world.hpp"
 
 namespace urs::devices {
@@ -15,20 +15,20 @@ using agent::CallContext;
 using agent::Outcome;
 
 LocalizerConfig parse_localizer_config(const YAML::Node& params) {
-  world::DeviceParams p(params, "localizer",
-                        {"name", "robot", "prefix", "domain", "time_scale", "rate", "noise_xy", "noise_theta",
-                         "frame", "seed"});
+  ParamReader p("localizer", params,
+                {"name", "robot", "prefix", "domain", "time_scale", "rate", "noise_xy", "noise_theta", "frame",
+                 "seed"});
   LocalizerConfig c;
   c.name = p.text("name", c.name);
   c.robot = p.text("robot", c.robot);
   c.prefix = p.text("prefix", c.name);
-  c.domain = p.domain();
+  c.domain = p.domain("domain", c.domain);
   c.time_scale = p.number("time_scale", c.time_scale, 0.01, 100);
   c.rate = p.number("rate", c.rate, 0.1, 100);
   c.noise_xy = p.number("noise_xy", c.noise_xy, 0, 10);
   c.noise_theta = p.number("noise_theta", c.noise_theta, 0, 3);
   c.frame = p.text("frame", c.frame);
-  c.seed = static_cast<uint32_t>(p.number("seed", 0, 0, 4294967295.0));
+  c.seed = p.integer<uint32_t>("seed", 0, 0, 4294967295u);
   p.finish();
   return c;
 }
@@ -39,7 +39,7 @@ LocalizerAgent::LocalizerAgent(LocalizerConfig config)
       noise_xy_(config_.noise_xy),
       noise_theta_(config_.noise_theta),
       random_(config_.seed != 0 ? config_.seed : std::random_device{}()),
-      loop_(std::make_unique<world::SimLoop>()) {
+      loop_(std::make_unique<SimLoop>()) {
   on<URC::Localization_getPose_Request, URC::Localization_getPose_Reply>(
       "getPose", [this](const auto&, auto& rep, const CallContext&) {
         std::lock_guard<std::mutex> lock(mutex_);

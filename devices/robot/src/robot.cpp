@@ -6,9 +6,9 @@
 #include <stdexcept>
 
 #include "Navigation.pb.h"
+#include "urs/devices/params.hpp"
+#include "urs/devices/sim_loop.hpp"
 #include "urs/util/number.hpp"
-#include "urs/world/params.hpp"
-#include "urs/world/sim_loop.hpp"
 #include "urs/world/world.hpp"
 
 namespace urs::devices {
@@ -34,14 +34,13 @@ struct RobotAgent::Pending {
 };
 
 RobotConfig parse_robot_config(const YAML::Node& params) {
-  world::DeviceParams p(params, "robot",
-                        {"name", "prefix", "domain", "time_scale", "x", "y", "theta", "speed", "max_speed",
-                         "max_accel", "max_turn_rate", "max_turn_accel", "tolerance", "odometry_error",
-                         "fusion_gain", "feedback"});
+  ParamReader p("robot", params,
+                {"name", "prefix", "domain", "time_scale", "x", "y", "theta", "speed", "max_speed", "max_accel",
+                 "max_turn_rate", "max_turn_accel", "tolerance", "odometry_error", "fusion_gain", "feedback"});
   RobotConfig c;
   c.name = p.text("name", c.name);
   c.prefix = p.text("prefix", c.name);
-  c.domain = p.domain();
+  c.domain = p.domain("domain", c.domain);
   c.time_scale = p.number("time_scale", c.time_scale, 0.01, 100);
   c.start.x = p.number("x", 0, -1e6, 1e6);
   c.start.y = p.number("y", 0, -1e6, 1e6);
@@ -68,7 +67,7 @@ RobotAgent::RobotAgent(RobotConfig config)
       tolerance_(config_.tolerance),
       fusion_gain_(config_.fusion_gain),
       state_(URC::NAVIGATION_STATE_IDLE),
-      loop_(std::make_unique<world::SimLoop>()) {
+      loop_(std::make_unique<SimLoop>()) {
   truth_.pose = config_.start;
   if (config_.feedback == RobotConfig::Feedback::ground_truth) estimate_.reset(truth_.pose);
 

@@ -11,7 +11,7 @@
 #include "espeak_engine.hpp"
 #include "urs/agent/typed_agent.hpp"
 #include "urs/audio/pcm.hpp"
-#include "urs/devices/param_reader.hpp"
+#include "urs/devices/params.hpp"
 #include "urs/devices/tts.hpp"
 #include "urs/devices/urc_errors.hpp"
 #include "urs/util/cli.hpp"
@@ -203,20 +203,20 @@ class TtsAgent : public agent::TypedAgent {
 
 TtsParams parse_tts_params(const YAML::Node& node) {
   TtsParams params;
-  ParamReader reader("tts", node, {"voice", "rate", "max_text_length", "max_queue", "topic_prefix"});
-  reader.text("voice", params.voice);
-  reader.integer("rate", 80, 450, params.rate);
-  reader.integer("max_text_length", 1, 100000, params.max_text_length);
-  reader.integer("max_queue", 1, 1024, params.max_queue);
-  reader.nonempty_text("topic_prefix", params.topic_prefix);
-  reader.finish();
+  ParamReader p("tts", node, {"voice", "rate", "max_text_length", "max_queue", "topic_prefix"});
+  params.voice = p.text("voice", params.voice);
+  params.rate = p.integer("rate", params.rate, 80, 450);
+  params.max_text_length = p.integer<std::size_t>("max_text_length", params.max_text_length, 1, 100000);
+  params.max_queue = p.integer<std::size_t>("max_queue", params.max_queue, 1, 1024);
+  params.topic_prefix = p.text("topic_prefix", params.topic_prefix);
+  p.finish();
   return params;
 }
 
 std::shared_ptr<agent::ServiceAgent> make_tts_agent(const YAML::Node& node) {
   TtsParams params = parse_tts_params(node);
   if (!EspeakEngine::instance().has_voice(params.voice)) {
-    throw util::ConfigError("tts params: voice: no voice '" + params.voice + "' installed in espeak-ng");
+    throw ParamError("tts", {{"voice", "no voice '" + params.voice + "' installed in espeak-ng"}});
   }
   return std::make_shared<TtsAgent>(std::move(params));
 }

@@ -16,7 +16,7 @@
 #include "sphinx_decoder.hpp"
 #include "urs/agent/typed_agent.hpp"
 #include "urs/audio/pcm.hpp"
-#include "urs/devices/param_reader.hpp"
+#include "urs/devices/params.hpp"
 #include "urs/devices/urc_errors.hpp"
 #include "urs/devices/voice.hpp"
 #include "urs/util/cli.hpp"
@@ -362,42 +362,33 @@ VoiceParams parse_voice_params(const YAML::Node& node) {
   VoiceParams params;
   params.commands = default_robot_commands();
   params.model_dir = URS_POCKETSPHINX_MODEL_DIR;
-  ParamReader reader("voice", node,
-                     {"mode", "commands", "model_dir", "decoders", "max_audio_s", "stream_idle_s", "topic_prefix"});
-  std::string mode = "grammar";
-  reader.text("mode", mode);
-  if (mode == "lm") {
-    params.mode = RecognitionMode::lm;
-  } else if (mode != "grammar") {
-    reader.fail("mode", "'" + mode + "' is not grammar or lm");
-  }
-  std::vector<std::string> commands;
-  reader.text_list("commands", commands);
-  if (node && node.IsMap() && node["commands"]) {
-    if (commands.empty()) reader.fail("commands", "must list at least one command");
+  ParamReader p("voice", node,
+                {"mode", "commands", "model_dir", "decoders", "max_audio_s", "stream_idle_s", "topic_prefix"});
+  if (p.choice("mode", "grammar", {"grammar", "lm"}) == "lm") params.mode = RecognitionMode::lm;
+  if (p.has("commands")) {
     std::vector<std::string> normalised;
-    for (const auto& command : commands) {
+    for (const auto& command : p.text_list("commands", {})) {
       std::istringstream in(command);
       std::string phrase;
       for (std::string word; in >> word;) {
         std::transform(word.begin(), word.end(), word.begin(),
                        [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
         if (word.find_first_not_of("abcdefghijklmnopqrstuvwxyz'") != std::string::npos) {
-          reader.fail("commands", "'" + command + "' has a word other than letters and apostrophes");
+          p.fail("commands", "'" + command + "' has a word other than letters and apostrophes");
         }
         phrase += (phrase.empty() ? "" : " ") + word;
       }
-      if (phrase.empty()) reader.fail("commands", "an empty command");
+      if (phrase.empty()) p.fail("commands", "'" + command + "' has no word");
       if (std::find(normalised.begin(), normalised.end(), phrase) == normalised.end()) normalised.push_back(phrase);
     }
-    params.commands = std::move(normalised);
+    if (!normalised.empty()) params.commands = std::move(normalised);
   }
-  reader.text("model_dir", params.model_dir);
-  reader.integer("decoders", 1, 8, params.decoders);
-  reader.number("max_audio_s", 1, 600, params.max_audio_s);
-  reader.number("stream_idle_s", 1, 3600, params.stream_idle_s);
-  reader.nonempty_text("topic_prefix", params.topic_prefix);
-  reader.finish();
+  params.model_dir = p.text("model_dir", params.model_dir);
+  params.decoders = p.integer("decoders", params.decoders, 1u, 8u);
+  params.max_audio_s = p.number("max_audio_s", params.max_audio_s, 1, 600);
+  params.stream_idle_s = p.number("stream_idle_s", params.stream_idle_s, 1, 3600);
+  params.topic_prefix = p.text("topic_prefix", params.topic_prefix);
+  p.finish();
   return params;
 }
 
@@ -410,13 +401,13 @@ std::shared_ptr<agent::ServiceAgent> make_voice_agent(const YAML::Node& node) {
     try {
       decoder = std::make_unique<SphinxDecoder>(params.mode, params.model_dir);
     } catch (const std::runtime_error& e) {
-      throw util::ConfigError("voice params: model_dir: " + std::string(e.what()));
+      throw ParamError("voice", {{"model_dir", e.what()}});
     }
     if (params.mode == RecognitionMode::grammar) {
       const auto unknown = decoder->unknown_words(words_of(params.commands));
       if (!unknown.empty()) {
-        throw util::ConfigError("voice params: commands: words not in the dictionary: " +
-                                util::join(std::set<std::string>(unknown.begin(), unknown.end())));
+        throw ParamError("voice", {{"commands", "words not in the dictionary: " +
+                                                   util::join(std::set<std::string>(unknown.begin(), unknown.end()))}});
       }
       decoder->use_grammar(jsgf);
     }

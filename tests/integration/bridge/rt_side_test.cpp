@@ -6,6 +6,8 @@
 
 #include <gtest/gtest.h>
 
+#include <csignal>
+
 #include "BasicDataType.hh"
 #include "Diagnostic.hh"
 #include "bridge_fixture.hpp"
@@ -51,6 +53,28 @@ class BridgeRtSide : public BridgeSpaceTest {
     ASSERT_EQ(contexts->length(), 1u);
     const auto code = active ? contexts[0]->activate_component(bridge) : contexts[0]->deactivate_component(bridge);
     ASSERT_EQ(code, RTC::RTC_OK);
+  }
+
+  // Fences for rules that match everything. A fence is a service that appears after the state the
+  // test checks and then leaves: the poll of the bridge that offered it began after that state, and
+  // a later poll withdrew it, so the first had finished by then, with all it would do about the
+  // state. No fixed sleep guesses how many polls are enough.
+  void pass_camus_to_rt_fence() {
+    std::ofstream(dir_ + "/fence.yaml") << "agents:\n  - name: fence\n    type: diagnostic\n";
+    Process fence({URS_SAM_BIN, "--space", space_, "--server", server_address_, "--config", dir_ + "/fence.yaml"},
+                  dir_ + "/fence-sam.log");
+    const std::string path = "bridgehost.host_cxt/camus_fence.rtc";
+    ASSERT_TRUE(wait_until([&] { return bound(path); }, 15s)) << bridge_->log() << fence.log();
+    fence.signal(SIGTERM);
+    EXPECT_EQ(fence.wait(10s), 0) << fence.log();
+    ASSERT_TRUE(wait_until([&] { return !bound(path); }, 15s)) << bridge_->log();
+  }
+  void pass_rt_to_camus_fence() {
+    start_manager("fence", "labhost", "components:\n  - type: Diagnostic\n    instance: Fence\n");
+    ASSERT_TRUE(wait_for_service("rt.Fence")) << bridge_->log();
+    manager("fence").signal(SIGTERM);
+    EXPECT_EQ(manager("fence").wait(10s), 0);
+    ASSERT_TRUE(wait_service_gone("rt.Fence")) << bridge_->log();
   }
 
   std::unique_ptr<DiagnosticConsumer> consumer_;
@@ -113,7 +137,11 @@ TEST_F(BridgeRtSide, DeactivationWithdrawsBothDirectionsAndNothingIsBridgedTwice
                "      instance: \"camus_{service}\"\n");
   ASSERT_TRUE(wait_for_service("rt.Diagnostic0")) << bridge_->log();
   ASSERT_TRUE(wait_until([&] { return bound(kImportPath); }, 15s)) << bridge_->log();
-  std::this_thread::sleep_for(600ms);  // several polls of both sides
+  // Nothing may come back through the bridge. Every poll that could have bridged something back
+  // has run once a fence has passed each direction in turn.
+  pass_camus_to_rt_fence();
+  pass_rt_to_camus_fence();
+  if (HasFatalFailure()) return;
   auto r = urs({"ls"});
   EXPECT_EQ(r.out.find("rt.camus_diag"), std::string::npos) << r.out;
   EXPECT_EQ(r.out.find("rt.Bridge0"), std::string::npos) << r.out;

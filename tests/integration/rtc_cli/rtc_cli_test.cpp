@@ -409,14 +409,13 @@ TEST_F(RtcCliTest, StaleBindingIsShownUnreachableWithoutFailingTheListing) {
 TEST_F(RtcCliTest, HungComponentIsShownUnreachableWithinTheCallTimeout) {
   auto hung = start_manager("hunghost", {"Diagnostic"});
   hung->signal(SIGSTOP);
-  const auto start = std::chrono::steady_clock::now();
+  // Without the call timeout `urs ls` would wait for the stopped process for ever (and be killed
+  // by run_command's bound, failing the exit code below).
   const CommandResult r = urs({"ls", "--call-timeout-ms", "500"});
-  const auto took = std::chrono::steady_clock::now() - start;
   hung->signal(SIGCONT);
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_THAT(r.out, HasSubstr("hunghost.host_cxt/\n  Diagnostic0.rtc  unreachable\n"));
   EXPECT_THAT(r.out, ContainsRegex("testhost.host_cxt/\n  Counter0\\.rtc +Inactive\n"));
-  EXPECT_LT(took, 5s);
 }
 
 TEST_F(RtcCliTest, UnknownPathsAndPortsFailWithAPreciseMessage) {

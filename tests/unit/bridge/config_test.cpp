@@ -58,8 +58,8 @@ TEST_F(BridgeConfigTest, SharedStateAndDiscoveryServer) {
       "    import: false\n");
   const DdsConfig& dds = config.dds;
   EXPECT_TRUE(dds.enabled);
-  EXPECT_EQ(dds.discovery_servers, (std::vector<std::string>{"site-a:11811", "10.0.0.2:11812"}));
-  EXPECT_TRUE(dds.discovery_listen.empty());
+  EXPECT_EQ(dds.link.discovery_servers, (std::vector<std::string>{"site-a:11811", "10.0.0.2:11812"}));
+  EXPECT_TRUE(dds.link.discovery_listen.empty());
   EXPECT_FALSE(dds.state.components);
   EXPECT_EQ(dds.state.period.count(), 250);
   ASSERT_TRUE(dds.state.poses);
@@ -73,8 +73,8 @@ TEST_F(BridgeConfigTest, SharedStateAndDiscoveryServer) {
   EXPECT_FALSE(dds.state.import);
 
   const BridgeConfig server = load("dds: {discovery: {listen: \"0.0.0.0:11811\", id: 2}}\n");
-  EXPECT_EQ(server.dds.discovery_listen, "0.0.0.0:11811");
-  EXPECT_EQ(server.dds.discovery_server_id, 2u);
+  EXPECT_EQ(server.dds.link.discovery_listen, "0.0.0.0:11811");
+  EXPECT_EQ(server.dds.link.discovery_server_id, 2u);
 }
 
 TEST_F(BridgeConfigTest, EveryStateAndDiscoveryErrorIsNamedWithItsKey) {
@@ -109,12 +109,12 @@ TEST_F(BridgeConfigTest, EveryStateAndDiscoveryErrorIsNamedWithItsKey) {
 // pause shorter than it drops nobody), never below the liveliness lease, within 100..600000 ms.
 TEST_F(BridgeConfigTest, ParticipantLeaseDefaultsLongAndIsNeverBelowTheLease) {
   const DdsConfig defaults = load("dds: {domain: 3}\n").dds;
-  EXPECT_EQ(defaults.lease.count(), 3000);
-  EXPECT_EQ(defaults.participant_lease.count(), 20000);
-  EXPECT_EQ(load("dds: {lease_ms: 1500}\n").dds.participant_lease.count(), 20000);
-  EXPECT_EQ(load("dds: {lease_ms: 30000}\n").dds.participant_lease.count(), 30000);  // follows a longer lease
-  EXPECT_EQ(load("dds: {participant_lease_ms: 5000}\n").dds.participant_lease.count(), 5000);
-  EXPECT_EQ(load("dds: {lease_ms: 5000, participant_lease_ms: 5000}\n").dds.participant_lease.count(), 5000);
+  EXPECT_EQ(defaults.link.lease.count(), 3000);
+  EXPECT_EQ(defaults.link.participant_lease.count(), 20000);
+  EXPECT_EQ(load("dds: {lease_ms: 1500}\n").dds.link.participant_lease.count(), 20000);
+  EXPECT_EQ(load("dds: {lease_ms: 30000}\n").dds.link.participant_lease.count(), 30000);  // follows a longer lease
+  EXPECT_EQ(load("dds: {participant_lease_ms: 5000}\n").dds.link.participant_lease.count(), 5000);
+  EXPECT_EQ(load("dds: {lease_ms: 5000, participant_lease_ms: 5000}\n").dds.link.participant_lease.count(), 5000);
 
   EXPECT_NE(refused("dds: {lease_ms: 5000, participant_lease_ms: 4000}\n")
                 .find("dds.participant_lease_ms: 4000 is below dds.lease_ms 5000"),

@@ -1,13 +1,17 @@
 #include "urs/bridge/config.hpp"
 
-#include <fnmatch.h>
-
 #include <filesystem>
 
 #include "urs/util/cli.hpp"
 #include "urs/util/yaml_config.hpp"
 
 namespace urs::bridge {
+
+DdsOptions bridge_link_defaults() {
+  DdsOptions options;
+  options.participant_lease = std::chrono::milliseconds(20000);
+  return options;
+}
 
 namespace {
 
@@ -76,35 +80,6 @@ YAML::Node list_of(const YAML::Node& section, const std::string& key, const std:
   return list;
 }
 
-}  // namespace
-
-std::string expand(const std::string& pattern, const std::vector<std::pair<std::string, std::string>>& values) {
-  std::string out = pattern;
-  for (const auto& [name, value] : values) {
-    const std::string token = "{" + name + "}";
-    for (std::size_t at = out.find(token); at != std::string::npos; at = out.find(token, at + value.size())) {
-      out.replace(at, token.size(), value);
-    }
-  }
-  return out;
-}
-
-bool glob_match(const std::string& pattern, const std::string& text) {
-  return fnmatch(pattern.c_str(), text.c_str(), 0) == 0;
-}
-
-bool allowed(const std::string& name, const std::vector<std::string>& allow, const std::vector<std::string>& deny) {
-  auto any = [&name](const std::vector<std::string>& patterns) {
-    for (const auto& pattern : patterns) {
-      if (glob_match(pattern, name)) return true;
-    }
-    return false;
-  };
-  return any(allow) && !any(deny);
-}
-
-namespace {
-
 std::vector<std::string> read_strings(const YAML::Node& node, const std::string& where, std::vector<std::string>& errors) {
   std::vector<std::string> out;
   if (!node.IsSequence()) {
@@ -170,14 +145,14 @@ void read_dds(const YAML::Node& node, DdsConfig& dds, std::vector<std::string>& 
   util::check_keys(node, "dds", {"domain", "lease_ms", "participant_lease_ms", "udp_only", "socket_buffer_bytes", "initial_peers", "discovery",
                                  "export", "import", "state"},
                    errors);
-  if (node["domain"] && util::read_scalar(node["domain"], "dds.domain", dds.domain, errors) && dds.domain > 232) {
-    errors.push_back("dds.domain: " + std::to_string(dds.domain) + " is outside 0..232");
+  if (node["domain"] && util::read_scalar(node["domain"], "dds.domain", dds.link.domain, errors) && dds.link.domain > 232) {
+    errors.push_back("dds.domain: " + std::to_string(dds.link.domain) + " is outside 0..232");
   }
   if (node["lease_ms"]) {
     int ms = 0;
     if (util::read_scalar(node["lease_ms"], "dds.lease_ms", ms, errors)) {
       if (ms < 100 || ms > 600000) errors.push_back("dds.lease_ms: " + std::to_string(ms) + " is outside 100..600000");
-      dds.lease = std::chrono::milliseconds(ms);
+      dds.link.lease = std::chrono::milliseconds(ms);
     }
   }
   if (node["participant_lease_ms"]) {
@@ -186,21 +161,21 @@ void read_dds(const YAML::Node& node, DdsConfig& dds, std::vector<std::string>& 
       if (ms < 100 || ms > 600000) {
         errors.push_back("dds.participant_lease_ms: " + std::to_string(ms) + " is outside 100..600000");
       }
-      dds.participant_lease = std::chrono::milliseconds(ms);
+      dds.link.participant_lease = std::chrono::milliseconds(ms);
     }
   } else {
-    dds.participant_lease = std::max(dds.participant_lease, dds.lease);  // the default, never below the lease
+    dds.link.participant_lease = std::max(dds.link.participant_lease, dds.link.lease);  // the default, never below the lease
   }
-  if (dds.participant_lease < dds.lease) {
-    errors.push_back("dds.participant_lease_ms: " + std::to_string(dds.participant_lease.count()) +
-                     " is below dds.lease_ms " + std::to_string(dds.lease.count()) +
+  if (dds.link.participant_lease < dds.link.lease) {
+    errors.push_back("dds.participant_lease_ms: " + std::to_string(dds.link.participant_lease.count()) +
+                     " is below dds.lease_ms " + std::to_string(dds.link.lease.count()) +
                      ": a participant would be dropped while its writers still count as alive");
   }
-  if (node["udp_only"]) util::read_scalar(node["udp_only"], "dds.udp_only", dds.udp_only, errors);
+  if (node["udp_only"]) util::read_scalar(node["udp_only"], "dds.udp_only", dds.link.udp_only, errors);
   if (node["socket_buffer_bytes"]) {
-    util::read_scalar(node["socket_buffer_bytes"], "dds.socket_buffer_bytes", dds.socket_buffer_bytes, errors);
+    util::read_scalar(node["socket_buffer_bytes"], "dds.socket_buffer_bytes", dds.link.socket_buffer_bytes, errors);
   }
-  if (node["initial_peers"]) dds.initial_peers = read_strings(node["initial_peers"], "dds.initial_peers", errors);
+  if (node["initial_peers"]) dds.link.initial_peers = read_strings(node["initial_peers"], "dds.initial_peers", errors);
   if (const YAML::Node discovery = node["discovery"]) {
     util::check_keys(discovery, "dds.discovery", {"listen", "id", "servers"}, errors);
     auto host_port = [&](const std::string& address, const std::string& where) {
@@ -215,20 +190,20 @@ void read_dds(const YAML::Node& node, DdsConfig& dds, std::vector<std::string>& 
       }
     };
     if (discovery["listen"] &&
-        util::read_scalar(discovery["listen"], "dds.discovery.listen", dds.discovery_listen, errors)) {
-      host_port(dds.discovery_listen, "dds.discovery.listen");
+        util::read_scalar(discovery["listen"], "dds.discovery.listen", dds.link.discovery_listen, errors)) {
+      host_port(dds.link.discovery_listen, "dds.discovery.listen");
     }
-    if (discovery["id"] && util::read_scalar(discovery["id"], "dds.discovery.id", dds.discovery_server_id, errors) &&
-        dds.discovery_server_id > 255) {
-      errors.push_back("dds.discovery.id: " + std::to_string(dds.discovery_server_id) + " is outside 0..255");
+    if (discovery["id"] && util::read_scalar(discovery["id"], "dds.discovery.id", dds.link.discovery_server_id, errors) &&
+        dds.link.discovery_server_id > 255) {
+      errors.push_back("dds.discovery.id: " + std::to_string(dds.link.discovery_server_id) + " is outside 0..255");
     }
     if (discovery["servers"]) {
-      dds.discovery_servers = read_strings(discovery["servers"], "dds.discovery.servers", errors);
-      for (std::size_t i = 0; i < dds.discovery_servers.size(); ++i) {
-        host_port(dds.discovery_servers[i], "dds.discovery.servers[" + std::to_string(i) + "]");
+      dds.link.discovery_servers = read_strings(discovery["servers"], "dds.discovery.servers", errors);
+      for (std::size_t i = 0; i < dds.link.discovery_servers.size(); ++i) {
+        host_port(dds.link.discovery_servers[i], "dds.discovery.servers[" + std::to_string(i) + "]");
       }
     }
-    if (dds.discovery_listen.empty() && dds.discovery_servers.empty()) {
+    if (dds.link.discovery_listen.empty() && dds.link.discovery_servers.empty()) {
       errors.push_back("dds.discovery: give 'listen' (be the server) or 'servers' (use them)");
     }
   }
@@ -246,7 +221,7 @@ void read_dds(const YAML::Node& node, DdsConfig& dds, std::vector<std::string>& 
       errors.push_back("dds.import.deadline_ms: must be > 0");
     }
   }
-  if (node["state"]) read_state(node["state"], dds.domain, dds.state, errors);
+  if (node["state"]) read_state(node["state"], dds.link.domain, dds.state, errors);
 }
 
 }  // namespace

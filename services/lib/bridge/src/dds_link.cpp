@@ -626,10 +626,23 @@ DdsLink::DdsLink(DdsOptions options, CatalogHandler on_catalog, CallHandler on_c
     }
   }
   use_discovery_server(qos);
+  if (options_.security.enabled()) {
+    // Checked here: Fast DDS would say only "initialization error" for any bad file.
+    const std::vector<std::string> problems = check_dds_security(options_.security, options_.space);
+    if (!problems.empty()) {
+      std::string text;
+      for (const auto& problem : problems) text += "\n  " + problem;
+      throw std::runtime_error("DDS security: cannot join domain " + std::to_string(options_.domain) + ":" + text);
+    }
+    for (const auto& [name, value] : dds_security_properties(options_.security)) {
+      qos.properties().properties().emplace_back(name, value);
+    }
+  }
   Impl& d = *impl_;
   d.participant = factory->create_participant(options_.domain, qos);
   if (d.participant == nullptr) {
-    throw std::runtime_error("DDS: cannot join domain " + std::to_string(options_.domain));
+    throw std::runtime_error("DDS: cannot join domain " + std::to_string(options_.domain) +
+                             (options_.security.enabled() ? " with DDS security (see Fast DDS's log above)" : ""));
   }
   try {
     d.publisher = d.participant->create_publisher(fdds::PUBLISHER_QOS_DEFAULT);
@@ -814,6 +827,10 @@ planet::CallResult DdsLink::call(const std::string& space, const std::string& se
     route = d.request_writer(space);
     d.pending[id] = pending;
   } catch (const std::exception& e) {
+    if (options_.security.enabled()) {  // on a secured link, the access control refused the writer
+      return planet::CallResult::error(planet::PERMISSION_DENIED, "the permissions of space " + options_.space +
+                                                                       " do not grant calls to space " + space);
+    }
     return planet::CallResult::error(planet::UNAVAILABLE, e.what());
   }
   fdds::DataWriter* writer = route.writer;

@@ -49,9 +49,11 @@ SystemClock::time_point stamp_of(const Sample& sample) {
       std::chrono::seconds(sample.sec()) + std::chrono::nanoseconds(sample.nsec())));
 }
 
-// Poses: a stream where the newest sample is all that matters.
+// The link's pose topic (every space's robots, shared with the other spaces): a best-effort
+// stream where the newest sample is all that matters. Not the world's pose QoS (urs::world:
+// reliable, transient-local), which the relay reads from this space's devices.
 template <class Qos>
-Qos pose_qos(Qos qos) {
+Qos shared_pose_stream_qos(Qos qos) {
   qos.reliability().kind = fdds::BEST_EFFORT_RELIABILITY_QOS;
   qos.durability().kind = fdds::VOLATILE_DURABILITY_QOS;
   qos.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
@@ -218,7 +220,7 @@ struct StateLink::Impl : public fdds::DataReaderListener {
     const fdds::DataWriterQos keyed = link_qos::keyed_state_writer(lease);
     component_writer = publisher->create_datawriter(components, keyed);
     context_writer = publisher->create_datawriter(context, keyed);
-    pose_writer = publisher->create_datawriter(poses, pose_qos(fdds::DATAWRITER_QOS_DEFAULT));
+    pose_writer = publisher->create_datawriter(poses, shared_pose_stream_qos(fdds::DATAWRITER_QOS_DEFAULT));
     fdds::DataWriterQos streamed = event_qos(fdds::DATAWRITER_QOS_DEFAULT);
     streamed.publish_mode().kind = fdds::ASYNCHRONOUS_PUBLISH_MODE;  // payloads up to images
     event_writer = publisher->create_datawriter(events, streamed);
@@ -226,7 +228,7 @@ struct StateLink::Impl : public fdds::DataReaderListener {
     const fdds::DataReaderQos keyed_in = link_qos::keyed_state_reader(lease);
     component_reader = subscriber->create_datareader(components, keyed_in, this);
     context_reader = subscriber->create_datareader(context, keyed_in, this);
-    pose_reader = subscriber->create_datareader(poses, pose_qos(fdds::DATAREADER_QOS_DEFAULT), this);
+    pose_reader = subscriber->create_datareader(poses, shared_pose_stream_qos(fdds::DATAREADER_QOS_DEFAULT), this);
     event_reader = subscriber->create_datareader(events, event_qos(fdds::DATAREADER_QOS_DEFAULT), this);
     if (!component_writer || !context_writer || !pose_writer || !event_writer || !component_reader ||
         !context_reader || !pose_reader || !event_reader) {

@@ -1,5 +1,7 @@
 #include "urs/diagnostic/diagnostic_agent.hpp"
 
+#include <spdlog/spdlog.h>
+
 #include <thread>
 
 #include "Diagnostic.pb.h"
@@ -26,6 +28,7 @@ DiagnosticAgent::DiagnosticAgent()
       "sleep", [](const auto& req, auto&, const CallContext& ctx) {
         if (auto refused = check_sleep(req.ms())) return Outcome::error(planet::BAD_ARGUMENTS, *refused);
         const auto until = std::chrono::steady_clock::now() + std::chrono::milliseconds(req.ms());
+        spdlog::debug("diagnostic: sleep {} ms begins", req.ms());  // the call reached the provider
         // The caller stops waiting at its deadline; so does the agent, which frees its worker.
         if (ctx.deadline < until) {
           std::this_thread::sleep_until(ctx.deadline);

@@ -8,6 +8,7 @@
 #include <set>
 #include <utility>
 
+#include "urs/rtc/naming_watch.hpp"
 #include "urs/rtc/nvlist.hpp"
 #include "urs/rtc/orb.hpp"
 #include "urs/rtc/tools.hpp"
@@ -190,7 +191,7 @@ PollReport Connector::poll_once() {
   std::lock_guard<std::mutex> lock(poll_mutex_);
   const auto start = Clock::now();
   PollReport report;
-  std::map<std::string, Watched> bound;
+  ComponentBindings bound;
   if (read_naming(bound, report)) {
     forget_changed(bound, report);
     read_components(bound, report);
@@ -221,24 +222,13 @@ const ConnectorRule* Connector::rule_for(const std::string& consumer_path, const
   return nullptr;
 }
 
-bool Connector::read_naming(std::map<std::string, Watched>& bound, PollReport& report) {
+bool Connector::read_naming(ComponentBindings& bound, PollReport& report) {
   const auto start = Clock::now();
   try {
-    std::vector<NamingClient::Entry> entries = naming_.list_objects();
-    std::sort(entries.begin(), entries.end(),
-              [](const NamingClient::Entry& a, const NamingClient::Entry& b) { return a.path < b.path; });
-    std::set<std::string> iors;
-    for (const NamingClient::Entry& entry : entries) {
-      if (stopping()) return false;
-      if (entry.kind != "rtc" || !watched(entry.path)) continue;
-      Watched w;
-      w.object = naming_.try_resolve(entry.path);
-      if (CORBA::is_nil(w.object)) continue;  // unbound since the listing
-      w.ior = orb_.object_to_string(w.object);
-      // A component bound under several names is handled once, under its first name.
-      if (!iors.insert(w.ior).second) continue;
-      bound.emplace(entry.path, std::move(w));
-    }
+    auto read = read_component_bindings(naming_, orb_, [this](const std::string& path) { return watched(path); },
+                                        [this] { return stopping(); });
+    if (!read) return false;
+    bound = std::move(*read);
   } catch (const NamingError& e) {
     report.naming_error = e.what();
     return false;
@@ -248,20 +238,15 @@ bool Connector::read_naming(std::map<std::string, Watched>& bound, PollReport& r
   return true;
 }
 
-void Connector::forget_changed(const std::map<std::string, Watched>& bound, PollReport& report) {
-  for (auto it = components_.begin(); it != components_.end();) {
-    const auto now_bound = bound.find(it->first);
-    if (now_bound != bound.end() && now_bound->second.ior == it->second.ior) {
-      ++it;
-      continue;
-    }
-    const std::string why = now_bound == bound.end() ? "unbound" : "rebound to another object";
-    drop_links_of(it->first, "provider " + why, "consumer " + why, report);
-    it = components_.erase(it);
+void Connector::forget_changed(const ComponentBindings& bound, PollReport& report) {
+  for (const auto& changed :
+       changed_bindings(components_, bound, [](const Component& component) { return component.ior; })) {
+    drop_links_of(changed.path, "provider " + changed.why, "consumer " + changed.why, report);
+    components_.erase(changed.path);
   }
 }
 
-void Connector::read_components(const std::map<std::string, Watched>& bound, PollReport& report) {
+void Connector::read_components(const ComponentBindings& bound, PollReport& report) {
   const auto now = Clock::now();
   std::vector<std::string> fresh;
   for (const auto& [path, w] : bound) {

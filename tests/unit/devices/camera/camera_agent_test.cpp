@@ -1,4 +1,5 @@
-// The camera agent on its own: parameters, and the pose it renders from (a mocked PoseSource).
+// The camera agent on its own: the pose it renders from (a mocked PoseSource). Its params:
+// tests/unit/devices/common/params_test.cpp.
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -6,13 +7,11 @@
 #include <set>
 
 #include "urs/camera/camera_agent.hpp"
-#include "urs/util/cli.hpp"
 
 namespace urs::camera {
 namespace {
 
 using ::testing::_;
-using ::testing::HasSubstr;
 using ::testing::Return;
 
 constexpr double kPi = 3.14159265358979323846;
@@ -26,70 +25,6 @@ class MockEventSink : public agent::EventSink {
  public:
   MOCK_METHOD(planet::CallResult, publish, (const std::string&, const google::protobuf::Message&), (override));
 };
-
-std::string config_error(const std::string& yaml) {
-  try {
-    parse_camera_params(YAML::Load(yaml));
-  } catch (const util::ConfigError& e) {
-    return e.what();
-  }
-  return "(accepted)";
-}
-
-TEST(CameraParams, DefaultsAreTheLabSeenFromItsCentre) {
-  const CameraParams params = parse_camera_params(YAML::Node());
-  ASSERT_TRUE(params.scene);
-  EXPECT_EQ(params.scene->world().markers.size(), 6u);
-  EXPECT_EQ(params.scene->camera().width, 640u);
-  EXPECT_EQ(params.scene->camera().height, 480u);
-  EXPECT_DOUBLE_EQ(params.pose.x, 3.25);
-  EXPECT_EQ(params.event_prefix, "camera");
-  EXPECT_EQ(params.device, 0u);
-}
-
-TEST(CameraParams, EverySettingIsRead) {
-  const CameraParams params = parse_camera_params(YAML::Load(R"(
-    device: 2
-    event_prefix: lab/cam
-    scan_hz: 2
-    pose: {x: 1, y: 1.5, theta: 3.1}
-    camera: {width: 320, height: 240, hfov_deg: 50, mount_height: 0.8}
-    room: {width: 5, depth: 3, wall_height: 2}
-    markers: [{id: 9, x: 5, y: 1.5, z: 0.9, size: 0.5}]
-  )"));
-  EXPECT_EQ(params.device, 2u);
-  EXPECT_EQ(params.event_prefix, "lab/cam");
-  EXPECT_DOUBLE_EQ(params.scan_hz, 2);
-  EXPECT_DOUBLE_EQ(params.pose.theta, 3.1);
-  EXPECT_EQ(params.scene->camera().width, 320u);
-  EXPECT_DOUBLE_EQ(params.scene->camera().hfov_deg, 50);
-  EXPECT_DOUBLE_EQ(params.scene->world().room.depth, 3);
-  ASSERT_EQ(params.scene->world().markers.size(), 1u);
-  EXPECT_EQ(params.scene->world().markers[0].content(), "urs:marker:9@5.0,1.5");
-}
-
-TEST(CameraParams, EveryMistakeIsNamedByItsKey) {
-  const std::string error = config_error(R"(
-    lens: wide
-    scan_hz: 100
-    pose: {x: east}
-    camera: {width: -3, zoom: 2}
-    markers: [{x: 1, y: 0}]
-  )");
-  EXPECT_THAT(error, HasSubstr("camera params: 6 error(s):"));
-  EXPECT_THAT(error, HasSubstr("lens: unknown key"));
-  EXPECT_THAT(error, HasSubstr("scan_hz: must be in 0..30"));
-  EXPECT_THAT(error, HasSubstr("pose.x: 'east' is not a valid value"));
-  EXPECT_THAT(error, HasSubstr("camera.width: '-3' is not a valid value"));
-  EXPECT_THAT(error, HasSubstr("camera.zoom: unknown key"));
-  EXPECT_THAT(error, HasSubstr("markers[0]: id, x and y are required"));
-  EXPECT_THAT(config_error("markers: [{id: 4, x: 2, y: 2}]"), HasSubstr("marker 4: (2.000000, 2.000000) is not on a wall"));
-  const std::string world = config_error("world: {domain: 300}\npose: {x: 1}");
-  EXPECT_THAT(world, HasSubstr("world.robot: required"));
-  EXPECT_THAT(world, HasSubstr("world.domain: must be a DDS domain id, 0..232"));
-  EXPECT_THAT(world, HasSubstr("pose: not allowed with world"));
-  EXPECT_THAT(config_error("room: {width: 0}"), HasSubstr("room: width, depth and wall_height must be positive"));
-}
 
 agent::Outcome invoke(agent::ServiceAgent& agent, const std::string& operation, const google::protobuf::Message& request,
                       google::protobuf::Message& reply, agent::EventSink& events) {

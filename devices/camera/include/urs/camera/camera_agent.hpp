@@ -54,7 +54,7 @@ struct CameraParams {
 };
 
 // Reads the agent's `params` node (null = all defaults; see docs/devices.md). Throws
-// urs::util::ConfigError listing every bad key with its value.
+// urs::devices::ParamError listing every bad key with its value.
 CameraParams parse_camera_params(const YAML::Node& params);
 
 class CameraAgent : public agent::TypedAgent {
@@ -83,7 +83,8 @@ class CameraAgent : public agent::TypedAgent {
 };
 
 // A CameraAgent on a FixedPose, or on a WorldPoseSource when params name a `world`. Throws
-// urs::util::ConfigError for bad params (and if DDS refuses the world's participant).
+// urs::devices::ParamError for bad params (and, keyed "world", if DDS refuses the world's
+// participant).
 std::shared_ptr<agent::ServiceAgent> make_camera_agent(const YAML::Node& params);
 
 }  // namespace urs::camera

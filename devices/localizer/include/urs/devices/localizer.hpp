@@ -23,11 +23,12 @@
 
 namespace urs::world {
 class World;
-class SimLoop;
 struct PoseSample;
 }  // namespace urs::world
 
 namespace urs::devices {
+
+class SimLoop;
 
 struct LocalizerConfig {
   std::string name = "localizer";  // DDS participant name
@@ -42,7 +43,7 @@ struct LocalizerConfig {
   uint32_t seed = 0;               // of the noise; 0 = a different one each run
 };
 
-// Throws urs::util::ConfigError naming every bad key.
+// Throws urs::devices::ParamError (urs/devices/params.hpp) naming every bad key.
 LocalizerConfig parse_localizer_config(const YAML::Node& params);
 
 class LocalizerAgent : public agent::TypedAgent, public agent::Tunable {
@@ -71,7 +72,7 @@ class LocalizerAgent : public agent::TypedAgent, public agent::Tunable {
   std::mt19937 random_;
   agent::EventSink* events_ = nullptr;
   std::unique_ptr<world::World> world_;
-  std::unique_ptr<world::SimLoop> loop_;
+  std::unique_ptr<SimLoop> loop_;
 };
 
 std::shared_ptr<agent::ServiceAgent> make_localizer_agent(const YAML::Node& params);

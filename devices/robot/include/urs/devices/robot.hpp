@@ -25,10 +25,11 @@
 
 namespace urs::world {
 class World;
-class SimLoop;
 }  // namespace urs::world
 
 namespace urs::devices {
+
+class SimLoop;
 
 struct RobotConfig {
   enum class Feedback {
@@ -48,7 +49,7 @@ struct RobotConfig {
   Feedback feedback = Feedback::localizer;
 };
 
-// Throws urs::util::ConfigError naming every bad key.
+// Throws urs::devices::ParamError (urs/devices/params.hpp) naming every bad key.
 RobotConfig parse_robot_config(const YAML::Node& params);
 
 class RobotAgent : public agent::TypedAgent, public agent::Tunable {
@@ -95,7 +96,7 @@ class RobotAgent : public agent::TypedAgent, public agent::Tunable {
   int state_;      // URC::NavigationState
   agent::EventSink* events_ = nullptr;
   std::unique_ptr<world::World> world_;
-  std::unique_ptr<world::SimLoop> loop_;
+  std::unique_ptr<SimLoop> loop_;
 };
 
 std::shared_ptr<agent::ServiceAgent> make_robot_agent(const YAML::Node& params);

@@ -28,10 +28,10 @@ struct TtsParams {
 };
 
 // Checks keys, types and ranges (not the voice, which needs the engine). Throws
-// urs::util::ConfigError listing each bad key.
+// urs::devices::ParamError (urs/devices/params.hpp) listing each bad key.
 TtsParams parse_tts_params(const YAML::Node& params);
 
-// Also checks that `voice` is installed. Throws urs::util::ConfigError naming the key.
+// Also checks that `voice` is installed. Throws urs::devices::ParamError naming the key.
 std::shared_ptr<agent::ServiceAgent> make_tts_agent(const YAML::Node& params);
 
 }  // namespace urs::devices

@@ -39,11 +39,11 @@ struct VoiceParams {
 const std::vector<std::string>& default_robot_commands();
 
 // Checks keys, types, ranges and the spelling of commands (not the model files). Commands are
-// returned in lower case with single spaces. Throws urs::util::ConfigError naming each bad key.
+// returned in lower case with single spaces. Throws urs::devices::ParamError naming each bad key.
 VoiceParams parse_voice_params(const YAML::Node& params);
 
 // Also loads the model (one decoder per `decoders`) and checks that every command word is in the
-// dictionary. Throws urs::util::ConfigError naming the key (model_dir, commands).
+// dictionary. Throws urs::devices::ParamError naming the key (model_dir, commands).
 std::shared_ptr<agent::ServiceAgent> make_voice_agent(const YAML::Node& params);
 
 }  // namespace urs::devices

@@ -1,49 +1,58 @@
 #pragma once
-// The bridge (the papers' RSCM / SAM-RTC): one RT-Component and one Planet session that make the
-// services of each world usable from the other, generically, from interface descriptions alone.
+// The bridge (the papers' RSCM / SAM-RTC): makes the services of each world usable from the
+// others, generically, from interface descriptions alone. It composes a middleware-free core and
+// one adapter per side (docs/architecture.md, "The bridge"):
 //
-//   RT provider -> CAMUS   every provider port connected to the bridge RTC's "providers" port
-//                          becomes a CAMUS service whose calls go to the provider by DII
-//                          (corba_agent::CorbaProxyAgent, hosted on the bridge's Planet session).
-//   CAMUS SA -> RT         every selected CAMUS service becomes an RT-Component in the naming
-//                          service with a provider port of its interface (AgentComponent hosting
-//                          a PlanetProxyAgent).
-//   data                   RT OutPorts feed CAMUS events (and context); CAMUS events feed RT InPorts.
+//   core    core::RouteReconciler, one per direction: from what a side offers now and the rules,
+//           the routes that must exist, made and withdrawn through the target side's
+//           core::ServiceOffering (include/urs/bridge/core/)
+//   RT      RtAdapter (naming watch, probes, connections to the bridge RTC), RtStandIns (RTCs
+//           standing for other sides' services), BridgeComponent (the bridge RTC),
+//           ConnectionKeeper (its RTCs' connections across restarts)
+//   CAMUS   CamusAdapter (Planet session, registry, data relay), CamusStandIns (hosted agents)
+//   DDS     DdsAdapter (the other spaces' catalog, their calls, the shared state)
 //
-// The bridge RTC's lifecycle drives it: activating it opens the Planet session, registers the
-// proxies and creates the wrapper RTCs; deactivating it withdraws them all. While active it polls
-// the naming service (connector role: providers matching the rules are connected to the bridge,
-// and their proxies withdrawn when they vanish or are gone, kept and marked when merely slow;
-// every connection it drops is dropped on both ends) and the CAMUS registry. With a data dir it
-// keeps the connections of its RTCs and makes them again after a restart (ConnectionStore).
+// The routes, each a reconciler (source offers -> target stand-ins):
+//   RT provider -> CAMUS     provider ports connected to the bridge RTC's "providers" port (rules
+//                            rt_to_camus.providers) -> CorbaProxyAgents hosted and registered
+//   CAMUS service -> RT      the registry's services (camus_to_rt.services) -> RTCs hosting a
+//                            PlanetProxyAgent
+//   other space -> CAMUS/RT  the DDS catalog (dds.import) -> agents forwarding over DdsLink
+//   this space -> others     the RT providers' agents and this space's CAMUS services
+//                            (dds.export) -> entries of this space's DDS catalog
+//   data (not routes)        RT OutPorts feed CAMUS events (and context); CAMUS events feed RT InPorts.
+//
+// The bridge RTC's lifecycle drives it: activating it opens a session (the CAMUS and DDS adapters
+// and the routes); deactivating it withdraws every route. While active, its thread runs the
+// naming watch and the RT routes every rt_to_camus.poll_ms, the registry and the CAMUS routes
+// every camus_to_rt.poll_ms, and the DDS routes when the catalog changes (once a lease anyway).
 //
 // Loops are prevented by origin: what the bridge offers carries "urslink.origin" (a CAMUS property
-// "rtc:<path>:<port>", a component property "camus:<service>"), and nothing that carries one is
-// bridged again.
+// "rtc:<path>:<port>" or "dds:<space>/<service>", a component property "camus:<service>" or
+// "dds:<space>/<service>"), and nothing that carries one is bridged again (core::bridgeable).
 
 #include <atomic>
 #include <condition_variable>
-#include <memory>
-#include <functional>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <optional>
-#include <set>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include "urs/bridge/config.hpp"
-#include "urs/bridge/connection_store.hpp"
-#include "urs/bridge/dds_link.hpp"
 #include "urs/bridge/interfaces.hpp"
 #include "urs/planet/client.hpp"
 #include "urs/rtc/manager.hpp"
 #include "urs/rtc/naming.hpp"
 #include "urs/rtc/orb.hpp"
-#include "urs/rtc/port.hpp"
 
 namespace urs::bridge {
+
+class BridgeComponent;
+class ConnectionKeeper;
+class RtAdapter;
 
 struct BridgeStatus {
   bool active = false;                // a session is open
@@ -76,49 +85,20 @@ class Bridge {
   BridgeStatus status() const;
 
  private:
-  class Component;
-  class Session;
-  struct Known;  // a component found in the naming service
+  struct Session;  // one activation: the CAMUS and DDS adapters, the stand-ins and the routes
 
   void request_active(bool active);  // from the RTC's lifecycle hooks
   void run();
   void open_session();
-  void open_planet(Session& session);
   void close_session();
-  void poll_rt();
-  void share_rtc_states();
-  void poll_camus();
-  void reconcile_exports();
-  // The bridge RTC's port of a link key ("<port>": providers; "<port>#<ours>": that data port).
-  rtc::PortBase& our_port(const std::string& link);
-  // Drops one connection the bridge made, on both ends: notify_disconnect on the peer's port
-  // (best effort, bounded), then our port's half.
-  void drop_link(const Known& known, const std::string& link, const std::string& connector_id);
-  // Drops, on `peer`, the connections listing `ours` that `ours` no longer holds; returns how many.
-  int drop_stale_halves(const std::string& path, RTC::PortService_ptr peer, const std::string& peer_name,
-                        rtc::PortBase& ours);
-  // urslink.health and rtc.state of an RT provider, from what the last poll saw of its component.
-  void add_health(std::map<std::string, std::string>& properties, const Known& known) const;
-  // Registers again every RT provider whose health changed since it was last registered.
-  void update_health(Session& session);
-  // For CorbaProxyOptions::explain_missing_target: the state of the component at `path` (IOR
-  // `ior`) when it is why its provider does not exist; empty if not.
-  std::function<std::string()> owner_state_check(const std::string& path, const std::string& ior) const;
-
-  // Restarts (ConnectionStore): at a session's opening, what was saved becomes connections to
-  // restore (and, in a new process, the peers first drop their stale halves); each RT poll
-  // restores those whose RTC is back and saves what the bridge's RTCs hold.
-  void load_connections();
-  void restore_connections(Session& session);
-  void save_connections(Session& session);
-  // The RTC of the bridge for a SavedConnection::rtc key; nullptr if it is not there (now).
-  rtc::Component* our_rtc(Session& session, const std::string& key) const;
+  // The passes of the run loop (the bridge's thread).
+  void poll_rt(Session& session);
+  void poll_camus(Session& session);
+  void poll_dds(Session& session);
+  void export_to_dds(Session& session);  // what this space offers, onto the other spaces' catalog
   void on_data(std::size_t entry, const google::protobuf::Message& value);
-  void poll_dds();
-  void sync_dds_exports(Session& session);
-  void serve_remote(Session& session, IncomingCall call, std::function<void(planet::CallResult)> reply);
-  void import_remote(Session& session, const ServiceEntry& entry);
-  void withdraw_remote(Session& session, const std::string& key);
+  // The RTCs of the bridge whose connections are kept across restarts, by ConnectionKeeper key.
+  std::vector<std::pair<std::string, rtc::Component*>> our_rtcs(Session& session) const;
 
   rtc::Orb& orb_;
   rtc::NamingClient* naming_;
@@ -126,9 +106,10 @@ class Bridge {
   const InterfaceCatalog& catalog_;
   const BridgeConfig config_;
   std::optional<planet::ClientOptions> planet_;
-  std::string own_path_;
 
-  Component* component_ = nullptr;
+  BridgeComponent* component_ = nullptr;
+  std::unique_ptr<RtAdapter> rt_;                 // with an RT side; lives as long as the bridge RTC
+  std::unique_ptr<ConnectionKeeper> connections_;  // with an RT side
 
   mutable std::mutex mutex_;  // guards the fields below and session_ swaps
   std::condition_variable wake_;
@@ -139,17 +120,6 @@ class Bridge {
 
   // Set by DDS threads when the other spaces' catalog changed; the bridge's thread reads it.
   std::atomic<bool> remote_pending_{false};
-
-  // Used by the bridge's thread only.
-  std::map<std::string, std::shared_ptr<Known>> known_;  // by naming path
-  std::set<std::string> warned_;                         // problems logged once
-  ConnectionStore store_;
-  bool stale_halves_dropped_ = false;  // once per process, at its first session
-  struct Restore {
-    SavedConnection saved;
-    std::chrono::steady_clock::time_point retry_at;
-  };
-  std::vector<Restore> restores_;  // saved connections not made again yet
 };
 
 }  // namespace urs::bridge

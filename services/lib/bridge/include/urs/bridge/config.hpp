@@ -65,6 +65,9 @@
 #include <string>
 #include <vector>
 
+#include "urs/bridge/core/rules.hpp"  // glob_match, allowed, expand
+#include "urs/bridge/dds_link.hpp"    // DdsOptions
+
 namespace urs::bridge {
 
 struct ProviderRule {
@@ -115,17 +118,15 @@ struct StateConfig {
   bool import = true;                       // the others' state into this space's CAMUS context and events
 };
 
+// The link's settings as the bridge's defaults have them: a participant lease of 20 s, or
+// lease_ms if longer (load_bridge_config).
+DdsOptions bridge_link_defaults();
+
 struct DdsConfig {
   bool enabled = false;
-  uint32_t domain = 0;
-  std::chrono::milliseconds lease{3000};
-  std::chrono::milliseconds participant_lease{20000};  // default: 20 s, or lease_ms if longer
-  bool udp_only = false;
-  uint32_t socket_buffer_bytes = 4u << 20;
-  std::vector<std::string> initial_peers;
-  std::string discovery_listen;                 // this bridge is a Fast DDS discovery server
-  uint32_t discovery_server_id = 0;
-  std::vector<std::string> discovery_servers;   // this bridge discovers through these servers
+  // domain, lease, participant_lease, udp_only, socket_buffer_bytes, initial_peers, discovery_*;
+  // `space` and `bridge` are left empty here (the bridge sets them from BridgeConfig).
+  DdsOptions link = bridge_link_defaults();
   std::vector<std::string> export_allow{"*"};
   std::vector<std::string> export_deny;
   std::vector<std::string> import_allow{"*"};
@@ -156,16 +157,8 @@ struct BridgeConfig {
   DdsConfig dds;
 };
 
-// True if `name` matches one of `allow` and none of `deny`.
-bool allowed(const std::string& name, const std::vector<std::string>& allow, const std::vector<std::string>& deny);
-
 // Parses and validates `path`; relative idl/include_dirs paths are taken from the file's folder.
 // Throws urs::util::ConfigError listing every problem with its key path.
 BridgeConfig load_bridge_config(const std::string& path, const std::string& host);
-
-// "{instance}.{port}" with {name} replaced by the value given for it; unknown names stay.
-std::string expand(const std::string& pattern, const std::vector<std::pair<std::string, std::string>>& values);
-// True if `text` matches the glob `pattern` ('*' and '?' also match '/').
-bool glob_match(const std::string& pattern, const std::string& text);
 
 }  // namespace urs::bridge

@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "urs/bridge/dds_security.hpp"
 #include "urs/planet/status.hpp"
 
 namespace eprosima::fastdds::dds {
@@ -51,6 +52,9 @@ struct DdsOptions {
   std::string discovery_listen;
   uint32_t discovery_server_id = 0;
   std::vector<std::string> discovery_servers;
+  // DDS-Security (authentication, access control, encryption) when `security.enabled()`: only
+  // members of the federation join, each within its permissions.
+  DdsSecurity security;
 };
 
 struct ServiceEntry {

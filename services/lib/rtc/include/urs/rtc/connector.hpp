@@ -5,7 +5,8 @@
 // leaves or dies. Foreign (OpenRTM-aist) components take part on equal terms: only standard
 // RTObject / PortService calls and the standard connector properties are used.
 //
-// The naming service sends no notifications, so the connector polls. One poll:
+// The naming service sends no notifications, so the connector polls. One poll (steps 1 and 2 are
+// the shared naming watch, urs/rtc/naming_watch.hpp; the rest is this connector's strategy):
 //   1. lists the whole tree and resolves each watched "*.rtc" binding (a name matching some
 //      rule's consumer or provider pattern), comparing stringified IORs with the last poll;
 //   2. forgets components whose binding went away or now names another object (a restart),
@@ -43,6 +44,7 @@
 
 #include "RTC.hh"
 #include "urs/rtc/naming.hpp"
+#include "urs/rtc/naming_watch.hpp"
 
 namespace urs::rtc {
 
@@ -170,10 +172,6 @@ class Connector {
     RTC::PortService_var provider_port;
     CORBA::Object_var provider_probe;  // for providers outside the naming service
   };
-  struct Watched {
-    std::string ior;
-    CORBA::Object_var object;
-  };
 
   enum class End { kConsumer, kProvider };
 
@@ -183,9 +181,9 @@ class Connector {
   const ConnectorRule* rule_for(const std::string& consumer_path, const std::string& type) const;
 
   // Steps of a poll, in order (poll_mutex_ held).
-  bool read_naming(std::map<std::string, Watched>& bound, PollReport& report);
-  void forget_changed(const std::map<std::string, Watched>& bound, PollReport& report);
-  void read_components(const std::map<std::string, Watched>& bound, PollReport& report);
+  bool read_naming(ComponentBindings& bound, PollReport& report);
+  void forget_changed(const ComponentBindings& bound, PollReport& report);
+  void read_components(const ComponentBindings& bound, PollReport& report);
   void probe_providers(PollReport& report);
   void connect_missing(PollReport& report);
 

@@ -8,7 +8,7 @@
 #include <mutex>
 #include <thread>
 
-namespace urs::world {
+namespace urs::devices {
 
 class SimLoop {
  public:
@@ -29,4 +29,4 @@ class SimLoop {
   std::thread thread_;
 };
 
-}  // namespace urs::world
+}  // namespace urs::devices

@@ -1,9 +1,9 @@
-#include "urs/world/sim_loop.hpp"
+#include "urs/devices/sim_loop.hpp"
 
 #include <chrono>
 #include <stdexcept>
 
-namespace urs::world {
+namespace urs::devices {
 
 void SimLoop::start(double period, double time_scale, std::function<void()> tick) {
   if (thread_.joinable()) throw std::logic_error("SimLoop::start: already running");
@@ -36,4 +36,4 @@ void SimLoop::stop() {
   if (thread_.joinable()) thread_.join();
 }
 
-}  // namespace urs::world
+}  // namespace urs::devices

@@ -84,10 +84,11 @@ class PoseListener : public fdds::DataReaderListener {
   World::Handler handler_;
 };
 
-// Reliable, keep-last 1 per robot, transient-local: the same on writers and readers, or they
-// would not match.
+// The world's pose topics (ground truth and measurements): reliable, keep-last 1 per robot,
+// transient-local, so a late joiner gets every robot's latest pose. The same on writers and
+// readers, or they would not match.
 template <class Qos>
-Qos pose_qos(Qos qos) {
+Qos world_pose_qos(Qos qos) {
   qos.reliability().kind = fdds::RELIABLE_RELIABILITY_QOS;
   qos.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
   qos.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
@@ -137,7 +138,9 @@ struct World::Impl {
     {
       std::lock_guard<std::mutex> lock(mutex);
       Endpoint& e = endpoint(channel);
-      if (e.writer == nullptr) e.writer = publisher->create_datawriter(topic(channel), pose_qos(fdds::DATAWRITER_QOS_DEFAULT));
+      if (e.writer == nullptr) {
+        e.writer = publisher->create_datawriter(topic(channel), world_pose_qos(fdds::DATAWRITER_QOS_DEFAULT));
+      }
       writer = e.writer;
     }
     if (writer == nullptr) return false;
@@ -149,7 +152,8 @@ struct World::Impl {
   void read(Channel channel, const std::string& robot, Handler handler) {
     std::lock_guard<std::mutex> lock(mutex);
     auto listener = std::make_unique<PoseListener<T>>(robot, std::move(handler));
-    if (subscriber->create_datareader(topic(channel), pose_qos(fdds::DATAREADER_QOS_DEFAULT), listener.get()) == nullptr) {
+    const auto qos = world_pose_qos(fdds::DATAREADER_QOS_DEFAULT);
+    if (subscriber->create_datareader(topic(channel), qos, listener.get()) == nullptr) {
       throw std::runtime_error(std::string("DDS: cannot create a reader of topic ") + topic_name(channel));
     }
     listeners.push_back(std::move(listener));
