@@ -20,6 +20,7 @@
 #include "urs/camus_server/router.hpp"
 #include "urs/camus_server/session_handler.hpp"
 #include "urs/camus_server/task_manager.hpp"
+#include "urs/camus_server/tasks_agent.hpp"
 #include "urs/camus_server/timer.hpp"
 #include "urs/planet/server.hpp"
 #include "urs/util/cli.hpp"

@@ -6,24 +6,9 @@
 #include <vector>
 
 #include "urs/planet/authenticator.hpp"
+#include "urs/planet/reply.hpp"
 
 namespace urs::camus_server {
-
-namespace {
-
-// Payloads are moved, never copied: a reply may carry a 921,600-byte image.
-planet::Frame reply_frame(uint64_t call_id, planet::CallResult&& result) {
-  planet::Frame frame;
-  auto* reply = frame.mutable_reply();
-  reply->set_call_id(call_id);
-  reply->set_status(result.status);
-  reply->set_message(std::move(result.message));
-  reply->set_payload(std::move(result.payload));
-  reply->set_exception_type(std::move(result.exception_type));
-  return frame;
-}
-
-}  // namespace
 
 Caller Caller::of(const planet::SessionPtr& session) {
   return Caller{session, session->identity().name, session->identity().role};
@@ -39,7 +24,7 @@ void Router::on_request(const planet::SessionPtr& session, planet::Request reque
   std::weak_ptr<planet::Session> weak = session;
   route(Caller::of(session), std::move(request),
         [weak, caller_call_id](planet::CallResult result) {
-          if (auto s = weak.lock()) s->send(reply_frame(caller_call_id, std::move(result)));
+          if (auto s = weak.lock()) s->send(planet::reply_frame(caller_call_id, std::move(result)));
         },
         caller_call_id);
 }
@@ -199,12 +184,7 @@ void Router::on_reply(const planet::Session& session, planet::Reply reply) {
     }
     done = erase_locked(it);
   }
-  planet::CallResult result;
-  result.status = reply.status();
-  result.message = std::move(*reply.mutable_message());
-  result.payload = std::move(*reply.mutable_payload());
-  result.exception_type = std::move(*reply.mutable_exception_type());
-  done(std::move(result));
+  done(planet::result_of(std::move(reply)));
 }
 
 void Router::complete(uint64_t call_id, planet::CallResult result) {

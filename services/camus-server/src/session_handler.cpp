@@ -3,6 +3,7 @@
 #include <spdlog/spdlog.h>
 
 #include "urs/camus_server/context_store.hpp"
+#include "urs/camus_server/tasks_agent.hpp"
 
 namespace urs::camus_server {
 namespace {

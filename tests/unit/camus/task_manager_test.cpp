@@ -1,4 +1,5 @@
 #include "urs/camus_server/task_manager.hpp"
+#include "urs/camus_server/tasks_agent.hpp"
 
 #include <google/protobuf/util/json_util.h>
 #include <gtest/gtest.h>

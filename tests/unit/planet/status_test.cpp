@@ -7,6 +7,7 @@
 #include <thread>
 
 #include "urs/planet/client.hpp"
+#include "urs/planet/reply.hpp"
 #include "urs/planet/status.hpp"
 
 namespace urs::planet {
@@ -76,6 +77,17 @@ TEST(PlanetResponder, DefaultConstructedIsInert) {
   Responder responder;
   EXPECT_FALSE(responder.pending());
   responder.reply(CallResult::success({}));
+}
+
+TEST(PlanetCallResult, TravelsInAReplyAndBack) {
+  Frame frame = reply_frame(42, CallResult::user_exception("urs.Err", "bytes", "it failed"));
+  ASSERT_TRUE(frame.has_reply());
+  EXPECT_EQ(frame.reply().call_id(), 42u);
+  const CallResult back = result_of(std::move(*frame.mutable_reply()));
+  EXPECT_EQ(back.status, Status::USER_EXCEPTION);
+  EXPECT_EQ(back.exception_type, "urs.Err");
+  EXPECT_EQ(back.payload, "bytes");
+  EXPECT_EQ(back.message, "it failed");
 }
 
 }  // namespace

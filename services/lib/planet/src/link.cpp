@@ -41,6 +41,17 @@ void warn_peer(const std::string& peer_address, const std::string& message) {
   spdlog::warn("planet: {}{}", message, util::suppressed_note(suppressed));
 }
 
+void run_io(asio::io_context& io, const char* owner) {
+  for (;;) {
+    try {
+      io.run();
+      return;
+    } catch (const std::exception& exception) {
+      spdlog::error("planet: {} I/O thread caught: {}", owner, exception.what());
+    }
+  }
+}
+
 Frame make_goodbye(Status status, const std::string& reason) {
   Frame frame;
   frame.mutable_goodbye()->set_status(status);

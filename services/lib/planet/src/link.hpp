@@ -40,6 +40,11 @@ struct LinkConfig {
 
 Frame make_goodbye(Status status, const std::string& reason);
 
+// The body of every Planet I/O thread (the server's and the client's): runs `io` until it stops
+// or runs out of work; an exception escaping a handler is logged, naming `owner` ("server",
+// "client"), and running resumes.
+void run_io(asio::io_context& io, const char* owner);
+
 // Logs `message` at warn, at most 5 per 10 s per source address (the host of `peer_address`,
 // "host:port"), with the number suppressed in between: a peer cannot flood the log. For what a
 // peer causes (protocol errors, refusals, timeouts).

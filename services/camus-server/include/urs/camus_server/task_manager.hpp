@@ -1,5 +1,8 @@
 #pragma once
 // The task manager: defines declarative tasks (TaskSpec), runs them, persists their progress.
+// It keeps the definitions and the table of runs; its components (src/) are the store (SQLite),
+// the step runner (what each step does, its waits), the run driver (a run's thread) and the
+// triggers (event subscriptions that start runs).
 //
 //  - Every run executes on its own thread. Waits (calls, events, context, sleep) block on the
 //    run's condition variable, so Cancel takes effect at once, whatever the step.
@@ -35,6 +38,14 @@
 #include "urs/planet/status.hpp"
 
 namespace urs::camus_server {
+
+namespace tasks {  // the task manager's components (src/task_*.hpp)
+struct Run;
+class TaskStore;
+class StepRunner;
+class RunDriver;
+class TaskTriggers;
+}  // namespace tasks
 
 // How task runs call services (the router in the server; a fake in tests).
 class Invoker {
@@ -81,77 +92,42 @@ class TaskManager {
   Result<camus::TaskRun> wait_finished(const std::string& run_id, std::chrono::milliseconds timeout) const;
 
  private:
-  struct Run;
-  struct TriggerGuard;
-  enum class StepEnd { Next, Failed, Stopped };
-
-  Result<std::shared_ptr<Run>> start_run_locked(TaskSpec spec, const std::string& yaml, const std::string& trigger);
-  void launch(const std::shared_ptr<Run>& run);
-  void execute(const std::shared_ptr<Run>& run);
-  StepEnd run_step(const std::shared_ptr<Run>& run, const TaskStep& step, std::string& failure);
-  StepEnd run_call(const std::shared_ptr<Run>& run, const CallStep& step, std::string& failure);
-  StepEnd run_wait_event(const std::shared_ptr<Run>& run, const WaitEventStep& step, std::string& failure);
-  StepEnd run_wait_context(const std::shared_ptr<Run>& run, const WaitContextStep& step, std::string& failure);
-  StepEnd run_sleep(const std::shared_ptr<Run>& run, const SleepStep& step);
-  StepEnd run_publish(const std::shared_ptr<Run>& run, const PublishStep& step, std::string& failure);
-  void finish(const std::shared_ptr<Run>& run, const std::string& state, const std::string& message);
-  void save_locked(const Run& run);  // run mutex held; takes the db mutex; logs failures
-  void publish(const camus::TaskRun& snapshot);
-  void arm_trigger_locked(const TaskSpec& spec);
-  void on_trigger(const std::string& task, const planet::Event& event);
-  void reap_locked();
-  std::shared_ptr<Run> find_locked(const std::string& run_id) const;
-  Result<Done> define_locked(const TaskSpec& spec, const std::string& yaml);
-
-  const TaskManagerOptions options_;
-  Invoker& invoker_;
-  EventSource& events_;
-  const ContextReader& context_;
-  const SchemaLookup& schemas_;
-  agent::EventSink& sink_;
-  const Clock& clock_;
-
-  mutable std::mutex db_mutex_;  // leaf lock
-  Database db_;
-
-  mutable std::mutex mutex_;
   struct Definition {
     std::string yaml;
     TaskSpec spec;
   };
+
+  Result<std::shared_ptr<tasks::Run>> start_run_locked(TaskSpec spec, const std::string& yaml,
+                                                       const std::string& trigger);
+  void launch(const std::shared_ptr<tasks::Run>& run);
+  void on_trigger(const std::string& task, const planet::Event& event);
+  void reap_locked();
+  std::shared_ptr<tasks::Run> find_locked(const std::string& run_id) const;
+  Result<Done> define_locked(const TaskSpec& spec, const std::string& yaml);
+  // With mutex_ held, at start(): the stored runs; those found "running" are returned to resume.
+  std::vector<std::shared_ptr<tasks::Run>> load_runs_locked();
+  void notify_finished();
+
+  const TaskManagerOptions options_;
+  EventSource& events_;
+  agent::EventSink& sink_;
+  const Clock& clock_;
+  const std::unique_ptr<tasks::TaskStore> store_;
+  const std::unique_ptr<tasks::StepRunner> steps_;
+  const std::unique_ptr<tasks::RunDriver> driver_;
+
+  mutable std::mutex mutex_;
   std::map<std::string, Definition> definitions_;
-  std::map<uint64_t, std::shared_ptr<Run>> runs_;  // by run number
-  std::map<std::string, uint64_t> triggers_;        // task -> internal subscription
-  std::shared_ptr<TriggerGuard> trigger_guard_;
+  std::map<uint64_t, std::shared_ptr<tasks::Run>> runs_;  // by run number
   uint64_t next_run_ = 1;
   bool started_ = false;
   bool stopping_ = false;
 
   mutable std::mutex finished_mutex_;
   mutable std::condition_variable finished_cv_;
+
+  // Last: disarmed (and its callbacks finished) before anything above is destroyed.
+  const std::unique_ptr<tasks::TaskTriggers> triggers_;
 };
-
-// The built-in service "camus.tasks" (urs.camus.Tasks) for the service container.
-class TasksAgent final : public agent::ServiceAgent {
- public:
-  static constexpr const char* kName = "camus.tasks";
-  explicit TasksAgent(TaskManager& manager) : manager_(manager) {}
-  const google::protobuf::ServiceDescriptor& interface() const override;
-  agent::Outcome invoke(const google::protobuf::MethodDescriptor& method, const google::protobuf::Message& request,
-                        google::protobuf::Message& reply, const agent::CallContext& ctx) override;
-
- private:
-  TaskManager& manager_;
-};
-
-// True if every (dotted path, value) of `match` is found in the event payload (decoded through
-// its content type: "application/json" or a message type known to `schemas`).
-bool event_matches(const planet::Event& event,
-                   const std::vector<std::pair<std::string, google::protobuf::Value>>& match,
-                   const SchemaLookup& schemas);
-
-// Equality of two values; a number also equals a text holding the same number (int64 fields
-// appear as text in JSON).
-bool values_equal(const google::protobuf::Value& a, const google::protobuf::Value& b);
 
 }  // namespace urs::camus_server

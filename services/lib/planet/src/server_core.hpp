@@ -1,0 +1,80 @@
+#pragma once
+// What the Planet server owns (Server::Impl is a ServerCore): options, the acceptor and the I/O
+// threads, the sessions and their admission limits, the authenticator and TLS context. Shared
+// by server.cpp (listening, accepting, stopping) and server_session.cpp (one connection).
+
+#include <asio.hpp>
+#include <asio/ssl.hpp>
+
+#include <condition_variable>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "random.hpp"
+#include "session_directory.hpp"
+#include "stream.hpp"
+#include "urs/planet/codec.hpp"
+#include "urs/planet/server.hpp"
+
+namespace urs::planet {
+
+class ServerSession;
+
+// Everything the server owns. Server::Impl is this; sessions name it ServerCore because
+// Server::Impl is private.
+struct ServerCore {
+  ServerCore(ServerOptions options_in, SessionHandler& handler_in);
+
+  void start();
+  void stop();
+  void do_accept();
+  void on_session_closed(uint64_t id);
+  bool on_io_thread() const;
+  std::shared_ptr<const Authenticator> current_authenticator() const;
+  // What a session may send once open (before Welcome: hello_limits()).
+  CodecLimits session_limits() const;
+  CodecLimits hello_limits() const;
+  // With `mutex` held: why a new connection from `address` is refused, or empty.
+  std::string connection_problem_locked(const std::string& address) const;
+  size_t set_authenticator(std::shared_ptr<const Authenticator> replacement);
+
+  const ServerOptions options;
+  SessionHandler& handler;
+  detail::SessionDirectory directory{options.session_resume_window, options.max_resumable_sessions};
+  mutable std::mutex auth_mutex;
+  std::shared_ptr<const Authenticator> authenticator;  // null: an open server
+  const std::string instance = detail::random_hex(8);
+  std::shared_ptr<asio::io_context> io = std::make_shared<asio::io_context>();
+  asio::strand<asio::io_context::executor_type> accept_strand{io->get_executor()};
+  asio::ip::tcp::acceptor acceptor{accept_strand};
+  asio::steady_timer accept_retry{accept_strand};
+  std::optional<asio::executor_work_guard<asio::io_context::executor_type>> work;
+  std::vector<std::thread> threads;
+  uint16_t bound_port = 0;
+
+  std::mutex mutex;
+  std::condition_variable changed;
+  std::map<uint64_t, std::shared_ptr<ServerSession>> sessions;  // handshaking and open
+  std::map<std::string, size_t> connections_per_address;         // of `sessions`, by source address
+  // Reassembly buffers and send queues of every session (max_buffered_bytes).
+  const std::shared_ptr<MemoryBudget> budget = std::make_shared<MemoryBudget>(options.max_buffered_bytes);
+  // Null: plain TCP.
+  // Null: plain TCP. Replaced by reload_tls() (guarded by auth_mutex); a connection keeps the one
+  // it was accepted with.
+  std::shared_ptr<asio::ssl::context> tls =
+      options.tls.cert_file.empty() ? nullptr : detail::make_server_tls_context(options.tls);
+  std::shared_ptr<asio::ssl::context> current_tls() const {
+    std::lock_guard<std::mutex> lock(auth_mutex);
+    return tls;
+  }
+  uint64_t next_session_id = 1;
+  bool started = false;
+  bool stopped = false;
+};
+
+}  // namespace urs::planet
