@@ -4,10 +4,8 @@
 # Usage: deploy/bench.sh [--quick]
 # URS_GATEWAY_BENCH_SECONDS: how long poses are timed through urs-gateway (default 600, 8 with --quick)
 set -euo pipefail
-root=$(cd "$(dirname "$0")/.." && pwd)
-"$root/deploy/install-deps.sh"
-"$root/deploy/build.sh"
-build=${URS_BUILD_DIR:-$root/build}
+source "$(dirname "$0")/prepare.sh"
+install_and_build
 pin=()
 if (($(nproc) >= 2)); then pin=(--pin); fi  # clients on CPU 0, servers on CPU 1 (tests/bench/pinning.hpp)
 table=$(mktemp)

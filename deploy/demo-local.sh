@@ -10,12 +10,9 @@
 #   data port feeding CAMUS context, and deactivation withdrawing it all.
 # Everything runs on 127.0.0.1; logs go to $URS_DEMO_DIR.
 set -euo pipefail
-root=$(cd "$(dirname "$0")/.." && pwd)
-if [[ -z "${URS_DEMO_NO_BUILD:-}" ]]; then  # the e2e test runs the demo on binaries already built
-  "$root/deploy/install-deps.sh"
-  "$root/deploy/build.sh"
-fi
-bin=${URS_BUILD_DIR:-$root/build}/services
+source "$(dirname "$0")/prepare.sh"
+install_and_build "${URS_DEMO_NO_BUILD:-}"  # the e2e test runs the demo on binaries already built
+bin=$build/services
 work=${URS_DEMO_DIR:-$(mktemp -d /tmp/urs-demo-XXXXXX)}
 mkdir -p "$work"
 echo "demo-token-$RANDOM$RANDOM" > "$work/token"

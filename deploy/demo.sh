@@ -14,12 +14,8 @@
 # The spaces are taken down at the end unless URS_DEMO_KEEP=1 (then: cd compose; docker-compose ps).
 # The local, single-machine demo of every piece is deploy/demo-local.sh.
 set -euo pipefail
-root=$(cd "$(dirname "$0")/.." && pwd)
-if [[ -z "${URS_DEMO_NO_BUILD:-}" ]]; then
-  "$root/deploy/install-deps.sh"
-  "$root/deploy/build.sh"
-fi
-build=${URS_BUILD_DIR:-$root/build}
+source "$(dirname "$0")/prepare.sh"
+install_and_build "${URS_DEMO_NO_BUILD:-}"
 out=${URS_DEMO_OUT:-$build/demo}
 mkdir -p "$out"
 rm -f "$out"/square-*.{csv,md,json} "$out"/speech-vision.*

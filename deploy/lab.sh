@@ -12,12 +12,8 @@
 #   URS_LAB_TIME_SCALE  simulated seconds per wall second (default 1, the papers' pace; tests use 10)
 #   URS_LAB_NO_BUILD=1  use the binaries already built in ${URS_BUILD_DIR:-build}
 set -euo pipefail
-root=$(cd "$(dirname "$0")/.." && pwd)
-if [[ -z "${URS_LAB_NO_BUILD:-}" ]]; then
-  "$root/deploy/install-deps.sh"
-  "$root/deploy/build.sh"
-fi
-build=${URS_BUILD_DIR:-$root/build}
+source "$(dirname "$0")/prepare.sh"
+install_and_build "${URS_LAB_NO_BUILD:-}"
 bin=$build/services
 out=${URS_LAB_OUT:-$build/lab}
 scale=${URS_LAB_TIME_SCALE:-1}

@@ -92,6 +92,36 @@ function(_urs_resolve_idls caller target idls include_dirs out_abs out_names out
   set(${out_includes} ${include_args} PARENT_SCOPE)
 endfunction()
 
+# _urs_check_idl_arguments(<caller> <target> <unparsed> <idls> <tool_var> <tool>)
+#   Shared by the IDL functions: refuses unexpected arguments, an empty IDLS and a compiler not
+#   found (<tool_var> names the find_program result; <tool> is the program and its Debian package).
+function(_urs_check_idl_arguments caller target unparsed idls tool_var tool)
+  if(NOT "${unparsed}" STREQUAL "")
+    message(FATAL_ERROR "${caller}(${target}): unexpected arguments '${unparsed}'")
+  endif()
+  if("${idls}" STREQUAL "")
+    message(FATAL_ERROR "${caller}(${target}): IDLS is empty")
+  endif()
+  if(NOT ${tool_var})
+    message(FATAL_ERROR "${caller}(${target}): ${tool} not found: run deploy/install-deps.sh "
+                        "(Debian package ${tool}) or set ${tool_var} to its path")
+  endif()
+endfunction()
+
+# _urs_add_generated_library(<target> <out_dir> <dir_property> <srcs> <hdrs> [<link>...])
+#   Shared by the IDL functions that compile generated C++ themselves: the shared library <target>
+#   (alias urs::<target>) of <srcs> and <hdrs>, compiled with -w; <out_dir> is its SYSTEM include
+#   directory and the value of property <dir_property>; URS_GENERATED_HEADERS lists <hdrs>; the
+#   further arguments are linked PUBLIC.
+function(_urs_add_generated_library target out_dir dir_property srcs hdrs)
+  add_library(${target} SHARED ${srcs} ${hdrs})
+  add_library(urs::${target} ALIAS ${target})
+  set_target_properties(${target} PROPERTIES ${dir_property} ${out_dir} URS_GENERATED_HEADERS "${hdrs}")
+  target_include_directories(${target} SYSTEM PUBLIC $<BUILD_INTERFACE:${out_dir}>)
+  target_link_libraries(${target} PUBLIC ${ARGN})
+  target_compile_options(${target} PRIVATE -w)
+endfunction()
+
 # urs_idl_library(<target> IDLS <file.idl>... [INCLUDE_DIRS <dir>...] [LINK <target>...])
 #   Translates CORBA IDL files into the Planet schema with omniidl and the planet_proto back-end
 #   (idl/omniidl_planet; rules in docs/idl-mapping.md), one <name>.proto per IDL file in
@@ -118,16 +148,8 @@ set(URS_PLANET_BACKEND_FILES
 
 function(urs_idl_library target)
   cmake_parse_arguments(ARG "" "" "IDLS;INCLUDE_DIRS;LINK" ${ARGN})
-  if(ARG_UNPARSED_ARGUMENTS)
-    message(FATAL_ERROR "urs_idl_library(${target}): unexpected arguments '${ARG_UNPARSED_ARGUMENTS}'")
-  endif()
-  if(NOT ARG_IDLS)
-    message(FATAL_ERROR "urs_idl_library(${target}): IDLS is empty")
-  endif()
-  if(NOT URS_OMNIIDL)
-    message(FATAL_ERROR "urs_idl_library(${target}): omniidl not found: run deploy/install-deps.sh "
-                        "(Debian package omniidl) or set URS_OMNIIDL to its path")
-  endif()
+  _urs_check_idl_arguments(urs_idl_library ${target} "${ARG_UNPARSED_ARGUMENTS}" "${ARG_IDLS}"
+                           URS_OMNIIDL omniidl)
   set(out_dir ${CMAKE_CURRENT_BINARY_DIR}/${target}_proto)
   _urs_resolve_idls(urs_idl_library ${target} "${ARG_IDLS}" "${ARG_INCLUDE_DIRS}" abs_idls names include_args)
   set(protos)
@@ -170,17 +192,8 @@ endfunction()
 #   - The directory of every IDL file is on the include path; INCLUDE_DIRS adds more.
 function(urs_corba_idl_library target)
   cmake_parse_arguments(ARG "" "" "IDLS;INCLUDE_DIRS;LINK" ${ARGN})
-  if(ARG_UNPARSED_ARGUMENTS)
-    message(FATAL_ERROR "urs_corba_idl_library(${target}): unexpected arguments "
-                        "'${ARG_UNPARSED_ARGUMENTS}'")
-  endif()
-  if(NOT ARG_IDLS)
-    message(FATAL_ERROR "urs_corba_idl_library(${target}): IDLS is empty")
-  endif()
-  if(NOT URS_OMNIIDL)
-    message(FATAL_ERROR "urs_corba_idl_library(${target}): omniidl not found: run "
-                        "deploy/install-deps.sh (Debian package omniidl) or set URS_OMNIIDL to its path")
-  endif()
+  _urs_check_idl_arguments(urs_corba_idl_library ${target} "${ARG_UNPARSED_ARGUMENTS}" "${ARG_IDLS}"
+                           URS_OMNIIDL omniidl)
   # GLOBAL: the imported target is linked from other directories (the library's users).
   if(NOT TARGET PkgConfig::OMNIORB)
     pkg_check_modules(OMNIORB REQUIRED IMPORTED_TARGET GLOBAL omniORB4 omniDynamic4)
@@ -203,10 +216,6 @@ function(urs_corba_idl_library target)
     list(APPEND hdrs ${out_dir}/${name}.hh)
     list(APPEND srcs ${out_dir}/${name}SK.cc ${out_dir}/${name}DynSK.cc)
   endforeach()
-  add_library(${target} SHARED ${srcs} ${hdrs})
-  add_library(urs::${target} ALIAS ${target})
-  set_target_properties(${target} PROPERTIES URS_CORBA_IDL_DIR ${out_dir} URS_GENERATED_HEADERS "${hdrs}")
-  target_include_directories(${target} SYSTEM PUBLIC $<BUILD_INTERFACE:${out_dir}>)
-  target_link_libraries(${target} PUBLIC PkgConfig::OMNIORB ${ARG_LINK})
-  target_compile_options(${target} PRIVATE -w)
+  _urs_add_generated_library(${target} ${out_dir} URS_CORBA_IDL_DIR "${srcs}" "${hdrs}"
+                             PkgConfig::OMNIORB ${ARG_LINK})
 endfunction()

@@ -15,10 +15,13 @@
 #include "urs/bridge/bridge.hpp"
 #include "urs/bridge/config.hpp"
 #include "urs/bridge/interfaces.hpp"
+#include "urs/planet/client_flags.hpp"
 #include "urs/rtc/manager.hpp"
 #include "urs/rtc/naming.hpp"
 #include "urs/rtc/orb.hpp"
+#include "urs/rtc/orb_flags.hpp"
 #include "urs/util/cli.hpp"
+#include "urs/util/program_flags.hpp"
 #include "urs/util/tls.hpp"
 
 int main(int argc, char** argv) {
@@ -27,35 +30,23 @@ int main(int argc, char** argv) {
   // contend on malloc enough to need them (docs/performance.md). MALLOC_ARENA_MAX still rules.
   if (std::getenv("MALLOC_ARENA_MAX") == nullptr) mallopt(M_ARENA_MAX, 2);
   CLI::App app{"urs-bridge: makes RT-Components and CAMUS services usable from each other"};
-  std::string space;
+  urs::util::ProgramFlags program;
+  urs::rtc::OrbFlags orb_flags;
   std::string server;
   std::string naming;
-  std::string config_path;
-  std::string host;
-  std::string listen;
   std::string token_file;
   std::string ready_file;
   std::string data_dir;
-  int call_timeout_ms = 10000;
-  std::string log_level = "info";
-  app.add_option("--space", space, "Name of the space the bridge belongs to")->required();
+  urs::util::add_program_flags(app, program, "Name of the space the bridge belongs to",
+                               "YAML file saying what to bridge");
   app.add_option("--server", server, "CAMUS server HOST:PORT (none: a space without CAMUS)");
   app.add_option("--naming", naming, "Naming service HOST:PORT, omniNames (none: a space without RT side)");
-  app.add_option("--config", config_path, "YAML file saying what to bridge")->required();
-  app.add_option("--host,--host-context", host,
-                 "Naming context <host>.host_cxt (env URS_HOST_CONTEXT; default: this machine's host name)")
-      ->envname("URS_HOST_CONTEXT");
-  app.add_option("--listen", listen,
-                 "HOST:PORT for the bridge's object references (default: an ephemeral port on this host's "
-                 "address towards the naming service)");
+  urs::rtc::add_orb_flags(app, orb_flags, "the bridge's", "Bound on CORBA calls other than bridged ones");
   app.add_option("--token-file", token_file,
                  "File holding the bridge's credential token (role sam; operator to import context)");
-  app.add_option("--call-timeout-ms", call_timeout_ms, "Bound on CORBA calls other than bridged ones")
-      ->capture_default_str();
   app.add_option("--ready-file", ready_file, "Written with the bridge RTC's naming path once it is bound");
   app.add_option("--data-dir", data_dir,
                  "Directory keeping the connections of the bridge's RTCs, restored after a restart (default: none)");
-  app.add_option("--log-level", log_level, urs::util::kLogLevels)->capture_default_str();
   urs::util::TlsConfig tls;
   urs::util::add_tls_client_flags(app, tls);
   CLI11_PARSE(app, argc, argv);
@@ -66,26 +57,13 @@ int main(int argc, char** argv) {
   urs::rtc::OrbOptions orb_options;
   std::unique_ptr<urs::bridge::InterfaceCatalog> catalog;
   try {
-    urs::util::init_logging("urs-bridge", log_level);
+    urs::util::init_logging("urs-bridge", program.log_level);
     if (server.empty() && naming.empty()) throw urs::util::ConfigError("give --server, --naming or both");
-    if (!server.empty()) {
-      const auto endpoint = urs::util::parse_endpoint(server, "--server");
-      planet.emplace();
-      planet->host = endpoint.host;
-      planet->port = endpoint.port;
-      planet->token = urs::util::read_token_file(token_file);
-      urs::util::check_tls_client(tls);
-      planet->tls = tls;
-    }
-    if (!listen.empty()) {
-      orb_options.endpoint = urs::rtc::endpoint_from_address(listen, "--listen");
-    } else if (!naming.empty()) {
-      orb_options.endpoint = urs::rtc::endpoint_towards(naming, "--naming");
-    }
-    if (call_timeout_ms < 0) throw urs::util::ConfigError("--call-timeout-ms: must be >= 0");
-    orb_options.call_timeout = std::chrono::milliseconds(call_timeout_ms);
-    config = urs::bridge::load_bridge_config(config_path, host.empty() ? urs::util::host_name() : host);
-    config.space = space;
+    if (!server.empty()) planet = urs::planet::client_options_from(server, token_file, tls);
+    orb_options = urs::rtc::orb_options_from(orb_flags, naming);
+    config = urs::bridge::load_bridge_config(program.config_path,
+                                             orb_flags.host.empty() ? urs::util::host_name() : orb_flags.host);
+    config.space = program.space;
     if (!data_dir.empty()) {
       std::error_code error;
       std::filesystem::create_directories(data_dir, error);
@@ -111,20 +89,21 @@ int main(int argc, char** argv) {
   std::unique_ptr<urs::rtc::Manager> manager;
   if (!naming.empty()) {
     naming_client = std::make_unique<urs::rtc::NamingClient>(orb, naming);
-    manager = std::make_unique<urs::rtc::Manager>(orb, *naming_client, urs::rtc::ManagerOptions{space, host, 10.0});
+    manager = std::make_unique<urs::rtc::Manager>(orb, *naming_client,
+                                                  urs::rtc::ManagerOptions{program.space, orb_flags.host, 10.0});
   }
   std::unique_ptr<urs::bridge::Bridge> bridge;
   try {
     bridge = std::make_unique<urs::bridge::Bridge>(orb, naming_client.get(), manager.get(), *catalog, config, planet);
   } catch (const urs::util::ConfigError& e) {
-    fmt::print(stderr, "urs-bridge: {}: {}\n", config_path, e.what());
+    fmt::print(stderr, "urs-bridge: {}: {}\n", program.config_path, e.what());
     return 2;
   }
   try {
     auto* component = bridge->start();
     const std::string where = component ? manager->naming_path(*component) : "(no naming service)";
     if (!ready_file.empty()) urs::util::write_file_atomically(ready_file, where + "\n");
-    spdlog::info("bridge {} at {} (space {}, CAMUS server {}, naming service {})", config.name, where, space,
+    spdlog::info("bridge {} at {} (space {}, CAMUS server {}, naming service {})", config.name, where, program.space,
                  server.empty() ? "none" : server, naming.empty() ? "none" : naming);
   } catch (const std::exception& e) {
     fmt::print(stderr, "urs-bridge: {}\n", e.what());

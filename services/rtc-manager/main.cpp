@@ -17,7 +17,9 @@
 #include "urs/rtc/manager.hpp"
 #include "urs/rtc/naming.hpp"
 #include "urs/rtc/orb.hpp"
+#include "urs/rtc/orb_flags.hpp"
 #include "urs/util/cli.hpp"
+#include "urs/util/program_flags.hpp"
 #include "urs/util/yaml_config.hpp"
 
 namespace {
@@ -60,38 +62,25 @@ std::vector<std::string> add_plugins(urs::rtc::Manager& manager, const urs::rtc:
 
 int main(int argc, char** argv) {
   CLI::App app{"urs-rtc-manager: hosts RT-Components and binds them in the naming service"};
-  std::string space;
+  urs::util::ProgramFlags program;
+  urs::rtc::OrbFlags orb_flags;
   std::string naming = "127.0.0.1:2809";
-  std::string config_path;
-  std::string host;
-  std::string listen;
   std::string ready_file;
-  int call_timeout_ms = 10000;
-  std::string log_level = "info";
-  app.add_option("--space", space, "Name of the space the components belong to")->required();
+  urs::util::add_program_flags(app, program, "Name of the space the components belong to",
+                               "YAML file listing the components to create");
   app.add_option("--naming", naming, "Naming service HOST:PORT (omniNames)")->capture_default_str();
-  app.add_option("--config", config_path, "YAML file listing the components to create")->required();
-  app.add_option("--host,--host-context", host,
-                 "Naming context <host>.host_cxt (env URS_HOST_CONTEXT; default: this machine's host name)")
-      ->envname("URS_HOST_CONTEXT");
-  app.add_option("--listen", listen,
-                 "HOST:PORT for the components' object references (default: an ephemeral port on this host's "
-                 "address towards the naming service)");
-  app.add_option("--call-timeout-ms", call_timeout_ms, "Bound on every outgoing CORBA call")->capture_default_str();
+  urs::rtc::add_orb_flags(app, orb_flags, "the components'", "Bound on every outgoing CORBA call");
   app.add_option("--ready-file", ready_file, "Written with the bound naming paths once all components are up");
-  app.add_option("--log-level", log_level, urs::util::kLogLevels)->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
   urs::util::block_shutdown_signals();
   urs::rtc::ManagerConfig config;
   urs::rtc::OrbOptions orb_options;
   try {
-    urs::util::init_logging("urs-rtc-manager", log_level);
-    orb_options.endpoint = listen.empty() ? urs::rtc::endpoint_towards(naming, "--naming")
-                                          : urs::rtc::endpoint_from_address(listen, "--listen");
-    if (call_timeout_ms < 0) throw urs::util::ConfigError("--call-timeout-ms: must be >= 0");
-    orb_options.call_timeout = std::chrono::milliseconds(call_timeout_ms);
-    config = urs::rtc::load_manager_config(config_path);
+    urs::util::init_logging("urs-rtc-manager", program.log_level);
+    urs::util::parse_endpoint(naming, "--naming");  // a naming service is required here
+    orb_options = urs::rtc::orb_options_from(orb_flags, naming);
+    config = urs::rtc::load_manager_config(program.config_path);
   } catch (const std::exception& e) {
     fmt::print(stderr, "urs-rtc-manager: {}\n", e.what());
     return 2;
@@ -99,15 +88,16 @@ int main(int argc, char** argv) {
 
   urs::rtc::Orb orb(orb_options);
   urs::rtc::NamingClient naming_client(orb, naming);
-  urs::rtc::Manager manager(orb, naming_client, {space, host, config.rate_hz});
+  urs::rtc::Manager manager(orb, naming_client, {program.space, orb_flags.host, config.rate_hz});
   auto types = add_catalog(manager);
   const auto refused = add_plugins(manager, config, types);
   std::string bound;
   std::size_t created = 0;
   for (const auto& spec : config.components) {
     if (!refused.empty() && types.count(spec.type) == 0) {
-      spdlog::error("{}: component type '{}' unknown (known: {}); not created (refused plug-in(s): {})", config_path,
-                    spec.type, urs::util::join(types), urs::util::join({refused.begin(), refused.end()}));
+      spdlog::error("{}: component type '{}' unknown (known: {}); not created (refused plug-in(s): {})",
+                    program.config_path, spec.type, urs::util::join(types),
+                    urs::util::join({refused.begin(), refused.end()}));
       continue;
     }
     try {
@@ -115,7 +105,7 @@ int main(int argc, char** argv) {
       bound += manager.naming_path(component) + "\n";
       ++created;
     } catch (const urs::util::ConfigError& e) {
-      fmt::print(stderr, "urs-rtc-manager: {}: {}\n", config_path, e.what());
+      fmt::print(stderr, "urs-rtc-manager: {}: {}\n", program.config_path, e.what());
       return 2;
     } catch (const std::exception& e) {
       fmt::print(stderr, "urs-rtc-manager: {}\n", e.what());
@@ -123,7 +113,7 @@ int main(int argc, char** argv) {
     }
   }
   if (!ready_file.empty()) urs::util::write_file_atomically(ready_file, bound);
-  spdlog::info("space {}: {} component(s) bound in naming service {}", space, created, naming);
+  spdlog::info("space {}: {} component(s) bound in naming service {}", program.space, created, naming);
 
   const int signal_number = urs::util::wait_for_shutdown();
   spdlog::info("signal {}: exiting components and removing their bindings", signal_number);

@@ -16,7 +16,9 @@
 #include "urs/devices/catalog.hpp"
 #include "urs/diagnostic/diagnostic_agent.hpp"
 #include "urs/planet/client.hpp"
+#include "urs/planet/client_flags.hpp"
 #include "urs/util/cli.hpp"
+#include "urs/util/program_flags.hpp"
 #include "urs/util/tls.hpp"
 
 namespace {
@@ -41,17 +43,14 @@ std::atomic<int> g_exit_code{0};
 
 int main(int argc, char** argv) {
   CLI::App app{"urs-sam: Service Agent Manager of a CAMUS space"};
-  std::string space;
+  urs::util::ProgramFlags program;
   std::string server = "127.0.0.1:7600";
-  std::string config_path;
   std::string token_file;
-  std::string log_level = "info";
-  app.add_option("--space", space, "Name of the space this SAM belongs to")->required();
+  urs::util::add_program_flags(app, program, "Name of the space this SAM belongs to",
+                               "YAML file listing the agents to host");
   app.add_option("--server", server, "CAMUS server HOST:PORT")->capture_default_str();
-  app.add_option("--config", config_path, "YAML file listing the agents to host")->required();
   app.add_option("--token-file", token_file,
                  "File holding this SAM's credential token (a credential of role sam or operator)");
-  app.add_option("--log-level", log_level, urs::util::kLogLevels)->capture_default_str();
   urs::util::TlsConfig tls;
   urs::util::add_tls_client_flags(app, tls);
   CLI11_PARSE(app, argc, argv);
@@ -62,8 +61,9 @@ int main(int argc, char** argv) {
   urs::planet::ClientOptions options;
   std::vector<urs::agent::HostedService> services;
   try {
-    urs::util::init_logging("urs-sam", log_level);
-    auto endpoint = urs::util::parse_endpoint(server, "--server");
+    urs::util::init_logging("urs-sam", program.log_level);
+    options = urs::planet::client_options_from(server, token_file, tls);
+    const auto& config_path = program.config_path;
     config = urs::sam::load_sam_config(config_path, urs::util::host_name(), [&catalog](const urs::sam::SamConfig& partial) {
       urs::sam::AgentTypes types;
       for (const auto& [type, factory] : catalog) types.known.insert(type);
@@ -83,15 +83,10 @@ int main(int argc, char** argv) {
       try {
         services.push_back({agent.name, catalog.at(agent.type)(agent), agent.properties, agent.deadline_ms});
       } catch (const std::exception& e) {
-        throw urs::util::ConfigError("--config '" + config_path + "': agent '" + agent.name + "' (type " +
+        throw urs::util::ConfigError("--config '" + program.config_path + "': agent '" + agent.name + "' (type " +
                                      agent.type + "): " + e.what());
       }
     }
-    options.host = endpoint.host;
-    options.port = endpoint.port;
-    options.token = urs::util::read_token_file(token_file);
-    urs::util::check_tls_client(tls);
-    options.tls = tls;
   } catch (const std::exception& e) {
     fmt::print(stderr, "urs-sam: {}\n", e.what());
     return 2;
@@ -107,7 +102,7 @@ int main(int argc, char** argv) {
   client.set_request_handler([&host](const urs::planet::Request& request, urs::planet::Responder responder) {
     host.dispatch(request, "", std::move(responder));
   });
-  client.on_connected([&space, &server](const urs::planet::Welcome& welcome) {
+  client.on_connected([&space = program.space, &server](const urs::planet::Welcome& welcome) {
     if (welcome.space() != space) {
       spdlog::critical("server {} serves space '{}' but this SAM was started with --space {}; stopping",
                        server, welcome.space(), space);

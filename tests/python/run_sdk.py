@@ -544,6 +544,24 @@ def run_checks(checks, subject, only=""):
     return failures
 
 
+def run_suite(subject, checks, only, clean_up):
+    """Brings `subject` up (its up() returns what went wrong, or None), runs the checks on it
+    (run_checks) and takes it down, then calls clean_up(failures), failures -1 when set-up failed.
+    Returns the exit status: 0 every check passed, 1 one failed, 2 set-up failed."""
+    failures = 0
+    try:
+        problem = subject.up()
+        if problem:
+            print("SETUP FAILED:", problem)
+            failures = -1
+            return 2
+        failures = run_checks(checks, subject, only)
+        return 1 if failures else 0
+    finally:
+        subject.down()
+        clean_up(failures)
+
+
 def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("--server-bin", required=True)
@@ -555,18 +573,7 @@ def main():
     args = parser.parse_args()
     os.environ.setdefault("URS_OMNIIDL_BACKEND_DIR", os.path.join(ROOT, "idl", "omniidl_planet"))
     space = Space(args)
-    failures = 0
-    try:
-        problem = space.up()
-        if problem:
-            print("SETUP FAILED:", problem)
-            failures = -1
-            return 2
-        failures = run_checks(CHECKS, space, args.only)
-        return 1 if failures else 0
-    finally:
-        space.down()
-        space.clean_up(failures, args.keep)
+    return run_suite(space, CHECKS, args.only, lambda failures: space.clean_up(failures, args.keep))
 
 
 if __name__ == "__main__":

@@ -25,7 +25,7 @@ import sys
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 import run_sdk  # noqa: E402  (its Space, expect and wait_for; it puts python/ on the path)
-from run_sdk import EXAMPLE, Failed, Space, expect, free_port, run_checks, urslink, wait_for  # noqa: E402
+from run_sdk import EXAMPLE, Failed, Space, expect, free_port, run_suite, urslink, wait_for  # noqa: E402
 
 sys.path.insert(0, os.path.join(run_sdk.ROOT, "tests", "support"))
 from dds_domain import lock_dds_domain  # noqa: E402  (the lock every test linking spaces takes)
@@ -199,19 +199,11 @@ def main():
         return 2
     os.environ.setdefault("URS_OMNIIDL_BACKEND_DIR", os.path.join(run_sdk.ROOT, "idl", "omniidl_planet"))
     fed = Federation(args)
-    failures = 0
-    try:
-        problem = fed.up()
-        if problem:
-            print("SETUP FAILED:", problem)
-            failures = -1
-            return 2
-        failures = run_checks(CHECKS, fed)
-        return 1 if failures else 0
-    finally:
-        fed.down()
+
+    def clean_up(failures):
         for space in (fed.a, fed.b):
             space.clean_up(failures, args.keep, ("server", "sam", "agent", "bridge", "omniNames"))
+    return run_suite(fed, CHECKS, "", clean_up)
 
 
 if __name__ == "__main__":

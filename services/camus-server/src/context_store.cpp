@@ -30,6 +30,19 @@ std::string origin_problem(const std::string& origin) {
   return {};
 }
 
+// The entry that stands for `key` once `source` deleted it at `now` (or it expired): a null value,
+// the version after `previous_version`.
+camus::ContextEntry tombstone(const std::string& key, const std::string& source, int64_t now,
+                              uint64_t previous_version) {
+  camus::ContextEntry entry;
+  entry.set_key(key);
+  entry.mutable_value()->set_null_value(gp::NULL_VALUE);
+  entry.set_source(source);
+  entry.set_updated_unix_ns(now);
+  entry.set_version(previous_version + 1);
+  return entry;
+}
+
 }  // namespace
 
 ContextStore::ContextStore(const std::string& db_path, agent::EventSink& events, const Clock& clock, Scheduler& timers)
@@ -119,13 +132,7 @@ Result<Done> ContextStore::remove(const std::string& key, const std::string& cal
   const int64_t now = clock_.now_unix_ns();
   auto it = rows_.find(key);
   if (it == rows_.end() || !visible_locked(it->second, now)) return not_found(key);
-  Row row;
-  row.deleted = true;
-  row.entry.set_key(key);
-  row.entry.mutable_value()->set_null_value(gp::NULL_VALUE);
-  row.entry.set_source(caller);
-  row.entry.set_updated_unix_ns(now);
-  row.entry.set_version(it->second.entry.version() + 1);
+  const Row row{tombstone(key, caller, now, it->second.entry.version()), /*deleted=*/true};
   try {
     write_locked(row);
   } catch (const SqliteError& e) {
@@ -174,13 +181,7 @@ size_t ContextStore::purge_locked() {
       expiry_.erase(expiry_.begin());  // stale index entry
       continue;
     }
-    Row row;
-    row.deleted = true;
-    row.entry.set_key(key);
-    row.entry.mutable_value()->set_null_value(gp::NULL_VALUE);
-    row.entry.set_source(kServerPeerName);
-    row.entry.set_updated_unix_ns(now);
-    row.entry.set_version(it->second.entry.version() + 1);
+    const Row row{tombstone(key, kServerPeerName, now, it->second.entry.version()), /*deleted=*/true};
     try {
       write_locked(row);
     } catch (const SqliteError& e) {

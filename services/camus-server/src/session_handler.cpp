@@ -6,6 +6,23 @@
 #include "urs/camus_server/tasks_agent.hpp"
 
 namespace urs::camus_server {
+namespace {
+
+// A callback sending what it is given to the session `weak` names, as the frame field that
+// `field` (e.g. &planet::Frame::mutable_event) sets, while the session is open. It returns whether
+// the session took the frame: false once it is gone.
+template <typename Message>
+auto send_to(std::weak_ptr<planet::Session> weak, Message* (planet::Frame::*field)()) {
+  return [weak = std::move(weak), field](const Message& message) {
+    auto session = weak.lock();
+    if (!session) return false;
+    planet::Frame out;
+    *(out.*field)() = message;
+    return session->send(std::move(out));
+  };
+}
+
+}  // namespace
 
 bool BuiltinServices::serves(const std::string& service) const {
   return service == RegistryService::kName || container_.hosts(service);
@@ -61,32 +78,12 @@ void CamusSessionHandler::on_frame(const planet::SessionPtr& session, planet::Fr
       input.source = session->identity().name;
       input.publisher = session->identity().session;
       input.publish_id = publish->publish_id();
-      bus_.publish(std::move(input), [weak](const planet::PublishAck& ack) {
-        auto s = weak.lock();
-        if (!s) return;
-        planet::Frame out;
-        *out.mutable_publish_ack() = ack;
-        s->send(std::move(out));
-      });
+      bus_.publish(std::move(input), send_to(weak, &planet::Frame::mutable_publish_ack));
       return;
     }
     case planet::Frame::kSubscribe:
-      bus_.subscribe(
-          session->id(), frame.subscribe(),
-          [weak](const planet::Event& event) {
-            auto s = weak.lock();
-            if (!s) return false;
-            planet::Frame out;
-            *out.mutable_event() = event;
-            return s->send(std::move(out));
-          },
-          [weak](const planet::SubscribeAck& ack) {
-            auto s = weak.lock();
-            if (!s) return;
-            planet::Frame out;
-            *out.mutable_subscribe_ack() = ack;
-            s->send(std::move(out));
-          });
+      bus_.subscribe(session->id(), frame.subscribe(), send_to(weak, &planet::Frame::mutable_event),
+                     send_to(weak, &planet::Frame::mutable_subscribe_ack));
       return;
     case planet::Frame::kUnsubscribe:
       bus_.unsubscribe(session->id(), frame.unsubscribe().subscription_id());

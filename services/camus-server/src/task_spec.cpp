@@ -45,6 +45,20 @@ void append_plain_scalar(std::string& out, const std::string& text) {
   }
 }
 
+// Appends `open`, what `append_item` appends for each item of `node` (a sequence or a map), comma
+// separated, then `close`.
+template <typename AppendItem>
+void append_each(std::string& out, char open, const YAML::Node& node, char close, AppendItem append_item) {
+  out += open;
+  bool first = true;
+  for (const auto& item : node) {
+    if (!first) out += ',';
+    first = false;
+    append_item(item);
+  }
+  out += close;
+}
+
 void append_json(std::string& out, const YAML::Node& node) {
   switch (node.Type()) {
     case YAML::NodeType::Undefined:
@@ -58,30 +72,16 @@ void append_json(std::string& out, const YAML::Node& node) {
         append_plain_scalar(out, node.Scalar());
       }
       return;
-    case YAML::NodeType::Sequence: {
-      out += '[';
-      bool first = true;
-      for (const auto& item : node) {
-        if (!first) out += ',';
-        first = false;
-        append_json(out, item);
-      }
-      out += ']';
+    case YAML::NodeType::Sequence:
+      append_each(out, '[', node, ']', [&out](const auto& item) { append_json(out, item); });
       return;
-    }
-    case YAML::NodeType::Map: {
-      out += '{';
-      bool first = true;
-      for (const auto& item : node) {
-        if (!first) out += ',';
-        first = false;
+    case YAML::NodeType::Map:
+      append_each(out, '{', node, '}', [&out](const auto& item) {
         out += util::json_string(item.first.Scalar());
         out += ':';
         append_json(out, item.second);
-      }
-      out += '}';
+      });
       return;
-    }
   }
 }
 

@@ -171,9 +171,7 @@ def welcome_fields(s):
 @check("3", "the first frame must be Hello: anything else gets Goodbye BAD_ARGUMENTS and the connection closes")
 def first_frame_hello(s):
     conn = s.connect()
-    frame = pl.Frame()
-    frame.ping.nonce = 1
-    conn.send(frame)
+    conn.ping(1)
     expect_goodbye(conn, pl.BAD_ARGUMENTS)
 
 
@@ -375,9 +373,7 @@ def registrations_belong_to_the_session(s):
 @check("8", "a Ping is answered by a Pong with its nonce, and the server pings an open session")
 def heartbeats(s):
     conn = s.open()
-    frame = pl.Frame()
-    frame.ping.nonce = 424242
-    conn.send(frame)
+    conn.ping(424242)
     pong = conn.expect("pong", match=lambda p: p.nonce == 424242)
     expect(pong is not None, "Pong{424242}")
     conn.answer_pings = False

@@ -72,6 +72,12 @@ class Connection:
             body = chunk.SerializeToString()
             self.send_raw(struct.pack(">I", len(body)) + body)
 
+    def ping(self, nonce):
+        """Sends Ping{nonce}."""
+        frame = pl.Frame()
+        frame.ping.nonce = nonce
+        self.send(frame)
+
     # ---- receiving -----------------------------------------------------------------------------
 
     def _fill(self, n, deadline):

@@ -19,6 +19,7 @@ when there is one):
         --out DIR [--spaces kr,jp] [--expect-services FILE] [--robot move|watch|none] \
         [--ready-file FILE] [--must-activate] [--component PATH]
 """
+import contextlib
 import json
 import math
 import os
@@ -59,6 +60,25 @@ def browser():
         options.add_argument(argument)
     options.set_capability("goog:loggingPrefs", {"browser": "ALL"})
     return webdriver.Chrome(service=Service("/usr/bin/chromedriver"), options=options)
+
+
+@contextlib.contextmanager
+def browser_session(out, failure_shot):
+    """A browser() and its screenshot function, shot(name) writing OUT/<name>.png. On leaving,
+    the page must have logged no SEVERE error; on any failure the screenshot <failure_shot> and
+    the browser's log are taken first; the browser is closed in every case."""
+    driver = browser()
+    shot = lambda name: driver.save_screenshot(os.path.join(out, name + ".png"))  # noqa: E731
+    try:
+        yield driver, shot
+        severe = [e for e in driver.get_log("browser") if e["level"] == "SEVERE"]
+        assert not severe, "the page logged errors: %s" % severe
+    except BaseException:
+        shot(failure_shot)
+        print("browser log:", driver.get_log("browser"))
+        raise
+    finally:
+        driver.quit()
 
 
 # Read in the page in one step: the map and the tables are redrawn as data arrives.
@@ -104,9 +124,7 @@ def call_from_form(driver, operation, fields):
 
 
 def scenario(space, out):
-    driver = browser()
-    shot = lambda name: driver.save_screenshot(os.path.join(out, name + ".png"))
-    try:
+    with browser_session(out, "dashboard-failure") as (driver, shot):
         log_in(driver, space.http_url, TOKEN)
         until("role operator", lambda: driver.find_element(By.ID, "role").text == "operator")
         foxglove = driver.find_element(By.ID, "foxglove-url").text
@@ -191,23 +209,13 @@ def scenario(space, out):
         disabled = until("lifecycle buttons", lambda: driver.execute_script(
             'return [...document.querySelectorAll("#components button.lifecycle")].map((b) => b.disabled);'))
         assert all(disabled), "a viewer's lifecycle buttons are disabled"
-        severe = [e for e in driver.get_log("browser") if e["level"] == "SEVERE"]
-        assert not severe, "the page logged errors: %s" % severe
-    except BaseException:
-        shot("dashboard-failure")
-        print("browser log:", driver.get_log("browser"))
-        raise
-    finally:
-        driver.quit()
 
 
 def remote_scenario(url, credential, out, spaces, expected=(), robot_mode="move", ready_file=None,
                     must_activate=False, component=None):
-    driver = browser()
-    shot = lambda name: driver.save_screenshot(os.path.join(out, name + ".png"))
-    js = driver.execute_script
-    t0 = time.monotonic()
-    try:
+    with browser_session(out, "remote-failure") as (driver, shot):
+        js = driver.execute_script
+        t0 = time.monotonic()
         log_in(driver, url, credential)
         until("role operator", lambda: driver.find_element(By.ID, "role").text == "operator")
         drawn = until("every space drawn: %s" % spaces, lambda: (lambda names: names if set(spaces) <= set(names) else None)(
@@ -304,14 +312,6 @@ def remote_scenario(url, credential, out, spaces, expected=(), robot_mode="move"
               {"watch": "seen driving the square", "move": "moved from the form", "none": "on the map"}[robot_mode],
               "%s activated and deactivated" % inactive if inactive else "no component to activate",
               "%s answered" % echo[0] if echo else "no echo operation", time.monotonic() - t0), flush=True)
-        severe = [e for e in driver.get_log("browser") if e["level"] == "SEVERE"]
-        assert not severe, "the page logged errors: %s" % severe
-    except BaseException:
-        shot("remote-failure")
-        print("browser log:", driver.get_log("browser"))
-        raise
-    finally:
-        driver.quit()
 
 
 def main():

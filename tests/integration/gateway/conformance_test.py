@@ -70,25 +70,24 @@ class Client:
             await asyncio.sleep(0.05)
         raise TimeoutError("%s within %s s" % (what, timeout))
 
-    def channels(self):
+    def _advertised(self, items, key, suffix=""):
+        """The `items` ("channels", "services") advertised so far and not withdrawn, by their `key`:
+        the lists of the "advertise<suffix>" messages less the ids in the "unadvertise<suffix>"
+        messages' "<item>Ids"."""
         out = {}
-        for message in self.of("advertise"):
-            for channel in message["channels"]:
-                out[channel["topic"]] = channel
-        for message in self.of("unadvertise"):
-            for channel_id in message["channelIds"]:
-                out = {t: c for t, c in out.items() if c["id"] != channel_id}
+        for message in self.of("advertise" + suffix):
+            for item in message[items]:
+                out[item[key]] = item
+        for message in self.of("unadvertise" + suffix):
+            gone = set(message[items[:-1] + "Ids"])
+            out = {k: item for k, item in out.items() if item["id"] not in gone}
         return out
 
+    def channels(self):
+        return self._advertised("channels", "topic")
+
     def services(self):
-        out = {}
-        for message in self.of("advertiseServices"):
-            for service in message["services"]:
-                out[service["name"]] = service
-        for message in self.of("unadvertiseServices"):
-            gone = set(message["serviceIds"])
-            out = {n: s for n, s in out.items() if s["id"] not in gone}
-        return out
+        return self._advertised("services", "name", "Services")
 
     async def send(self, message):
         await self.ws.send(json.dumps(message) if isinstance(message, dict) else message)

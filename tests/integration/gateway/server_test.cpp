@@ -276,14 +276,20 @@ class RecordingSink : public gw::ViewSink {
   std::vector<gw::Event> events;
   std::atomic<int> reads{0};  // catalog reads reported
 };
+
+// The options of the DDS link of `space`'s bridge, named "bridge-<space>", in `domain`.
+urs::bridge::DdsOptions bridge_link_options(uint32_t domain, const std::string& space) {
+  urs::bridge::DdsOptions options;
+  options.domain = domain;
+  options.space = space;
+  options.bridge = "bridge-" + space;
+  return options;
+}
 }  // namespace
 
 TEST(DdsSource, SeesAnotherSpacesBridgeAndLosesIt) {
   urs::test::DdsDomains domains(1);
-  urs::bridge::DdsOptions jp_options;
-  jp_options.domain = domains[0];
-  jp_options.space = "jp";
-  jp_options.bridge = "bridge-jp";
+  urs::bridge::DdsOptions jp_options = bridge_link_options(domains[0], "jp");
   jp_options.lease = 1000ms;
   auto jp = std::make_unique<urs::bridge::DdsLink>(jp_options, [] {}, [](urs::bridge::IncomingCall, auto) {});
   auto jp_state = std::make_unique<urs::bridge::StateLink>(*jp, urs::bridge::StateHandlers{}, std::nullopt);
@@ -339,15 +345,8 @@ TEST(DdsSource, SeesAnotherSpacesBridgeAndLosesIt) {
 
 TEST(DdsSource, LeavesOutWhatTheOwnSpacesNativeSourcesShow) {
   urs::test::DdsDomains domains(1);
-  urs::bridge::DdsOptions kr_options;
-  kr_options.domain = domains[0];
-  kr_options.space = "kr";
-  kr_options.bridge = "bridge-kr";
-  urs::bridge::DdsLink kr(kr_options, [] {}, [](urs::bridge::IncomingCall, auto) {});
-  urs::bridge::DdsOptions jp_options = kr_options;
-  jp_options.space = "jp";
-  jp_options.bridge = "bridge-jp";
-  urs::bridge::DdsLink jp(jp_options, [] {}, [](urs::bridge::IncomingCall, auto) {});
+  urs::bridge::DdsLink kr(bridge_link_options(domains[0], "kr"), [] {}, [](urs::bridge::IncomingCall, auto) {});
+  urs::bridge::DdsLink jp(bridge_link_options(domains[0], "jp"), [] {}, [](urs::bridge::IncomingCall, auto) {});
   const auto* diagnostic = URS::Diagnostic_echo_Request::descriptor()->file()->FindServiceByName("Diagnostic");
   const std::string described = urs::schema::descriptor_set_for(*diagnostic->file());
   kr.announce({"kr", "diag", diagnostic->full_name(), "IDL:URS/Diagnostic:1.0", "camus", "bridge-kr", 0, described});

@@ -48,11 +48,9 @@ class Replies {
 
 TEST(PlanetClient, LargePayloadDoesNotHoldBackASmallCall) {
   TestHandler handler;
-  Server server(server_options(), handler);
-  server.start();
+  StartedServer server(handler);
   Client client(client_options(server.port(), "camera"));
-  client.start();
-  ASSERT_TRUE(client.wait_connected(5s));
+  ASSERT_TRUE(start_and_connect(client));
 
   std::string image(921600, '\0');
   for (size_t i = 0; i < image.size(); ++i) image[i] = static_cast<char>(i % 251);
@@ -84,11 +82,9 @@ TEST(PlanetClient, RequestOverTheServersLimitFailsLocally) {
   TestHandler handler;
   ServerOptions options = server_options();
   options.max_message_bytes = 1u << 20;
-  Server server(options, handler);
-  server.start();
+  StartedServer server(handler, options);
   Client client(client_options(server.port(), "big"));
-  client.start();
-  ASSERT_TRUE(client.wait_connected(5s));
+  ASSERT_TRUE(start_and_connect(client));
   const CallResult result = client.call("echo", "upload", std::string(2u << 20, 'x'));
   EXPECT_EQ(result.status, PAYLOAD_TOO_LARGE);
   EXPECT_THAT(result.message, HasSubstr("exceeds the server's max_message_bytes 1048576"));
@@ -97,11 +93,9 @@ TEST(PlanetClient, RequestOverTheServersLimitFailsLocally) {
 
 TEST(PlanetClient, DeadlineExceededAndALateReplyIsIgnored) {
   TestHandler handler;
-  Server server(server_options(), handler);
-  server.start();
+  StartedServer server(handler);
   Client client(client_options(server.port(), "impatient"));
-  client.start();
-  ASSERT_TRUE(client.wait_connected(5s));
+  ASSERT_TRUE(start_and_connect(client));
 
   const auto start = Clock::now();
   const CallResult result = client.call("silent", "wait", "", 200ms);
@@ -130,13 +124,11 @@ TEST(PlanetClient, DeadlineExceededAndALateReplyIsIgnored) {
 
 TEST(PlanetClient, ACallWithoutDeadlineLeavesItToTheServer) {
   TestHandler handler;
-  Server server(server_options(), handler);
-  server.start();
+  StartedServer server(handler);
   ClientOptions options = client_options(server.port(), "patient");
   options.queue_timeout = 300ms;  // bounds only the wait for a connection
   Client client(options);
-  client.start();
-  ASSERT_TRUE(client.wait_connected(5s));
+  ASSERT_TRUE(start_and_connect(client));
 
   // Sent with deadline_ms 0 (the service's deadline applies at the server) and answered long
   // after queue_timeout: the client waited for the answer.
@@ -205,15 +197,13 @@ TEST(PlanetClient, ReconnectRestoresRegistrationsSubscriptionsAndQueuedCalls) {
     std::lock_guard<std::mutex> lock(reasons_mutex);
     disconnects.push_back(reason);
   });
-  sam.start();
-  ASSERT_TRUE(sam.wait_connected(5s));
+  ASSERT_TRUE(start_and_connect(sam));
   ASSERT_TRUE(registered.wait_count(1));
   EXPECT_TRUE(registered.got()[0].second.ok());
   ASSERT_TRUE(eventually([&] { return handler.subscriptions() == 1; }));
 
   Client publisher(client_options(port, "pub"));
-  publisher.start();
-  ASSERT_TRUE(publisher.wait_connected(5s));
+  ASSERT_TRUE(start_and_connect(publisher));
   ASSERT_TRUE(publisher.publish("kr/robot1/arrived", "first", "text/plain").ok());
   ASSERT_TRUE(eventually([&] { return seen() == std::vector<uint64_t>{1}; }));
   const std::string first_instance = sam.welcome().server_instance();
@@ -301,8 +291,7 @@ TEST(PlanetClient, PublishesAreResentUntilAcknowledgedAndDeduped) {
   ClientOptions options = client_options(port, "publisher");
   options.max_queued = 2;
   Client client(options);
-  client.start();
-  ASSERT_TRUE(client.wait_connected(5s));
+  ASSERT_TRUE(start_and_connect(client));
   ASSERT_TRUE(client.publish("kr/a", "1", "").ok());
   ASSERT_TRUE(client.publish("kr/a", "2", "").ok());
   // Both are unacknowledged: they fill the queue.
@@ -331,8 +320,7 @@ TEST(PlanetClient, PublishesAreResentUntilAcknowledgedAndDeduped) {
 
 TEST(PlanetClient, ProviderAnswersRoutedRequests) {
   TestHandler handler;
-  Server server(server_options(), handler);
-  server.start();
+  StartedServer server(handler);
 
   ClientOptions provider_options = client_options(server.port(), "tts");
   provider_options.role = SAM;
@@ -364,8 +352,7 @@ TEST(PlanetClient, ProviderAnswersRoutedRequests) {
   ASSERT_TRUE(registered.got()[0].second.ok());
 
   Client caller(client_options(server.port(), "caller"));
-  caller.start();
-  ASSERT_TRUE(caller.wait_connected(5s));
+  ASSERT_TRUE(start_and_connect(caller));
   const CallResult spoken = caller.call("robot1.tts", "speak", "hello");
   EXPECT_TRUE(spoken.ok()) << spoken.message;
   EXPECT_EQ(spoken.payload, "spoken:hello");
@@ -459,13 +446,11 @@ TEST(PlanetClient, ConnectFailureIsReported) {
 
 TEST(PlanetClient, StopFailsPendingCallsAndCallbacksCannotBlock) {
   TestHandler handler;
-  Server server(server_options(), handler);
-  server.start();
+  StartedServer server(handler);
   Client client(client_options(server.port(), "stopper"));
   std::optional<CallResult> from_callback;
   client.on_connected([&](const Welcome&) { from_callback = client.call("echo", "x", "y"); });
-  client.start();
-  ASSERT_TRUE(client.wait_connected(5s));
+  ASSERT_TRUE(start_and_connect(client));
   Replies pending;
   client.call_async("silent", "wait", "", 10s, pending.handler("pending"));
   ASSERT_TRUE(eventually([&] { return handler.silent().size() == 1; }));
@@ -488,8 +473,7 @@ TEST(PlanetClient, StopFailsPendingCallsAndCallbacksCannotBlock) {
 // it); from the handler itself it returns at once.
 TEST(PlanetClient, UnsubscribeWaitsForTheHandlerRunningNow) {
   TestHandler handler;
-  Server server(server_options(), handler);
-  server.start();
+  StartedServer server(handler);
   Client client(client_options(server.port(), "watcher"));
   std::mutex mutex;
   std::condition_variable changed;
@@ -505,12 +489,10 @@ TEST(PlanetClient, UnsubscribeWaitsForTheHandlerRunningNow) {
     changed.wait(lock, [&] { return release; });
   });
   inner = client.subscribe("self/#", [&](const Event&) { client.unsubscribe(inner); });  // must not deadlock
-  client.start();
-  ASSERT_TRUE(client.wait_connected(5s));
+  ASSERT_TRUE(start_and_connect(client));
   ASSERT_TRUE(eventually([&] { return handler.subscriptions() == 2; }));
   Client publisher(client_options(server.port(), "pub"));
-  publisher.start();
-  ASSERT_TRUE(publisher.wait_connected(5s));
+  ASSERT_TRUE(start_and_connect(publisher));
   ASSERT_TRUE(publisher.publish("watch/a", "1", "text/plain").ok());
   {
     std::unique_lock<std::mutex> lock(mutex);

@@ -108,19 +108,14 @@ TEST_F(PlanetIdentity, TheSecretResumesTheSessionOnlyWithTheSameCredential) {
 TEST_F(PlanetIdentity, AHelloAskingMoreThanTheCredentialGrantsIsRefused) {
   RawPeer raw(port());
   raw.send_hello(1, "viewer-token", "sam@robot9", "", SAM);
-  auto refused = raw.read_frame();
-  ASSERT_TRUE(refused && refused->has_refused());
-  EXPECT_EQ(refused->refused().status(), PERMISSION_DENIED);
-  EXPECT_EQ(refused->refused().reason(),
-            "credential 'viewer' has role client; Hello asks for sam (to register services)");
-  EXPECT_TRUE(raw.closed_by_server());
+  EXPECT_TRUE(closed_with(raw, Frame::kRefused, PERMISSION_DENIED,
+                          "credential 'viewer' has role client; Hello asks for sam (to register services)"));
   EXPECT_TRUE(handler.opened().empty());
 }
 
 TEST(PlanetOpenServer, PeerNamesAreValidated) {
   TestHandler handler;
-  Server server(server_options(), handler);
-  server.start();
+  StartedServer server(handler);
   for (const std::string& name : {std::string(), std::string(129, 'a'), std::string("bad name"),
                                   std::string("camus-server"), std::string("x\ny")}) {
     RawPeer raw(server.port());

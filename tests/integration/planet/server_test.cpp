@@ -26,8 +26,7 @@ TEST(PlanetServer, HandshakeSucceedsAndWelcomeCarriesTheSettings) {
   options.heartbeat_timeout = 2000ms;
   options.max_message_bytes = 8u << 20;
   options.chunk_bytes = 32u << 10;
-  Server server(options, handler);
-  server.start();
+  StartedServer server(handler, options);
   ASSERT_NE(server.port(), 0);
 
   ClientOptions copts = client_options(server.port(), "sam@robot1");
@@ -69,8 +68,7 @@ TEST(PlanetServer, MissingTokenIsRefusedWithTheReason) {
   TestHandler handler;
   ServerOptions options = server_options();
   options.authenticator = one_token("s3cret");
-  Server server(options, handler);
-  server.start();
+  StartedServer server(handler, options);
 
   Client client(client_options(server.port(), "no-token"));
   client.start();
@@ -81,19 +79,14 @@ TEST(PlanetServer, MissingTokenIsRefusedWithTheReason) {
 
   RawPeer raw(server.port());
   raw.send_hello(1, "");
-  auto refused = raw.read_frame();
-  ASSERT_TRUE(refused && refused->has_refused());
-  EXPECT_EQ(refused->refused().status(), UNAUTHENTICATED);
-  EXPECT_EQ(refused->refused().reason(), "token required: pass --token-file");
-  EXPECT_TRUE(raw.closed_by_server());
+  EXPECT_TRUE(closed_with(raw, Frame::kRefused, UNAUTHENTICATED, "token required: pass --token-file"));
 }
 
 TEST(PlanetServer, WrongTokenIsRefusedAndTheClientKeepsRetrying) {
   TestHandler handler;
   ServerOptions options = server_options();
   options.authenticator = one_token("s3cret");
-  Server server(options, handler);
-  server.start();
+  StartedServer server(handler, options);
 
   ClientOptions copts = client_options(server.port(), "wrong-token");
   copts.token = "s3cres";
@@ -104,67 +97,44 @@ TEST(PlanetServer, WrongTokenIsRefusedAndTheClientKeepsRetrying) {
 
   RawPeer raw(server.port());
   raw.send_hello(1, "s3cret-and-more");
-  auto refused = raw.read_frame();
-  ASSERT_TRUE(refused && refused->has_refused());
-  EXPECT_EQ(refused->refused().status(), UNAUTHENTICATED);
-  EXPECT_EQ(refused->refused().reason(), "wrong token");
-  EXPECT_TRUE(raw.closed_by_server());
+  EXPECT_TRUE(closed_with(raw, Frame::kRefused, UNAUTHENTICATED, "wrong token"));
   EXPECT_TRUE(handler.opened().empty());
   EXPECT_FALSE(client.connected());
 }
 
 TEST(PlanetServer, VersionMismatchIsRefused) {
   TestHandler handler;
-  Server server(server_options(), handler);
-  server.start();
+  StartedServer server(handler);
   RawPeer raw(server.port());
   raw.send_hello(2);
-  auto refused = raw.read_frame();
-  ASSERT_TRUE(refused && refused->has_refused());
-  EXPECT_EQ(refused->refused().status(), INTERNAL);
-  EXPECT_EQ(refused->refused().reason(), "protocol version 2 not supported, server speaks 1");
-  EXPECT_TRUE(raw.closed_by_server());
+  EXPECT_TRUE(closed_with(raw, Frame::kRefused, INTERNAL, "protocol version 2 not supported, server speaks 1"));
   EXPECT_TRUE(handler.opened().empty());
 }
 
 TEST(PlanetServer, FirstFrameMustBeHello) {
   TestHandler handler;
-  Server server(server_options(), handler);
-  server.start();
+  StartedServer server(handler);
   RawPeer raw(server.port());
   Frame request;
   request.mutable_request()->set_service("echo");
   raw.send_frame(request);
-  auto goodbye = raw.read_frame();
-  ASSERT_TRUE(goodbye && goodbye->has_goodbye());
-  EXPECT_EQ(goodbye->goodbye().status(), BAD_ARGUMENTS);
-  EXPECT_EQ(goodbye->goodbye().reason(), "expected Hello as the first frame, got request");
-  EXPECT_TRUE(raw.closed_by_server());
+  EXPECT_TRUE(closed_with(raw, Frame::kGoodbye, BAD_ARGUMENTS, "expected Hello as the first frame, got request"));
 }
 
 TEST(PlanetServer, HelloMustArriveWithinTheHandshakeTimeout) {
   TestHandler handler;
   ServerOptions options = server_options();
   options.handshake_timeout = 200ms;
-  Server server(options, handler);
-  server.start();
+  StartedServer server(handler, options);
   const auto start = Clock::now();
   RawPeer raw(server.port());
-  auto goodbye = raw.read_frame(5s);
-  ASSERT_TRUE(goodbye && goodbye->has_goodbye());
-  EXPECT_EQ(goodbye->goodbye().status(), DEADLINE_EXCEEDED);
-  EXPECT_EQ(goodbye->goodbye().reason(), "no Hello within 200 ms");
-  EXPECT_TRUE(raw.closed_by_server());
+  EXPECT_TRUE(closed_with(raw, Frame::kGoodbye, DEADLINE_EXCEEDED, "no Hello within 200 ms"));
   EXPECT_GE(elapsed_ms(start), 150);
 }
 
 TEST(PlanetServer, HeartbeatClosesASilentPeer) {
   TestHandler handler;
-  ServerOptions options = server_options();
-  options.heartbeat_interval = 100ms;
-  options.heartbeat_timeout = 400ms;
-  Server server(options, handler);
-  server.start();
+  StartedServer server(handler, heartbeat_options(100ms, 400ms));
 
   RawPeer raw(server.port());
   raw.send_hello(1, "", "silent");
@@ -191,14 +161,9 @@ TEST(PlanetServer, HeartbeatClosesASilentPeer) {
 
 TEST(PlanetServer, APeerThatAnswersPingsStaysOpen) {
   TestHandler handler;
-  ServerOptions options = server_options();
-  options.heartbeat_interval = 100ms;
-  options.heartbeat_timeout = 600ms;
-  Server server(options, handler);
-  server.start();
+  StartedServer server(handler, heartbeat_options(100ms, 600ms));
   Client client(client_options(server.port(), "idle"));
-  client.start();
-  ASSERT_TRUE(client.wait_connected(5s));
+  ASSERT_TRUE(start_and_connect(client));
   // Idle for several heartbeat timeouts: only Ping/Pong flows. Nothing must close.
   EXPECT_FALSE(eventually([&] { return !handler.closes().empty(); }, 1800ms));
   EXPECT_TRUE(client.connected());
@@ -207,12 +172,10 @@ TEST(PlanetServer, APeerThatAnswersPingsStaysOpen) {
 
 TEST(PlanetServer, GarbageAndOversizedFramesCloseOnlyTheirConnection) {
   TestHandler handler;
-  Server server(server_options(), handler);
-  server.start();
+  StartedServer server(handler);
 
   Client good(client_options(server.port(), "good"));
-  good.start();
-  ASSERT_TRUE(good.wait_connected(5s));
+  ASSERT_TRUE(start_and_connect(good));
   std::atomic<bool> stop{false};
   std::atomic<int> ok_calls{0};
   std::atomic<int> failed_calls{0};
@@ -292,8 +255,7 @@ TEST(PlanetServer, SessionIsClosedWhenItsSendQueueOverflows) {
   TestHandler handler;
   ServerOptions options = server_options();
   options.max_send_queue_bytes = 1u << 20;
-  Server server(options, handler);
-  server.start();
+  StartedServer server(handler, options);
   RawPeer raw(server.port());  // never reads after the Welcome
   raw.send_hello(1, "", "slow-reader");
   ASSERT_TRUE(eventually([&] { return handler.session_of("slow-reader") != nullptr; }));
@@ -320,8 +282,7 @@ TEST(PlanetServer, StopClosesEverySessionOnceAndSaysGoodbye) {
   std::string reason;
   Client client(client_options(server->port(), "client"));
   client.on_disconnected([&](const std::string& why) { reason = why; });
-  client.start();
-  ASSERT_TRUE(client.wait_connected(5s));
+  ASSERT_TRUE(start_and_connect(client));
   ASSERT_TRUE(eventually([&] { return handler.open_sessions() == 2; }));
   server->stop();
   server->stop();  // idempotent

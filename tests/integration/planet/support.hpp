@@ -3,6 +3,7 @@
 // break) the protocol byte by byte, and a small routing SessionHandler.
 
 #include <arpa/inet.h>
+#include <gtest/gtest.h>
 #include <netinet/in.h>
 #include <poll.h>
 #include <sys/socket.h>
@@ -52,6 +53,14 @@ inline ServerOptions server_options(uint16_t port = 0) {
   return options;
 }
 
+// server_options() with a Ping every `interval` and a peer silent for `timeout` closed.
+inline ServerOptions heartbeat_options(std::chrono::milliseconds interval, std::chrono::milliseconds timeout) {
+  ServerOptions options = server_options();
+  options.heartbeat_interval = interval;
+  options.heartbeat_timeout = timeout;
+  return options;
+}
+
 // Credentials of one token, named `name`, with `role`.
 inline std::shared_ptr<const Authenticator> one_token(const std::string& token, Role role = OPERATOR,
                                                       const std::string& name = "space") {
@@ -71,12 +80,46 @@ inline ClientOptions client_options(uint16_t port, const std::string& name) {
   return options;
 }
 
+// A Server (server_options() unless given) serving `handler`, started on construction.
+class StartedServer : public Server {
+ public:
+  explicit StartedServer(SessionHandler& handler, ServerOptions options = server_options())
+      : Server(std::move(options), handler) {
+    start();
+  }
+};
+
+// Starts `client` and waits up to 5 s for its session; false if it has none by then.
+inline bool start_and_connect(Client& client) {
+  client.start();
+  return client.wait_connected(5s);
+}
+
 inline long elapsed_ms(Clock::time_point since) {
   return static_cast<long>(
       std::chrono::duration_cast<std::chrono::milliseconds>(Clock::now() - since).count());
 }
 
 using urs::test::RawPeer;
+
+// Whether the next frame `raw` reads is of `kind` (Frame::kRefused or Frame::kGoodbye) with
+// `status` and `reason`, after which the server closes the connection.
+inline ::testing::AssertionResult closed_with(RawPeer& raw, Frame::BodyCase kind, Status status,
+                                              const std::string& reason) {
+  const auto frame = raw.read_frame();
+  if (!frame || frame->body_case() != kind || (kind != Frame::kRefused && kind != Frame::kGoodbye)) {
+    return ::testing::AssertionFailure() << "expected a frame of kind " << kind << ", got "
+                                         << (frame ? frame->ShortDebugString() : "nothing");
+  }
+  const bool refused = kind == Frame::kRefused;
+  const Status got_status = refused ? frame->refused().status() : frame->goodbye().status();
+  const std::string& got_reason = refused ? frame->refused().reason() : frame->goodbye().reason();
+  if (got_status != status || got_reason != reason) {
+    return ::testing::AssertionFailure() << "got " << Status_Name(got_status) << " '" << got_reason << "'";
+  }
+  if (!raw.closed_by_server()) return ::testing::AssertionFailure() << "the server kept the connection open";
+  return ::testing::AssertionSuccess();
+}
 
 // A listening socket on 127.0.0.1, port chosen by the kernel.
 class RawListener {

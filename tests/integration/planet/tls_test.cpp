@@ -32,8 +32,7 @@ TEST(PlanetTls, ConcurrentCallsAndLargeMessagesStayWholeOverTls) {
   ServerOptions options = server_options();
   options.tls.cert_file = dir + "/server.pem";
   options.tls.key_file = dir + "/server.key";
-  Server server(options, handler);
-  server.start();
+  StartedServer server(handler, options);
   ClientOptions client_tls = client_options(server.port(), "tls-client");
   client_tls.tls.enabled = true;
   client_tls.tls.ca_file = dir + "/ca.pem";

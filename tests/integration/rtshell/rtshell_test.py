@@ -37,6 +37,13 @@ PACKAGES = ["rtshell-aist==4.2.10", "rtctree-aist==4.2.5", "rtsprofile-aist==4.1
 STEP_TIMEOUT = 60  # s, bound on one command
 
 
+
+def remove_stale(path):
+    """Removes a ready file an earlier run left in the reused work folder, so that waiting for it
+    waits for this run's process."""
+    if os.path.exists(path):
+        os.remove(path)
+
 class Failure(Exception):
     pass
 
@@ -148,6 +155,7 @@ class Space:
         ready = os.path.join(self.work, "manager.ready")
         with open(config, "w") as out:
             out.write(config_text)
+        remove_stale(ready)
         process = self.start([self.args.rtc_manager, "--space", "lab", "--naming", f"127.0.0.1:{self.port}",
                               "--host", "testhost", "--config", config, "--ready-file", ready], "manager.log")
         wait_until("urs-rtc-manager", lambda: os.path.exists(ready) or process.poll() is not None)
@@ -159,6 +167,7 @@ class Space:
         ready = os.path.join(self.work, "bridge.ready")
         with open(config, "w") as out:
             out.write("name: bridge-rtshell\nactivate: false\n")
+        remove_stale(ready)
         process = self.start([self.args.bridge, "--space", "lab", "--naming", f"127.0.0.1:{self.port}", "--host",
                               "bridgehost", "--config", config, "--ready-file", ready], "bridge.log")
         wait_until("urs-bridge", lambda: os.path.exists(ready) or process.poll() is not None)

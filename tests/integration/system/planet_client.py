@@ -47,6 +47,16 @@ def main():
         del buffered[:n]
         return out
 
+    def call(call_id, operation, request, oneway=False):
+        """Sends a Request to the diag service: `operation` with `request`, a Diagnostic_pb2 message."""
+        frame = planet_pb2.Frame()
+        frame.request.call_id = call_id
+        frame.request.service = "diag"
+        frame.request.operation = operation
+        frame.request.oneway = oneway
+        frame.request.payload = request.SerializeToString()
+        send(frame)
+
     def receive():
         """Next complete frame, answering pings and reassembling chunks on the way."""
         while True:
@@ -83,13 +93,8 @@ def main():
     print("welcome: space", frame.welcome.space, "as", frame.welcome.identity,
           "role", planet_pb2.Role.Name(frame.welcome.role))
 
-    call = planet_pb2.Frame()
-    call.request.call_id = 1
-    call.request.service = "diag"
-    call.request.operation = "echo"
-    call.request.payload = Diagnostic_pb2.Diagnostic_echo_Request(text="hola").SerializeToString()
     # No deadline_ms (0): the server applies the deadline diag advertised when it registered.
-    send(call)
+    call(1, "echo", Diagnostic_pb2.Diagnostic_echo_Request(text="hola"))
     kind, frame = receive()
     if kind != "reply" or frame.reply.status != planet_pb2.OK:
         print("call failed:", frame)
@@ -99,12 +104,7 @@ def main():
     print("echo reply:", reply.result)
 
     # A call longer than that deadline: the server cuts it there and says which deadline it was.
-    slow = planet_pb2.Frame()
-    slow.request.call_id = 2
-    slow.request.service = "diag"
-    slow.request.operation = "sleep"
-    slow.request.payload = Diagnostic_pb2.Diagnostic_sleep_Request(ms=args.sleep_ms).SerializeToString()
-    send(slow)
+    call(2, "sleep", Diagnostic_pb2.Diagnostic_sleep_Request(ms=args.sleep_ms))
     kind, frame = receive()
     if kind != "reply":
         print("sleep: no reply:", frame)
@@ -120,14 +120,7 @@ def main():
         print("subscribe failed:", frame)
         return 1
 
-    notify = planet_pb2.Frame()
-    notify.request.call_id = 3
-    notify.request.service = "diag"
-    notify.request.operation = "notify"
-    notify.request.oneway = True
-    notify.request.payload = Diagnostic_pb2.Diagnostic_notify_Request(
-        topic="lab/python", text="from python").SerializeToString()
-    send(notify)
+    call(3, "notify", Diagnostic_pb2.Diagnostic_notify_Request(topic="lab/python", text="from python"), oneway=True)
     while True:
         kind, frame = receive()
         if kind == "event":

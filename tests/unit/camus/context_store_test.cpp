@@ -19,12 +19,6 @@ camus::ContextSetRequest set_request(const std::string& key, double number, uint
   return request;
 }
 
-camus::ContextEntry entry_of(const RecordedEvent& event) {
-  camus::ContextEntry entry;
-  entry.ParseFromString(event.payload);
-  return entry;
-}
-
 class ContextTest : public ::testing::Test {
  protected:
   RecordingSink sink;
@@ -55,7 +49,7 @@ TEST_F(ContextTest, SetThenGetWithSourceTimeAndVersion) {
   ASSERT_EQ(events.size(), 2u);
   EXPECT_EQ(events[0].topic, "context/robot1/battery");
   EXPECT_EQ(events[0].type, "urs.camus.ContextEntry");
-  EXPECT_EQ(entry_of(events[1]).version(), 2u);
+  EXPECT_EQ(events[1].as<camus::ContextEntry>().version(), 2u);
 }
 
 TEST_F(ContextTest, UnknownKeyAndBadInputAreNamed) {
@@ -84,7 +78,7 @@ TEST_F(ContextTest, TtlHidesAtOnceAndPurgePublishesNull) {
   timers.advance(std::chrono::milliseconds(1000));  // the purge timer fires
   auto events = sink.events();
   ASSERT_EQ(events.size(), 2u);
-  auto expired = entry_of(events[1]);
+  auto expired = events[1].as<camus::ContextEntry>();
   EXPECT_EQ(expired.key(), "door/open");
   EXPECT_EQ(expired.value().kind_case(), gp::Value::kNullValue);
   EXPECT_EQ(expired.version(), 2u);
@@ -110,7 +104,7 @@ TEST_F(ContextTest, DeleteKeepsVersionsIncreasing) {
   ContextStore store("", sink, clock, timers);
   ASSERT_TRUE(store.set(set_request("k", 1), "s").ok());
   ASSERT_TRUE(store.remove("k", "cleaner").ok());
-  auto deleted = entry_of(sink.events().back());
+  auto deleted = sink.events().back().as<camus::ContextEntry>();
   EXPECT_EQ(deleted.version(), 2u);
   EXPECT_EQ(deleted.value().kind_case(), gp::Value::kNullValue);
   EXPECT_EQ(deleted.source(), "cleaner");
@@ -156,7 +150,7 @@ TEST_F(ContextTest, EntriesAndVersionsSurviveReopen) {
   auto events = after.events();
   ASSERT_GE(events.size(), 1u);
   EXPECT_EQ(events[0].topic, "context/short");  // purged at open, published
-  EXPECT_EQ(entry_of(events[0]).value().kind_case(), gp::Value::kNullValue);
+  EXPECT_EQ(events[0].as<camus::ContextEntry>().value().kind_case(), gp::Value::kNullValue);
 }
 
 TEST_F(ContextTest, AgentServesTheContextInterface) {

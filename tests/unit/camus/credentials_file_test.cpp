@@ -2,6 +2,7 @@
 
 #include "urs/camus_server/credentials_file.hpp"
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <fstream>
@@ -12,6 +13,8 @@
 
 namespace urs::camus_server::test {
 namespace {
+
+using ::testing::HasSubstr;
 
 void write(const std::string& path, const std::string& text) { std::ofstream(path) << text; }
 
@@ -69,16 +72,14 @@ TEST(CredentialsFile, EveryMistakeIsReportedWithItsKey) {
         "  - name: dave\n    role: sam\n    token_sha256: " + util::sha256_hex("d") + "\n    token_file: d.token\n"
         "  - name: erin\n    role: client\n    token_sha256: " + util::sha256_hex("e") + "\n    colour: blue\n");
   const std::string m = error_of({dir.file("credentials.yaml"), "", "space", planet::ROLE_UNSPECIFIED});
-  EXPECT_NE(m.find("--credentials '" + dir.file("credentials.yaml") + "'"), std::string::npos) << m;
-  EXPECT_NE(m.find("credentials[0].role: 'admin' is not client, sam or operator"), std::string::npos) << m;
-  EXPECT_NE(m.find("credentials[0].token_sha256: is not 64 hex digits"), std::string::npos) << m;
-  EXPECT_NE(m.find("credentials[1].name: is missing"), std::string::npos) << m;
-  EXPECT_NE(m.find("credentials[1].token_file: token file '" + dir.file("nowhere.token") + "' cannot be read"),
-            std::string::npos)
-      << m;
-  EXPECT_NE(m.find("credentials[2]: needs token_sha256, token_file or certificate"), std::string::npos) << m;
-  EXPECT_NE(m.find("credentials[3]: give token_sha256 or token_file, not both"), std::string::npos) << m;
-  EXPECT_NE(m.find("credentials[4].colour: unknown key"), std::string::npos) << m;
+  EXPECT_THAT(m, HasSubstr("--credentials '" + dir.file("credentials.yaml") + "'"));
+  EXPECT_THAT(m, HasSubstr("credentials[0].role: 'admin' is not client, sam or operator"));
+  EXPECT_THAT(m, HasSubstr("credentials[0].token_sha256: is not 64 hex digits"));
+  EXPECT_THAT(m, HasSubstr("credentials[1].name: is missing"));
+  EXPECT_THAT(m, HasSubstr("credentials[1].token_file: token file '" + dir.file("nowhere.token") + "' cannot be read"));
+  EXPECT_THAT(m, HasSubstr("credentials[2]: needs token_sha256, token_file or certificate"));
+  EXPECT_THAT(m, HasSubstr("credentials[3]: give token_sha256 or token_file, not both"));
+  EXPECT_THAT(m, HasSubstr("credentials[4].colour: unknown key"));
 }
 
 TEST(CredentialsFile, ConflictsBetweenEntriesAreNamed) {
@@ -89,23 +90,20 @@ TEST(CredentialsFile, ConflictsBetweenEntriesAreNamed) {
         "  - name: alice\n    role: client\n    token_sha256: " + util::sha256_hex("same") + "\n"
         "  - name: alice\n    role: sam\n    certificate: a.example\n");
   const std::string m = error_of({dir.file("credentials.yaml"), dir.file("token"), "space", planet::OPERATOR});
-  EXPECT_NE(m.find("with --token-file"), std::string::npos) << m;
-  EXPECT_NE(m.find("credential 'alice': the name is given twice"), std::string::npos) << m;
-  EXPECT_NE(m.find("credential 'space': has the same token as credential 'alice'"), std::string::npos) << m;
+  EXPECT_THAT(m, HasSubstr("with --token-file"));
+  EXPECT_THAT(m, HasSubstr("credential 'alice': the name is given twice"));
+  EXPECT_THAT(m, HasSubstr("credential 'space': has the same token as credential 'alice'"));
 }
 
 TEST(CredentialsFile, NotACredentialsFile) {
   TempDir dir;
   write(dir.file("list.yaml"), "- a\n- b\n");
-  EXPECT_NE(error_of({dir.file("list.yaml"), "", "space", planet::ROLE_UNSPECIFIED})
-                .find("the file must be a map with the key 'credentials'"),
-            std::string::npos);
+  EXPECT_THAT(error_of({dir.file("list.yaml"), "", "space", planet::ROLE_UNSPECIFIED}),
+              HasSubstr("the file must be a map with the key 'credentials'"));
   write(dir.file("empty.yaml"), "credentials: 3\n");
-  EXPECT_NE(error_of({dir.file("empty.yaml"), "", "space", planet::ROLE_UNSPECIFIED})
-                .find("credentials: must be a list"),
-            std::string::npos);
-  EXPECT_NE(error_of({dir.file("absent.yaml"), "", "space", planet::ROLE_UNSPECIFIED}).find("cannot read"),
-            std::string::npos);
+  EXPECT_THAT(error_of({dir.file("empty.yaml"), "", "space", planet::ROLE_UNSPECIFIED}),
+              HasSubstr("credentials: must be a list"));
+  EXPECT_THAT(error_of({dir.file("absent.yaml"), "", "space", planet::ROLE_UNSPECIFIED}), HasSubstr("cannot read"));
 }
 
 TEST(CredentialsFile, RolesByWord) {

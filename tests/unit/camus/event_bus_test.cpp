@@ -30,22 +30,12 @@ planet::Subscribe subscribe_to(uint64_t id, const std::string& pattern, uint64_t
   return s;
 }
 
-class Acks {
+// The PublishAcks of the publishes given fn() as their callback.
+class Acks : public Recorded<planet::PublishAck> {
  public:
   PublishAckFn fn() {
-    return [this](const planet::PublishAck& ack) {
-      std::lock_guard<std::mutex> lock(mutex_);
-      acks_.push_back(ack);
-    };
+    return [this](const planet::PublishAck& ack) { add(ack); };
   }
-  std::vector<planet::PublishAck> get() {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return acks_;
-  }
-
- private:
-  std::mutex mutex_;
-  std::vector<planet::PublishAck> acks_;
 };
 
 TEST(EventBus, SequencesAcknowledgesAndDeliversInOrder) {

@@ -16,8 +16,13 @@
 #include <string>
 #include <vector>
 
+#include "urs/camus_server/clock.hpp"
+#include "urs/camus_server/context_store.hpp"
+#include "urs/camus_server/event_bus.hpp"
+#include "urs/camus_server/registry.hpp"
 #include "urs/camus_server/session_handler.hpp"
 #include "urs/camus_server/task_manager.hpp"
+#include "urs/camus_server/timer.hpp"
 
 namespace urs::camus_server::test {
 
@@ -106,32 +111,28 @@ class FakeSession final : public planet::Session {
   std::string close_reason_;
 };
 
-struct RecordedEvent {
-  std::string topic;
-  std::string type;
-  std::string payload;
-};
-
-class RecordingSink final : public agent::EventSink {
+// What a callback was handed, in order; thread-safe.
+template <typename T>
+class Recorded {
  public:
-  planet::CallResult publish(const std::string& topic, const google::protobuf::Message& event) override {
+  void add(const T& item) {
     std::lock_guard<std::mutex> lock(mutex_);
-    events_.push_back({topic, event.GetTypeName(), event.SerializeAsString()});
+    items_.push_back(item);
     cv_.notify_all();
-    return planet::CallResult::success({});
   }
-  std::vector<RecordedEvent> events() const {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return events_;
-  }
-  // Waits up to kWait for an event satisfying `pred`.
-  std::optional<RecordedEvent> wait_for(const std::function<bool(const RecordedEvent&)>& pred) const {
+  // Waits (up to kWait) until `n` items are recorded; false if they are not by then.
+  bool wait(size_t n) const {
     std::unique_lock<std::mutex> lock(mutex_);
-    std::optional<RecordedEvent> found;
+    return cv_.wait_for(lock, kWait, [&] { return items_.size() >= n; });
+  }
+  // Waits up to kWait for an item satisfying `pred`; the first such item, or nullopt.
+  std::optional<T> wait_for(const std::function<bool(const T&)>& pred) const {
+    std::unique_lock<std::mutex> lock(mutex_);
+    std::optional<T> found;
     cv_.wait_for(lock, kWait, [&] {
-      for (const auto& e : events_) {
-        if (pred(e)) {
-          found = e;
+      for (const auto& item : items_) {
+        if (pred(item)) {
+          found = item;
           return true;
         }
       }
@@ -139,11 +140,45 @@ class RecordingSink final : public agent::EventSink {
     });
     return found;
   }
+  std::vector<T> get() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return items_;
+  }
 
  private:
   mutable std::mutex mutex_;
   mutable std::condition_variable cv_;
-  std::vector<RecordedEvent> events_;
+  std::vector<T> items_;
+};
+
+struct RecordedEvent {
+  std::string topic;
+  std::string type;
+  std::string payload;
+
+  // The payload parsed as a Message (empty if it is not one).
+  template <typename Message>
+  Message as() const {
+    Message message;
+    message.ParseFromString(payload);
+    return message;
+  }
+};
+
+class RecordingSink final : public agent::EventSink {
+ public:
+  planet::CallResult publish(const std::string& topic, const google::protobuf::Message& event) override {
+    events_.add({topic, event.GetTypeName(), event.SerializeAsString()});
+    return planet::CallResult::success({});
+  }
+  std::vector<RecordedEvent> events() const { return events_.get(); }
+  // Waits up to kWait for an event satisfying `pred`.
+  std::optional<RecordedEvent> wait_for(const std::function<bool(const RecordedEvent&)>& pred) const {
+    return events_.wait_for(pred);
+  }
+
+ private:
+  Recorded<RecordedEvent> events_;
 };
 
 // A fresh directory named after the running test; removed at destruction.
@@ -304,46 +339,38 @@ class FakeInvoker final : public Invoker {
   Handler handler_;
 };
 
+// The server's parts the others are built on, in memory, on a manual clock and scheduler: the event
+// bus (bus_sink publishes to it), the registry of space "kr" and the context store. Test fixtures
+// derive from it and add the part under test.
+struct ServerCore {
+  ManualClock clock;
+  EventBus bus{"", {}, clock};
+  BusEventSink bus_sink{bus};
+  Registry registry{"kr", bus_sink};
+  ManualScheduler timers;
+  ContextStore context{"", bus_sink, clock, timers};
+};
+
 // Collects events delivered to a bus subscription.
 class EventCollector {
  public:
   DeliverFn deliver() {
     return [this](const planet::Event& event) {
-      std::lock_guard<std::mutex> lock(mutex_);
-      events_.push_back(event);
-      cv_.notify_all();
+      events_.add(event);
       return true;
     };
   }
   SubscribeAckFn ack() {
-    return [this](const planet::SubscribeAck& ack) {
-      std::lock_guard<std::mutex> lock(mutex_);
-      acks_.push_back(ack);
-      cv_.notify_all();
-    };
+    return [this](const planet::SubscribeAck& ack) { acks_.add(ack); };
   }
-  bool wait_events(size_t n) const {
-    std::unique_lock<std::mutex> lock(mutex_);
-    return cv_.wait_for(lock, kWait, [&] { return events_.size() >= n; });
-  }
-  bool wait_ack() const {
-    std::unique_lock<std::mutex> lock(mutex_);
-    return cv_.wait_for(lock, kWait, [&] { return !acks_.empty(); });
-  }
-  std::vector<planet::Event> events() const {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return events_;
-  }
-  std::vector<planet::SubscribeAck> acks() const {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return acks_;
-  }
+  bool wait_events(size_t n) const { return events_.wait(n); }
+  bool wait_ack() const { return acks_.wait(1); }
+  std::vector<planet::Event> events() const { return events_.get(); }
+  std::vector<planet::SubscribeAck> acks() const { return acks_.get(); }
 
  private:
-  mutable std::mutex mutex_;
-  mutable std::condition_variable cv_;
-  std::vector<planet::Event> events_;
-  std::vector<planet::SubscribeAck> acks_;
+  Recorded<planet::Event> events_;
+  Recorded<planet::SubscribeAck> acks_;
 };
 
 }  // namespace urs::camus_server::test

@@ -7,12 +7,6 @@
 namespace urs::camus_server::test {
 namespace {
 
-camus::ServiceInfo info_of(const RecordedEvent& event) {
-  camus::ServiceInfo info;
-  info.ParseFromString(event.payload);
-  return info;
-}
-
 class RegistryTest : public ::testing::Test {
  protected:
   RecordingSink sink;
@@ -34,7 +28,7 @@ TEST_F(RegistryTest, RegistrationFillsOwnerAndStateAndPublishes) {
   ASSERT_EQ(events.size(), 1u);
   EXPECT_EQ(events[0].topic, "registry/robot1.navigation");
   EXPECT_EQ(events[0].type, "urs.camus.ServiceInfo");
-  EXPECT_EQ(info_of(events[0]).state(), "available");
+  EXPECT_EQ(events[0].as<camus::ServiceInfo>().state(), "available");
 
   auto route = registry.route("robot1.navigation");
   ASSERT_TRUE(route.has_value());
@@ -94,9 +88,9 @@ TEST_F(RegistryTest, OwnerCloseRemovesItsServicesAndPublishesGone) {
   auto events = sink.events();
   ASSERT_EQ(events.size(), 5u);
   EXPECT_EQ(events[3].topic, "registry/robot1.base");
-  EXPECT_EQ(info_of(events[3]).state(), "gone");
+  EXPECT_EQ(events[3].as<camus::ServiceInfo>().state(), "gone");
   EXPECT_EQ(events[4].topic, "registry/robot1.navigation");
-  EXPECT_EQ(info_of(events[4]).state(), "gone");
+  EXPECT_EQ(events[4].as<camus::ServiceInfo>().state(), "gone");
   EXPECT_FALSE(registry.route("robot1.navigation").has_value());
 }
 
@@ -202,7 +196,7 @@ TEST_F(RegistryTest, UnregisterOnlyByItsProvider) {
   EXPECT_EQ(registry.unregister_service(*sam1, "nope").message(), "no service named 'nope' in space kr");
   ASSERT_TRUE(registry.unregister_service(*sam1, "robot1.navigation").ok());
   EXPECT_TRUE(registry.list("").empty());
-  EXPECT_EQ(info_of(sink.events().back()).state(), "gone");
+  EXPECT_EQ(sink.events().back().as<camus::ServiceInfo>().state(), "gone");
 }
 
 TEST_F(RegistryTest, ServiceAnswersOverPlanetRequests) {

@@ -8,13 +8,30 @@ namespace urs::camus_server::test {
 namespace {
 
 // The handler wired to real components (in memory), as in the server.
-class HandlerTest : public ::testing::Test {
+class HandlerTest : public ::testing::Test, protected ServerCore {
  protected:
   void SetUp() override {
     const auto* file = camus::ServiceInfo::descriptor()->file();
     registry.add_builtin("camus.registry", *file->FindServiceByName("Registry"));
     registry.add_builtin("camus.context", *file->FindServiceByName("Context"));
     container.add("camus.context", context_agent);
+  }
+
+  // Hands the handler `session`'s Subscribe of `pattern` under `subscription_id`.
+  void subscribe(const std::shared_ptr<FakeSession>& session, uint64_t subscription_id, const std::string& pattern) {
+    planet::Frame frame;
+    frame.mutable_subscribe()->set_subscription_id(subscription_id);
+    frame.mutable_subscribe()->set_pattern(pattern);
+    handler.on_frame(session, std::move(frame));
+  }
+
+  // A Publish of `topic` under `publish_id`, carrying `payload`.
+  static planet::Frame publish_frame(uint64_t publish_id, const std::string& topic, const std::string& payload = "") {
+    planet::Frame frame;
+    frame.mutable_publish()->set_publish_id(publish_id);
+    frame.mutable_publish()->set_topic(topic);
+    frame.mutable_publish()->set_payload(payload);
+    return frame;
   }
 
   planet::Frame request(uint64_t call_id, const std::string& service, const std::string& op,
@@ -28,14 +45,8 @@ class HandlerTest : public ::testing::Test {
     return frame;
   }
 
-  ManualClock clock;
-  EventBus bus{"", {}, clock};
-  BusEventSink sink{bus};
-  Registry registry{"kr", sink};
-  ManualScheduler timers;
-  ContextStore context{"", sink, clock, timers};
   ContextAgent context_agent{context};
-  InlineContainer container{sink};
+  InlineContainer container{bus_sink};
   RegistryService registry_service{registry};
   BuiltinServices builtins{registry_service, container};
   Router router{RouterOptions{"kr", std::chrono::milliseconds(1000)}, registry, builtins, timers};
@@ -71,14 +82,8 @@ TEST_F(HandlerTest, ContextSetAndGetThroughFrames) {
 }
 
 TEST_F(HandlerTest, PublishSubscribeAndUnsubscribeThroughFrames) {
-  planet::Frame subscribe;
-  subscribe.mutable_subscribe()->set_subscription_id(4);
-  subscribe.mutable_subscribe()->set_pattern("kr/robot1/#");
-  handler.on_frame(client, std::move(subscribe));
-  planet::Frame publish;
-  publish.mutable_publish()->set_publish_id(1);
-  publish.mutable_publish()->set_topic("kr/robot1/arrived");
-  publish.mutable_publish()->set_payload("here");
+  subscribe(client, 4, "kr/robot1/#");
+  planet::Frame publish = publish_frame(1, "kr/robot1/arrived", "here");
   handler.on_frame(sam, planet::Frame(publish));
   handler.on_frame(sam, planet::Frame(publish));  // resent: deduplicated
   auto ack = client->wait_frame(planet::Frame::kSubscribeAck);
@@ -104,23 +109,15 @@ TEST_F(HandlerTest, PublishSubscribeAndUnsubscribeThroughFrames) {
 }
 
 TEST_F(HandlerTest, EventsCarryTheAuthenticatedIdentityAndServerTopicsAreRefused) {
-  planet::Frame subscribe;
-  subscribe.mutable_subscribe()->set_subscription_id(1);
-  subscribe.mutable_subscribe()->set_pattern("#");
-  handler.on_frame(client, std::move(subscribe));
+  subscribe(client, 1, "#");
   ASSERT_TRUE(client->wait_frame(planet::Frame::kSubscribeAck));
   // A session whose peer_name claims to be the server: its identity is what was authenticated.
   auto impostor = std::make_shared<FakeSession>(7, "intruder", planet::OPERATOR);
-  planet::Frame forged;
-  forged.mutable_publish()->set_publish_id(1);
-  forged.mutable_publish()->set_topic("registry/diag");
-  handler.on_frame(impostor, planet::Frame(forged));
+  handler.on_frame(impostor, publish_frame(1, "registry/diag"));
   auto refused = impostor->wait_frame(planet::Frame::kPublishAck);
   ASSERT_TRUE(refused);
   EXPECT_EQ(refused->publish_ack().status(), planet::PERMISSION_DENIED);
-  forged.mutable_publish()->set_publish_id(2);
-  forged.mutable_publish()->set_topic("kr/news");
-  handler.on_frame(impostor, std::move(forged));
+  handler.on_frame(impostor, publish_frame(2, "kr/news"));
   auto event = client->wait_frame(planet::Frame::kEvent);
   ASSERT_TRUE(event);
   EXPECT_EQ(event->event().topic(), "kr/news");
@@ -128,23 +125,12 @@ TEST_F(HandlerTest, EventsCarryTheAuthenticatedIdentityAndServerTopicsAreRefused
 }
 
 TEST_F(HandlerTest, AnotherSessionsPublishIdsDoNotPoisonDeduplication) {
-  planet::Frame subscribe;
-  subscribe.mutable_subscribe()->set_subscription_id(1);
-  subscribe.mutable_subscribe()->set_pattern("kr/#");
-  handler.on_frame(client, std::move(subscribe));
+  subscribe(client, 1, "kr/#");
   ASSERT_TRUE(client->wait_frame(planet::Frame::kSubscribeAck));
   // Same name, same role, another session: its ids are its own.
   auto stranger = std::make_shared<FakeSession>(8, "sam@robot1", planet::SAM);
-  for (uint64_t id = 1; id <= 3; ++id) {
-    planet::Frame publish;
-    publish.mutable_publish()->set_publish_id(id);
-    publish.mutable_publish()->set_topic("kr/junk");
-    handler.on_frame(stranger, std::move(publish));
-  }
-  planet::Frame real;
-  real.mutable_publish()->set_publish_id(1);
-  real.mutable_publish()->set_topic("kr/robot1/arrived");
-  handler.on_frame(sam, std::move(real));
+  for (uint64_t id = 1; id <= 3; ++id) handler.on_frame(stranger, publish_frame(id, "kr/junk"));
+  handler.on_frame(sam, publish_frame(1, "kr/robot1/arrived"));
   auto ack = sam->wait_frame(planet::Frame::kPublishAck);
   ASSERT_TRUE(ack);
   EXPECT_EQ(ack->publish_ack().seq(), 4u);

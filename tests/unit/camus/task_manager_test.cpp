@@ -28,7 +28,7 @@ camus::TaskRunRequest inline_yaml(const std::string& yaml) {
 }
 
 // The pieces around a task manager: in-memory bus, registry with test.Navigation, context store.
-class TaskTest : public ::testing::Test {
+class TaskTest : public ::testing::Test, protected ServerCore {
  protected:
   void SetUp() override {
     ASSERT_TRUE(registry.register_service(sam, navigation_registration("robot1.navigation")).ok());
@@ -63,19 +63,12 @@ class TaskTest : public ::testing::Test {
     return sink
         .wait_for([&](const RecordedEvent& e) {
           if (e.type != "urs.camus.TaskRun") return false;
-          camus::TaskRun run;
-          run.ParseFromString(e.payload);
+          const auto run = e.as<camus::TaskRun>();
           return run.run_id() == run_id && run.state() == state && (step < 0 || run.step() == uint32_t(step));
         })
         .has_value();
   }
 
-  ManualClock clock;
-  EventBus bus{"", {}, clock};
-  BusEventSink bus_sink{bus};
-  Registry registry{"kr", bus_sink};
-  ManualScheduler timers;
-  ContextStore context{"", bus_sink, clock, timers};
   RecordingSink sink;  // where task progress goes
   FakeInvoker invoker;
   std::shared_ptr<FakeSession> sam = std::make_shared<FakeSession>(1, "sam@robot1", planet::SAM);
@@ -327,8 +320,7 @@ steps:
   status.set_run_id(finished_id);
   EXPECT_EQ(manager->status(status)->state(), "succeeded");
   EXPECT_TRUE(sink.wait_for([&](const RecordedEvent& e) {
-    camus::TaskRun r;
-    r.ParseFromString(e.payload);
+    const auto r = e.as<camus::TaskRun>();
     return r.run_id() == run_id && r.message() == "resumed after a server restart at steps[1] (wait_event errand/go)";
   }));
 

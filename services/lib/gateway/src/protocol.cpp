@@ -28,60 +28,72 @@ void write_u64(std::string& out, uint64_t value) {
   for (int i = 0; i < 8; ++i) out += static_cast<char>((value >> (8 * i)) & 0xff);
 }
 
-// A field of `object` that must be an integer in 0 .. 2^32-1.
-std::optional<uint32_t> u32_field(const gp::Struct& object, const std::string& name) {
-  const auto it = object.fields().find(name);
-  if (it == object.fields().end() || it->second.kind_case() != gp::Value::kNumberValue) return std::nullopt;
-  const double number = it->second.number_value();
+// `value` if it is an integer in 0 .. 2^32-1.
+std::optional<uint32_t> u32_value(const gp::Value& value) {
+  if (value.kind_case() != gp::Value::kNumberValue) return std::nullopt;
+  const double number = value.number_value();
   if (!(number >= 0 && number <= 4294967295.0) || std::floor(number) != number) return std::nullopt;
   return static_cast<uint32_t>(number);
 }
 
-const gp::ListValue* list_field(const gp::Struct& object, const std::string& name) {
+// A field of `object` that must be an integer in 0 .. 2^32-1.
+std::optional<uint32_t> u32_field(const gp::Struct& object, const std::string& name) {
   const auto it = object.fields().find(name);
-  if (it == object.fields().end() || it->second.kind_case() != gp::Value::kListValue) return nullptr;
-  return &it->second.list_value();
+  if (it == object.fields().end()) return std::nullopt;
+  return u32_value(it->second);
+}
+
+// The array field `name` of an `op` message, at most kMaxIdsPerMessage `items` (the word for them
+// in the error), each turned into an Item by `parse_item(value, where)`, which returns the Item or
+// the ProtocolError for it (`where` names it: "<op>: <name>[<i>]"). The first refusal is returned.
+template <typename Item, typename ParseItem>
+std::variant<std::vector<Item>, ProtocolError> parse_list(const gp::Struct& message, const std::string& op,
+                                                          const std::string& name, const std::string& items,
+                                                          ParseItem parse_item) {
+  const auto it = message.fields().find(name);
+  if (it == message.fields().end() || it->second.kind_case() != gp::Value::kListValue) {
+    return ProtocolError{op + ": '" + name + "' must be an array"};
+  }
+  const gp::ListValue& list = it->second.list_value();
+  if (static_cast<std::size_t>(list.values_size()) > kMaxIdsPerMessage) {
+    return ProtocolError{op + ": " + std::to_string(list.values_size()) + " " + items + " in one message (at most " +
+                         std::to_string(kMaxIdsPerMessage) + ")"};
+  }
+  std::vector<Item> parsed;
+  for (int i = 0; i < list.values_size(); ++i) {
+    const std::string where = op + ": " + name + "[" + std::to_string(i) + "]";
+    std::variant<Item, ProtocolError> item = parse_item(list.values(i), where);
+    if (auto* error = std::get_if<ProtocolError>(&item)) return std::move(*error);
+    parsed.push_back(std::get<Item>(std::move(item)));
+  }
+  return parsed;
 }
 
 ClientMessage parse_subscribe(const gp::Struct& message) {
-  const gp::ListValue* list = list_field(message, "subscriptions");
-  if (list == nullptr) return ProtocolError{"subscribe: 'subscriptions' must be an array"};
-  if (static_cast<std::size_t>(list->values_size()) > kMaxIdsPerMessage) {
-    return ProtocolError{"subscribe: " + std::to_string(list->values_size()) + " subscriptions in one message (at most " +
-                         std::to_string(kMaxIdsPerMessage) + ")"};
-  }
-  Subscribe subscribe;
-  for (int i = 0; i < list->values_size(); ++i) {
-    const std::string where = "subscribe: subscriptions[" + std::to_string(i) + "]";
-    const gp::Value& item = list->values(i);
-    if (item.kind_case() != gp::Value::kStructValue) return ProtocolError{where + " must be an object"};
-    const auto id = u32_field(item.struct_value(), "id");
-    const auto channel = u32_field(item.struct_value(), "channelId");
-    if (!id) return ProtocolError{where + ".id must be an integer in 0..4294967295"};
-    if (!channel) return ProtocolError{where + ".channelId must be an integer in 0..4294967295"};
-    subscribe.subscriptions.push_back({*id, *channel});
-  }
-  return subscribe;
+  auto parsed = parse_list<Subscription>(
+      message, "subscribe", "subscriptions", "subscriptions",
+      [](const gp::Value& item, const std::string& where) -> std::variant<Subscription, ProtocolError> {
+        if (item.kind_case() != gp::Value::kStructValue) return ProtocolError{where + " must be an object"};
+        const auto id = u32_field(item.struct_value(), "id");
+        const auto channel = u32_field(item.struct_value(), "channelId");
+        if (!id) return ProtocolError{where + ".id must be an integer in 0..4294967295"};
+        if (!channel) return ProtocolError{where + ".channelId must be an integer in 0..4294967295"};
+        return Subscription{*id, *channel};
+      });
+  if (auto* error = std::get_if<ProtocolError>(&parsed)) return std::move(*error);
+  return Subscribe{std::get<std::vector<Subscription>>(std::move(parsed))};
 }
 
 ClientMessage parse_unsubscribe(const gp::Struct& message) {
-  const gp::ListValue* list = list_field(message, "subscriptionIds");
-  if (list == nullptr) return ProtocolError{"unsubscribe: 'subscriptionIds' must be an array"};
-  if (static_cast<std::size_t>(list->values_size()) > kMaxIdsPerMessage) {
-    return ProtocolError{"unsubscribe: " + std::to_string(list->values_size()) + " ids in one message (at most " +
-                         std::to_string(kMaxIdsPerMessage) + ")"};
-  }
-  Unsubscribe unsubscribe;
-  for (int i = 0; i < list->values_size(); ++i) {
-    const gp::Value& item = list->values(i);
-    const double number = item.number_value();
-    if (item.kind_case() != gp::Value::kNumberValue || !(number >= 0 && number <= 4294967295.0) ||
-        std::floor(number) != number) {
-      return ProtocolError{"unsubscribe: subscriptionIds[" + std::to_string(i) + "] must be an integer in 0..4294967295"};
-    }
-    unsubscribe.subscription_ids.push_back(static_cast<uint32_t>(number));
-  }
-  return unsubscribe;
+  auto parsed = parse_list<uint32_t>(
+      message, "unsubscribe", "subscriptionIds", "ids",
+      [](const gp::Value& item, const std::string& where) -> std::variant<uint32_t, ProtocolError> {
+        const auto id = u32_value(item);
+        if (!id) return ProtocolError{where + " must be an integer in 0..4294967295"};
+        return *id;
+      });
+  if (auto* error = std::get_if<ProtocolError>(&parsed)) return std::move(*error);
+  return Unsubscribe{std::get<std::vector<uint32_t>>(std::move(parsed))};
 }
 
 }  // namespace

@@ -84,15 +84,21 @@ void PeriodicExecutionContext::serve_requests(std::unique_lock<std::mutex>& lock
     if (p->request == Request::kNone || p->busy) continue;
     const Request request = p->request;
     p->request = Request::kNone;
-    p->busy = true;
-    lock.unlock();
-    const RTC::LifeCycleState state = transition(*p, request);
-    lock.lock();
-    p->state = state;
-    p->request_result = state;
-    p->busy = false;
-    changed_.notify_all();
+    // Set before the lock is released again, so the requester never reads a stale result.
+    p->request_result = make_transition(lock, *p, request);
   }
+}
+
+RTC::LifeCycleState PeriodicExecutionContext::make_transition(std::unique_lock<std::mutex>& lock, Participant& p,
+                                                              Request request) {
+  p.busy = true;
+  lock.unlock();
+  const RTC::LifeCycleState state = transition(p, request);
+  lock.lock();
+  p.state = state;
+  p.busy = false;
+  changed_.notify_all();
+  return state;
 }
 
 void PeriodicExecutionContext::execute(std::unique_lock<std::mutex>& lock) {
@@ -302,14 +308,7 @@ RTC::ReturnCode_t PeriodicExecutionContext::request_transition(RTC::LightweightR
     // A stopped context makes the transition in the caller's thread.
     changed_.wait(lock, [&] { return !p->busy; });
     if (p->state != from) return RTC::PRECONDITION_NOT_MET;
-    p->busy = true;
-    lock.unlock();
-    const RTC::LifeCycleState state = transition(*p, request);
-    lock.lock();
-    p->state = state;
-    p->busy = false;
-    changed_.notify_all();
-    return state == to ? RTC::RTC_OK : RTC::RTC_ERROR;
+    return make_transition(lock, *p, request) == to ? RTC::RTC_OK : RTC::RTC_ERROR;
   }
   p->request = request;
   changed_.notify_all();

@@ -20,6 +20,18 @@ SDOPackage::NameValue& slot(SDOPackage::NVList& list, const std::string& name) {
   return list[n];
 }
 
+// The number `value` holds, as text, trying the types Numbers in turn; nullopt if it holds none.
+template <typename... Numbers>
+std::optional<std::string> number_text(const CORBA::Any& value) {
+  std::optional<std::string> text;
+  const auto extract = [&](auto number) {
+    if (value >>= number) text = std::to_string(number);
+    return text.has_value();
+  };
+  (extract(Numbers{}) || ...);
+  return text;
+}
+
 }  // namespace
 
 std::optional<std::string> nv_string(const SDOPackage::NVList& list, const std::string& name) {
@@ -59,18 +71,9 @@ SDOPackage::NVList nv_from(const std::vector<std::pair<std::string, std::string>
 std::string any_to_text(const CORBA::Any& value) {
   const char* text = nullptr;
   if (value >>= text) return text;
-  CORBA::Long l = 0;
-  if (value >>= l) return std::to_string(l);
-  CORBA::ULong ul = 0;
-  if (value >>= ul) return std::to_string(ul);
-  CORBA::LongLong ll = 0;
-  if (value >>= ll) return std::to_string(ll);
-  CORBA::Short s = 0;
-  if (value >>= s) return std::to_string(s);
-  CORBA::Double d = 0;
-  if (value >>= d) return std::to_string(d);
-  CORBA::Float f = 0;
-  if (value >>= f) return std::to_string(f);
+  const auto number =
+      number_text<CORBA::Long, CORBA::ULong, CORBA::LongLong, CORBA::Short, CORBA::Double, CORBA::Float>(value);
+  if (number) return *number;
   CORBA::Boolean b = false;
   if (value >>= CORBA::Any::to_boolean(b)) return b ? "true" : "false";
   CORBA::TypeCode_var type = value.type();

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cctype>
 #include <cstdio>
+#include <optional>
 #include <random>
 
 #include "urs/rtc/nvlist.hpp"
@@ -25,6 +26,15 @@ const RTC::ConnectorProfile* find_connection(const std::vector<RTC::ConnectorPro
     if (id == profile.connector_id.in()) return &profile;
   }
   return nullptr;
+}
+
+// A copy of the connection `id` of `list`, read under `mutex`; nullopt if there is none.
+std::optional<RTC::ConnectorProfile> copy_connection(std::mutex& mutex, const std::vector<RTC::ConnectorProfile>& list,
+                                                     const std::string& id) {
+  std::lock_guard lock(mutex);
+  const RTC::ConnectorProfile* found = find_connection(list, id);
+  if (found == nullptr) return std::nullopt;
+  return *found;
 }
 
 }  // namespace
@@ -276,17 +286,12 @@ void PortBase::forget_after(const RTC::ConnectorProfile& profile, CORBA::ULong n
 // ---- disconnecting ----
 
 RTC::ReturnCode_t PortBase::disconnect(const char* connector_id) {
-  RTC::ConnectorProfile profile;
-  {
-    std::lock_guard lock(mutex_);
-    const RTC::ConnectorProfile* found = find_connection(connections_, connector_id);
-    if (found == nullptr) return RTC::BAD_PARAMETER;
-    profile = *found;
-  }
+  auto profile = copy_connection(mutex_, connections_, connector_id);
+  if (!profile) return RTC::BAD_PARAMETER;
   // The first port that answers runs the disconnection along the chain.
-  for (CORBA::ULong i = 0; i < profile.ports.length(); ++i) {
+  for (CORBA::ULong i = 0; i < profile->ports.length(); ++i) {
     try {
-      const RTC::ReturnCode_t result = profile.ports[i]->notify_disconnect(connector_id);
+      const RTC::ReturnCode_t result = profile->ports[i]->notify_disconnect(connector_id);
       if (drop_connection(connector_id)) {
         spdlog::debug("port {}: connection {} removed locally after notify_disconnect", name(), connector_id);
       }
@@ -300,18 +305,13 @@ RTC::ReturnCode_t PortBase::disconnect(const char* connector_id) {
 }
 
 RTC::ReturnCode_t PortBase::notify_disconnect(const char* connector_id) {
-  RTC::ConnectorProfile profile;
-  {
-    std::lock_guard lock(mutex_);
-    const RTC::ConnectorProfile* found = find_connection(connections_, connector_id);
-    if (found == nullptr) return RTC::BAD_PARAMETER;
-    profile = *found;
-  }
-  const int index = index_in(profile);
+  auto profile = copy_connection(mutex_, connections_, connector_id);
+  if (!profile) return RTC::BAD_PARAMETER;
+  const int index = index_in(*profile);
   // Ports after this one hear of it even if one of them is gone.
-  for (CORBA::ULong i = static_cast<CORBA::ULong>(index) + 1; index >= 0 && i < profile.ports.length(); ++i) {
+  for (CORBA::ULong i = static_cast<CORBA::ULong>(index) + 1; index >= 0 && i < profile->ports.length(); ++i) {
     try {
-      profile.ports[i]->notify_disconnect(connector_id);
+      profile->ports[i]->notify_disconnect(connector_id);
       break;
     } catch (const CORBA::SystemException& e) {
       spdlog::debug("port {}: notify_disconnect {}: port {} does not answer: {}", name(), connector_id, i,

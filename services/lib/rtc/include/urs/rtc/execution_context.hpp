@@ -76,6 +76,9 @@ class PeriodicExecutionContext : public virtual POA_RTC::ExecutionContextService
   RTC::ReturnCode_t request_transition(RTC::LightweightRTObject_ptr comp, Request request);
   // Carries out `request` on `p` (lock not held during the callbacks); returns the new state.
   RTC::LifeCycleState transition(const Participant& p, Request request);
+  // Called with the lock held and `p` not busy: marks `p` busy, makes the transition with the lock
+  // released, then records the new state, clears busy and wakes the waiters. Returns the new state.
+  RTC::LifeCycleState make_transition(std::unique_lock<std::mutex>& lock, Participant& p, Request request);
   void run();
   // Both called with the lock held; they release it around the participants' callbacks.
   void serve_requests(std::unique_lock<std::mutex>& lock);
