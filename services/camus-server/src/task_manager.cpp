@@ -599,9 +599,9 @@ TaskManager::StepEnd TaskManager::run_publish(const std::shared_ptr<Run>&, const
   gp::DynamicMessageFactory factory;
   std::unique_ptr<gp::Message> event(factory.GetPrototype(type)->New());
   event->ParseFromString(encoded.value());
-  const planet::CallResult published = sink_.publish(step.topic, *event);
+  const call::Reply published = sink_.publish(step.topic, *event);
   if (!published.ok()) {
-    failure = status_text(published.status) + ": " + published.message;
+    failure = std::string(call::status_name(published.status)) + ": " + published.message;
     return StepEnd::Failed;
   }
   return StepEnd::Next;
@@ -855,7 +855,7 @@ agent::Outcome TasksAgent::invoke(const gp::MethodDescriptor& method, const gp::
                                   const agent::CallContext& ctx) {
   const std::string& op = method.name();
   auto answer = [&reply](const auto& result) {
-    if (!result.ok()) return agent::Outcome::error(result.status(), result.message());
+    if (!result.ok()) return refused(result);
     fill_reply(reply, result.value());
     return agent::Outcome::ok();
   };
@@ -863,7 +863,7 @@ agent::Outcome TasksAgent::invoke(const gp::MethodDescriptor& method, const gp::
     camus::TaskDefinition storage;
     const auto& in = message_as(request, storage);
     auto defined = manager_.define(in.name(), in.yaml());
-    if (!defined.ok()) return agent::Outcome::error(defined.status(), defined.message());
+    if (!defined.ok()) return refused(defined);
     camus::TaskDefineReply out;
     *out.mutable_task() = defined.value();
     fill_reply(reply, out);
@@ -871,7 +871,7 @@ agent::Outcome TasksAgent::invoke(const gp::MethodDescriptor& method, const gp::
   }
   if (op == "Run") {
     camus::TaskRunRequest storage;
-    return answer(manager_.run(message_as(request, storage), ctx.caller.empty() ? "call" : "call:" + ctx.caller));
+    return answer(manager_.run(message_as(request, storage), ctx.caller.known() ? "call:" + ctx.caller.name : "call"));
   }
   if (op == "Status") {
     camus::TaskStatusRequest storage;
@@ -879,13 +879,13 @@ agent::Outcome TasksAgent::invoke(const gp::MethodDescriptor& method, const gp::
   }
   if (op == "Cancel") {
     camus::TaskCancelRequest storage;
-    return answer(manager_.cancel(message_as(request, storage).run_id(), ctx.caller));
+    return answer(manager_.cancel(message_as(request, storage).run_id(), ctx.caller.name));
   }
   if (op == "List") {
     fill_reply(reply, manager_.list());
     return agent::Outcome::ok();
   }
-  return agent::Outcome::error(planet::UNKNOWN_OPERATION, "interface urs.camus.Tasks has no operation '" + op + "'");
+  return agent::Outcome::error(call::Status::UNKNOWN_OPERATION, "interface urs.camus.Tasks has no operation '" + op + "'");
 }
 
 }  // namespace urs::camus_server

@@ -224,7 +224,7 @@ TEST_F(Federation, EachSpacesServicesAreCallableFromTheOther) {
   URS::Diagnostic_echo_Reply to_jp;
   const agent::Outcome outcome =
       consumer.invoke(*consumer.interface().FindMethodByName("echo"), from_jp, to_jp, ctx);
-  EXPECT_EQ(outcome.status, planet::OK) << outcome.message;
+  EXPECT_EQ(outcome.status, call::Status::OK) << outcome.message;
   EXPECT_EQ(to_jp.result(), "from jp's RT side");
 }
 

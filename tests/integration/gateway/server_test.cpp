@@ -285,7 +285,7 @@ TEST(DdsSource, SeesAnotherSpacesBridgeAndLosesIt) {
   jp_options.space = "jp";
   jp_options.bridge = "bridge-jp";
   jp_options.lease = 1000ms;
-  auto jp = std::make_unique<urs::bridge::DdsLink>(jp_options, [] {}, [](urs::bridge::IncomingCall, auto) {});
+  auto jp = std::make_unique<urs::bridge::DdsLink>(jp_options, [] {}, [](urs::call::Request, urs::call::Responder) {});
   auto jp_state = std::make_unique<urs::bridge::StateLink>(*jp, urs::bridge::StateHandlers{}, std::nullopt);
 
   gw::DdsSourceOptions options;
@@ -343,11 +343,11 @@ TEST(DdsSource, LeavesOutWhatTheOwnSpacesNativeSourcesShow) {
   kr_options.domain = domains[0];
   kr_options.space = "kr";
   kr_options.bridge = "bridge-kr";
-  urs::bridge::DdsLink kr(kr_options, [] {}, [](urs::bridge::IncomingCall, auto) {});
+  urs::bridge::DdsLink kr(kr_options, [] {}, [](urs::call::Request, urs::call::Responder) {});
   urs::bridge::DdsOptions jp_options = kr_options;
   jp_options.space = "jp";
   jp_options.bridge = "bridge-jp";
-  urs::bridge::DdsLink jp(jp_options, [] {}, [](urs::bridge::IncomingCall, auto) {});
+  urs::bridge::DdsLink jp(jp_options, [] {}, [](urs::call::Request, urs::call::Responder) {});
   const auto* diagnostic = URS::Diagnostic_echo_Request::descriptor()->file()->FindServiceByName("Diagnostic");
   const std::string described = urs::schema::descriptor_set_for(*diagnostic->file());
   kr.announce({"kr", "diag", diagnostic->full_name(), "IDL:URS/Diagnostic:1.0", "camus", "bridge-kr", 0, described});

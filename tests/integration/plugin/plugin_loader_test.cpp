@@ -70,7 +70,7 @@ TEST(PluginLoader, RefusesALibraryWithoutTheSymbols) {
 
 TEST(PluginLoader, RefusesAnotherAbiVersion) {
   expect_refused(library("test_plugin_wrong_abi"), library("test_plugin_wrong_abi"),
-                 "built for plug-in ABI version 1001, this program loads version 1");
+                 "built for plug-in ABI version 1001, this program loads version 2");
 }
 
 TEST(PluginLoader, RefusesAPluginThatRegistersNothing) {

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "urs/camus_server/session_handler.hpp"
+#include "urs/planet/call_adapter.hpp"
 #include "urs/camus_server/task_manager.hpp"
 
 namespace urs::camus_server::test {
@@ -114,11 +115,11 @@ struct RecordedEvent {
 
 class RecordingSink final : public agent::EventSink {
  public:
-  planet::CallResult publish(const std::string& topic, const google::protobuf::Message& event) override {
+  call::Reply publish(const std::string& topic, const google::protobuf::Message& event) override {
     std::lock_guard<std::mutex> lock(mutex_);
     events_.push_back({topic, event.GetTypeName(), event.SerializeAsString()});
     cv_.notify_all();
-    return planet::CallResult::success({});
+    return call::Reply::success({});
   }
   std::vector<RecordedEvent> events() const {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -229,7 +230,7 @@ class InlineContainer final : public ServiceContainer {
   explicit InlineContainer(agent::EventSink& events) : events_(events) {}
   void add(const std::string& name, agent::ServiceAgent& agent) { agents_[name] = &agent; }
   bool hosts(const std::string& service) const override { return agents_.count(service) != 0; }
-  void dispatch(const planet::Request& request, const std::string& caller, Completion done) override {
+  void dispatch(const planet::Request& request, const Caller& caller, Completion done) override {
     namespace gp = google::protobuf;
     auto* agent = agents_.at(request.service());
     const auto* method = agent->interface().FindMethodByName(request.operation());
@@ -246,11 +247,11 @@ class InlineContainer final : public ServiceContainer {
     }
     agent::CallContext ctx;
     ctx.service = request.service();
-    ctx.caller = caller;
+    ctx.caller = planet::caller_identity("", caller.identity, caller.role);
     ctx.events = &events_;
     auto outcome = agent->invoke(*method, *in, *out, ctx);
-    if (outcome.status != planet::OK) {
-      done(planet::CallResult::error(outcome.status, outcome.message));
+    if (outcome.status != call::Status::OK) {
+      done(planet::CallResult::error(planet::to_planet(outcome.status), outcome.message));
     } else {
       done(planet::CallResult::success(out->SerializeAsString()));
     }

@@ -10,13 +10,15 @@
 
 #include "camus.pb.h"
 #include "urs/agent/agent.hpp"
+#include "urs/agent/camus.hpp"
 #include "urs/agent/client_sink.hpp"
-#include "urs/bridge/planet_proxy_agent.hpp"
+#include "urs/bridge/camus_forwarding_agent.hpp"
 #include "urs/bridge/dds_link.hpp"
 #include "urs/bridge/provider_port.hpp"
 #include "urs/bridge/space_state.hpp"
 #include "urs/corba_agent/agent_component.hpp"
 #include "urs/corba_agent/corba_proxy.hpp"
+#include "urs/planet/call_adapter.hpp"
 #include "urs/rtc/component.hpp"
 #include "urs/rtc/data_port.hpp"
 #include "urs/rtc/nvlist.hpp"
@@ -154,8 +156,8 @@ class Bridge::Component : public rtc::Component {
 // Where proxies' events go when the bridge has no CAMUS server.
 class NoEvents : public agent::EventSink {
  public:
-  planet::CallResult publish(const std::string& topic, const gp::Message&) override {
-    return planet::CallResult::error(planet::UNAVAILABLE, "no CAMUS server: event on " + topic + " not published");
+  call::Reply publish(const std::string& topic, const gp::Message&) override {
+    return call::Reply::error(call::Status::UNAVAILABLE, "no CAMUS server: event on " + topic + " not published");
   }
 };
 
@@ -424,8 +426,8 @@ void Bridge::open_session() {
             remote_pending_ = true;
             wake_.notify_all();
           },
-          [this, s](IncomingCall call, std::function<void(planet::CallResult)> reply) {
-            serve_remote(*s, std::move(call), std::move(reply));
+          [this, s](call::Request request, call::Responder responder) {
+            serve_remote(*s, std::move(request), std::move(responder));
           });
       std::string discovery;
       if (!options.discovery_listen.empty()) discovery = ", discovery server at " + options.discovery_listen;
@@ -457,9 +459,7 @@ void Bridge::open_session() {
 
 void Bridge::open_planet(Session& s) {
   Session* session = &s;
-  session->client->set_request_handler([session](const planet::Request& request, planet::Responder responder) {
-    session->host.dispatch(request, "", std::move(responder));
-  });
+  agent::serve_requests(*session->client, session->host);
   session->client->on_connected([this](const planet::Welcome& welcome) {
     spdlog::info("bridge {}: connected to the CAMUS server of space {}", config_.name, welcome.space());
   });
@@ -1030,7 +1030,7 @@ void Bridge::reconcile_exports() {
                                     rule.deadline_ms};
         if (known != known_.end()) add_health(hosted.properties, *known->second);
         session->host.add(hosted);
-        if (session->client) session->client->register_service(session->host.registration(hosted), [name, path](planet::CallResult result) {
+        if (session->client) session->client->register_service(agent::registration(hosted), [name, path](planet::CallResult result) {
           if (result.ok()) {
             spdlog::info("bridge: {} offered to CAMUS as {}", path, name);
           } else {
@@ -1085,7 +1085,7 @@ void Bridge::update_health(Session& session) {
     spdlog::info("bridge: {} is {} ({})", name, health, path);
     // Registering again under the same name replaces the registry's entry (and what the client
     // re-registers after a reconnect).
-    if (session.client) session.client->register_service(session.host.registration(updated));
+    if (session.client) session.client->register_service(agent::registration(updated));
   }
 }
 
@@ -1219,7 +1219,7 @@ void Bridge::poll_camus() {
         settings.type_name = "CamusService";
         settings.deadline = std::chrono::milliseconds(deadline_ms);
         return std::make_unique<corba_agent::AgentComponent>(
-            settings, std::make_shared<PlanetProxyAgent>(*s->client, service, *interface));
+            settings, std::make_shared<CamusForwardingAgent>(*s->client, service, *interface));
       });
       std::lock_guard lock(mutex_);
       session->imports[service] = {&created, manager_->naming_path(created)};
@@ -1315,39 +1315,27 @@ void Bridge::sync_dds_exports(Session& session) {
   }
 }
 
-void Bridge::serve_remote(Session& session, IncomingCall call, std::function<void(planet::CallResult)> reply) {
-  auto answer = [&reply](planet::CallResult result) {
-    if (reply) reply(std::move(result));
-  };
+void Bridge::serve_remote(Session& session, call::Request request, call::Responder responder) {
   bool on_host = false;
   {
     std::lock_guard lock(session.served_mutex);
-    const auto it = session.served.find(call.service);
+    const auto it = session.served.find(request.service);
     if (it == session.served.end()) {
-      answer(planet::CallResult::error(planet::UNKNOWN_SERVICE, "space " + config_.space + " offers no service '" +
-                                                                    call.service + "'"));
+      responder.reply(call::Reply::error(call::Status::UNKNOWN_SERVICE, "space " + config_.space +
+                                                                            " offers no service '" + request.service + "'"));
       return;
     }
     on_host = it->second;
   }
   if (on_host) {
-    planet::Request request;
-    request.set_service(call.service);
-    request.set_operation(call.operation);
-    request.set_payload(std::move(call.payload));
-    request.set_deadline_ms(call.deadline_ms);
-    request.set_oneway(call.oneway);
-    session.host.dispatch(request, "dds:" + call.caller_space,
-                          planet::Responder::from_callback([reply](planet::CallResult result) {
-                            if (reply) reply(std::move(result));
-                          }));
+    session.host.dispatch(std::move(request), std::move(responder));
   } else if (!session.client) {
-    answer(planet::CallResult::error(planet::UNAVAILABLE, "space " + config_.space + " has no CAMUS server"));
-  } else if (call.oneway) {
-    session.client->oneway(call.service, call.operation, std::move(call.payload));
+    responder.reply(call::Reply::error(call::Status::UNAVAILABLE, "space " + config_.space + " has no CAMUS server"));
+  } else if (request.oneway) {
+    session.client->oneway(request.service, request.operation, std::move(request.payload));
   } else {
-    session.client->call_async(call.service, call.operation, std::move(call.payload),
-                               std::chrono::milliseconds(call.deadline_ms), std::move(reply));
+    session.client->call_async(request.service, request.operation, std::move(request.payload),
+                               planet::deadline_left(request), planet::answering(std::move(responder)));
   }
 }
 
@@ -1399,7 +1387,7 @@ void Bridge::import_remote(Session& session, const ServiceEntry& entry) {
     return;
   }
   DdsLink* link = session.dds.get();
-  PlanetProxyAgent::Route route{
+  CamusForwardingAgent::Route route{
       [link, space = entry.space, name = entry.name](const std::string& operation, std::string payload,
                                                        std::chrono::milliseconds deadline) {
         return link->call(space, name, operation, std::move(payload), deadline);
@@ -1408,7 +1396,7 @@ void Bridge::import_remote(Session& session, const ServiceEntry& entry) {
         return link->oneway(space, name, operation, std::move(payload));
       },
       "space " + entry.space};
-  auto proxy = std::make_shared<PlanetProxyAgent>(route, entry.name, *interface);
+  auto proxy = std::make_shared<CamusForwardingAgent>(route, entry.name, *interface);
   Session::Remote remote;
   remote.interface_name = entry.interface_name;
   remote.descriptor_set = entry.descriptor_set;
@@ -1421,7 +1409,7 @@ void Bridge::import_remote(Session& session, const ServiceEntry& entry) {
     try {
       session.host.add(hosted);
       remote.camus_name = hosted.name;
-      session.client->register_service(session.host.registration(hosted), [name = hosted.name](planet::CallResult r) {
+      session.client->register_service(agent::registration(hosted), [name = hosted.name](planet::CallResult r) {
         if (!r.ok()) spdlog::error("bridge: registering {} failed: {}: {}", name, planet::status_name(r.status), r.message);
       });
       spdlog::info("bridge: {} of space {} offered to CAMUS as {}", entry.name, entry.space, hosted.name);

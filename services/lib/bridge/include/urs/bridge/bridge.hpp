@@ -7,7 +7,7 @@
 //                          (corba_agent::CorbaProxyAgent, hosted on the bridge's Planet session).
 //   CAMUS SA -> RT         every selected CAMUS service becomes an RT-Component in the naming
 //                          service with a provider port of its interface (AgentComponent hosting
-//                          a PlanetProxyAgent).
+//                          a CamusForwardingAgent).
 //   data                   RT OutPorts feed CAMUS events (and context); CAMUS events feed RT InPorts.
 //
 // The bridge RTC's lifecycle drives it: activating it opens the Planet session, registers the
@@ -116,7 +116,7 @@ class Bridge {
   void on_data(std::size_t entry, const google::protobuf::Message& value);
   void poll_dds();
   void sync_dds_exports(Session& session);
-  void serve_remote(Session& session, IncomingCall call, std::function<void(planet::CallResult)> reply);
+  void serve_remote(Session& session, call::Request request, call::Responder responder);
   void import_remote(Session& session, const ServiceEntry& entry);
   void withdraw_remote(Session& session, const std::string& key);
 
