@@ -8,9 +8,11 @@ root=$(cd "$(dirname "$0")/.." && pwd)
 "$root/deploy/install-deps.sh"
 "$root/deploy/build.sh"
 build=${URS_BUILD_DIR:-$root/build}
+pin=()
+if (($(nproc) >= 2)); then pin=(--pin); fi  # clients on CPU 0, servers on CPU 1 (tests/bench/pinning.hpp)
 table=$(mktemp)
 gateway_table=$(mktemp)
-"$build/tests/bench/urs-bench" "$@" --json "$build/bench.json" --markdown "$table" 2>"$build/bench.log"
+"$build/tests/bench/urs-bench" "${pin[@]}" "$@" --json "$build/bench.json" --markdown "$table" 2>"$build/bench.log"
 "$build/tests/bench/urs-gateway-bench" "$@" --seconds "${URS_GATEWAY_BENCH_SECONDS:-600}" \
   --json "$build/gateway-bench.json" --markdown "$gateway_table" 2>>"$build/bench.log"
 {

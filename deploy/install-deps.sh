@@ -20,6 +20,7 @@ PACKAGES=(
   libespeak-ng-dev libpocketsphinx-dev libsphinxbase-dev pocketsphinx-en-us  # speech devices
   libqrencode-dev libzbar-dev libpng-dev  # camera device: QR markers, their recognition, PNG frames
   libboost-dev  # urs-gateway: Boost.Beast (HTTP and WebSocket, header-only)
+  libgrpc++-dev protobuf-compiler-grpc  # urs-bench's gRPC baseline rows
   # tools used by tests and scripts
   python3 procps iproute2 nftables  # nftables: the two-hosts test's sites pass no multicast
   python3-venv  # the rtshell and Cyclone DDS interoperability tests install their peers from PyPI into venvs

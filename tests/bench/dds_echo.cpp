@@ -3,26 +3,19 @@
 // process would hand samples over in memory). Space "dds-b": answers every call at once with its
 // payload, and "blob" with a 921,600-byte reply. Writes READY_FILE once joined; exits on SIGTERM.
 
-#include <signal.h>
-
-#include <fstream>
 #include <iostream>
 #include <string>
 
 #include "Diagnostic.pb.h"
 #include "urs/bridge/dds_link.hpp"
+#include "urs/util/cli.hpp"
 
 int main(int argc, char** argv) {
   if (argc != 3) {
     std::cerr << "usage: urs-dds-echo DOMAIN READY_FILE\n";
     return 2;
   }
-  // Every thread (Fast DDS's too) inherits the mask; the main thread takes the signal with sigwait.
-  sigset_t stop;
-  sigemptyset(&stop);
-  sigaddset(&stop, SIGTERM);
-  sigaddset(&stop, SIGINT);
-  pthread_sigmask(SIG_BLOCK, &stop, nullptr);
+  urs::util::block_shutdown_signals();  // every thread (Fast DDS's too) inherits the mask
 
   URS::Diagnostic_blob_Reply big;
   big.set_result(std::string(921600, 'x'));
@@ -37,8 +30,7 @@ int main(int argc, char** argv) {
   urs::bridge::DdsLink link(options, [] {}, [&](urs::call::Request request, urs::call::Responder responder) {
     responder.reply(urs::call::Reply::success(request.operation == "blob" ? big_reply : request.payload));
   });
-  std::ofstream(argv[2]) << "ready\n";
-  int signal = 0;
-  sigwait(&stop, &signal);
+  urs::util::write_file_atomically(argv[2], "ready\n");
+  urs::util::wait_for_shutdown();
   return 0;
 }

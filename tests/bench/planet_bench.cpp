@@ -1,25 +1,28 @@
 // urs-bench: URSLink paths side by side with the native paths they add to, measured in one run.
 //
-//   urs-bench [--quick] [--only TEXT]... [--json FILE] [--markdown FILE]
+//   urs-bench [--quick] [--pin] [--only TEXT]... [--json FILE] [--markdown FILE]
 //
 // --only TEXT measures only the rows ("path | payload") and measurements whose label contains
 // TEXT (every --only given must match), to profile one path; the processes are started anyway.
+// --pin runs the bench's client threads on CPU 0 and every server on CPU 1 (pinning.hpp).
 //
-// Rows: raw TCP echo (the floor) and a Planet call client → urs-camus-server → urs-sam → agent,
-// from the C++ client and from the Python SDK's (python_echo_bench.py, a process of its own);
-// a direct omniORB call (static stubs) and the bridged paths both ways through urs-bridge;
-// a direct Fast DDS request/reply (a DdsLink here, urs-dds-echo in its own process) and the cross-space paths both ways through two
-// bridges linked by DDS over UDP; each for a 64-byte and a 921,600-byte payload. Also throughput
-// with 1 and 4 clients, a sustained image stream, discovery across spaces, recovery after a server
-// kill -9, and resident memory of the server, SAM and bridges idle and with 1,000 services.
+// Rows, each for a 64-byte and a 921,600-byte reply:
+//   - the wire: a raw TCP echo (one hop) and a raw TCP relay in front of it (two hops, what a
+//     Planet call's client → server → SAM costs with nothing parsed); gRPC unary calls (one hop,
+//     urs-grpc-echo in its own process), synchronous and through the callback API;
+//   - a Planet call client → urs-camus-server → urs-sam → agent, from the C++ client (also over
+//     TLS 1.3) and from the Python SDK's (python_echo_bench.py, a process of its own);
+//   - a direct omniORB call (static stubs) and the bridged paths both ways through urs-bridge;
+//   - a direct Fast DDS request/reply (a DdsLink here, urs-dds-echo in its own process) and the
+//     cross-space paths both ways through two bridges linked by DDS over UDP.
+// The paths a goal compares are measured in turns (measure_interleaved) and their ratio taken
+// repetition by repetition, with its spread. Also throughput with 1 and 4 clients (Planet against
+// gRPC, bridged against direct omniORB, in turns), a sustained image stream, discovery across
+// spaces, recovery after a server kill -9, and resident memory of the server, SAM and bridges idle
+// and with 1,000 services.
 // Every process is real and runs on 127.0.0.1. Numbers are reported, never asserted.
 
-#include <arpa/inet.h>
-#include <netinet/in.h>
-#include <netinet/tcp.h>
 #include <signal.h>
-#include <sys/socket.h>
-#include <sys/uio.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -33,6 +36,9 @@
 
 #include "Diagnostic.pb.h"
 #include "bench_stats.hpp"
+#include "grpc_client.hpp"
+#include "pinning.hpp"
+#include "raw_tcp.hpp"
 #include "corba_stub.hpp"
 #include "dds_domain.hpp"
 #include "naming_service.hpp"
@@ -54,107 +60,6 @@ using namespace std::chrono_literals;
 using urs::bench::Row;
 using urs::bench::Summary;
 
-// ---- raw TCP echo: length-prefixed messages echoed by a thread ----------------------------
-
-bool send_all(int fd, const char* data, size_t n) {
-  while (n > 0) {
-    ssize_t w = ::send(fd, data, n, MSG_NOSIGNAL);
-    if (w <= 0) return false;
-    data += w;
-    n -= static_cast<size_t>(w);
-  }
-  return true;
-}
-// Length prefix and body in one writev, so that a message is one segment (the floor must not be
-// inflated by an extra wake-up per message).
-bool send_message(int fd, const char* data, uint32_t n) {
-  uint32_t prefix = htonl(n);
-  iovec parts[2] = {{&prefix, 4}, {const_cast<char*>(data), n}};
-  ssize_t w = ::writev(fd, parts, 2);
-  if (w <= 0) return false;
-  size_t sent = static_cast<size_t>(w);
-  if (sent < 4) {  // a partial write: finish with plain sends
-    if (!send_all(fd, reinterpret_cast<char*>(&prefix) + sent, 4 - sent)) return false;
-    sent = 4;
-  }
-  return send_all(fd, data + (sent - 4), n - (sent - 4));
-}
-bool recv_all(int fd, char* data, size_t n) {
-  while (n > 0) {
-    ssize_t r = ::recv(fd, data, n, 0);
-    if (r <= 0) return false;
-    data += r;
-    n -= static_cast<size_t>(r);
-  }
-  return true;
-}
-void no_delay(int fd) {
-  int one = 1;
-  setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof(one));
-}
-
-class RawEcho {
- public:
-  RawEcho() {
-    listener_ = socket(AF_INET, SOCK_STREAM, 0);
-    sockaddr_in addr{};
-    addr.sin_family = AF_INET;
-    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    bind(listener_, reinterpret_cast<sockaddr*>(&addr), sizeof(addr));
-    listen(listener_, 8);
-    socklen_t len = sizeof(addr);
-    getsockname(listener_, reinterpret_cast<sockaddr*>(&addr), &len);
-    port_ = ntohs(addr.sin_port);
-    thread_ = std::thread([this] { serve(); });
-  }
-  ~RawEcho() {
-    shutdown(listener_, SHUT_RDWR);
-    close(listener_);
-    thread_.join();
-  }
-  int connect_client() const {
-    int fd = socket(AF_INET, SOCK_STREAM, 0);
-    sockaddr_in addr{};
-    addr.sin_family = AF_INET;
-    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    addr.sin_port = htons(port_);
-    if (connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)) != 0) throw std::runtime_error("connect");
-    no_delay(fd);
-    return fd;
-  }
-  static void round_trip(int fd, std::string& buffer) {
-    uint32_t n = 0;
-    if (!send_message(fd, buffer.data(), static_cast<uint32_t>(buffer.size())) ||
-        !recv_all(fd, reinterpret_cast<char*>(&n), 4) || !recv_all(fd, buffer.data(), ntohl(n))) {
-      throw std::runtime_error("raw echo failed");
-    }
-  }
-
- private:
-  void serve() {
-    std::vector<std::thread> workers;
-    for (;;) {
-      int fd = accept(listener_, nullptr, nullptr);
-      if (fd < 0) break;
-      no_delay(fd);
-      workers.emplace_back([fd] {
-        std::string buffer;
-        uint32_t n = 0;
-        while (recv_all(fd, reinterpret_cast<char*>(&n), 4)) {
-          buffer.resize(ntohl(n));
-          if (!recv_all(fd, buffer.data(), buffer.size())) break;
-          if (!send_message(fd, buffer.data(), static_cast<uint32_t>(buffer.size()))) break;
-        }
-        close(fd);
-      });
-    }
-    for (auto& w : workers) w.join();
-  }
-  int listener_ = -1;
-  uint16_t port_ = 0;
-  std::thread thread_;
-};
-
 // ---- a CAMUS space of real processes ------------------------------------------------------
 
 class Space {
@@ -170,7 +75,7 @@ class Space {
     std::vector<std::string> argv{URS_SAM_BIN, "--space", "bench", "--server", address(), "--config",
                                   dir_ + "/sam.yaml", "--log-level", "warn"};
     if (tls_) argv.insert(argv.end(), {"--tls-ca", ca_file()});
-    sam_ = std::make_unique<urs::test::Process>(argv, dir_ + "/sam.log");
+    sam_ = std::make_unique<urs::test::Process>(urs::bench::server_command(argv), dir_ + "/sam.log");
   }
   std::string ca_file() const { return dir_ + "/ca.pem"; }
   void start_server(int port) {
@@ -179,7 +84,7 @@ class Space {
                                   "127.0.0.1:" + std::to_string(port), "--data-dir", dir_ + "/data",
                                   "--port-file", dir_ + "/port", "--log-level", "warn"};
     if (tls_) argv.insert(argv.end(), {"--tls-cert", dir_ + "/server.pem", "--tls-key", dir_ + "/server.key"});
-    server_ = std::make_unique<urs::test::Process>(argv, dir_ + "/server.log");
+    server_ = std::make_unique<urs::test::Process>(urs::bench::server_command(argv), dir_ + "/server.log");
     if (!urs::test::wait_until([&] { return std::filesystem::exists(dir_ + "/port"); }, 10s)) {
       throw std::runtime_error("server did not start: " + server_->log());
     }
@@ -224,7 +129,7 @@ std::unique_ptr<urs::test::Process> start_with_config(const std::string& dir, co
   std::ofstream(dir + "/" + name + ".yaml") << yaml;
   argv.insert(argv.end(), {"--config", dir + "/" + name + ".yaml", "--ready-file", dir + "/" + name + ".ready",
                            "--log-level", "warn"});
-  auto process = std::make_unique<urs::test::Process>(argv, dir + "/" + name + ".log");
+  auto process = std::make_unique<urs::test::Process>(urs::bench::server_command(argv), dir + "/" + name + ".log");
   if (!urs::test::wait_until([&] { return std::filesystem::exists(dir + "/" + name + ".ready"); }, 30s)) {
     throw std::runtime_error(name + " did not start: " + process->log());
   }
@@ -306,12 +211,14 @@ int main(int argc, char** argv) {
     else if (a == "--json" && i + 1 < argc) json_path = argv[++i];
     else if (a == "--markdown" && i + 1 < argc) markdown_path = argv[++i];
     else if (a == "--only" && i + 1 < argc) only.push_back(argv[++i]);
+    else if (a == "--pin") urs::bench::pinning() = true;
     else {
-      std::cerr << "usage: urs-bench [--quick] [--only TEXT]... [--json FILE] [--markdown FILE]\n";
+      std::cerr << "usage: urs-bench [--quick] [--pin] [--only TEXT]... [--json FILE] [--markdown FILE]\n";
       return 2;
     }
   }
   signal(SIGPIPE, SIG_IGN);
+  if (urs::bench::pinning()) urs::bench::pin_this_thread(urs::bench::kClientCpu);  // before any thread starts
   urs::util::init_logging("urs-bench", "warn");  // stderr; stdout carries only the report
   const int warmup = quick ? 20 : 500;
   const int iterations = quick ? 50 : 2000;
@@ -328,8 +235,34 @@ int main(int argc, char** argv) {
   auto add_row = [&](const std::string& path, const std::string& payload, auto&& run, std::string baseline, double goal) {
     if (wanted(path + " | " + payload)) rows.push_back({path, payload, run(), std::move(baseline), goal});
   };
+  // Paths measured in turns (measure_interleaved), each compared with its baseline repetition by
+  // repetition; the group is measured when --only wants one of its rows, and all its rows are kept.
+  struct GroupPath {
+    std::string path;
+    std::function<void()> once;
+    std::string baseline;  // "path|payload" of a row of the same group
+    double goal = 0;
+  };
+  int groups = 0;
+  auto add_group = [&](const std::string& payload, const std::vector<GroupPath>& paths, int w, int n) {
+    if (std::none_of(paths.begin(), paths.end(), [&](const GroupPath& p) { return wanted(p.path + " | " + payload); })) {
+      return std::vector<Summary>{};
+    }
+    std::vector<std::function<void()>> calls;
+    for (const auto& p : paths) calls.push_back(p.once);
+    std::vector<Summary> summaries = urs::bench::measure_interleaved(calls, w, n, repetitions);
+    ++groups;
+    for (size_t i = 0; i < paths.size(); ++i) {
+      if (!paths[i].path.empty()) {
+        rows.push_back({paths[i].path, payload, summaries[i], paths[i].baseline, paths[i].goal, groups});
+      }
+    }
+    return summaries;
+  };
   try {
-    RawEcho echo;
+    urs::bench::RawEcho echo;
+    urs::bench::RawRelay relay(echo.port());
+    urs::bench::GrpcEchoProcess grpc_echo(urs::bench::server_command({URS_GRPC_ECHO_BIN}), dir);
     Space space(dir);
     auto client = connect(space.port());
     if (!urs::test::wait_until([&] {
@@ -338,64 +271,104 @@ int main(int argc, char** argv) {
         }, 10s)) {
       throw std::runtime_error("diag never became callable: " + space.sam().log());
     }
+    // The same path with every connection TLS 1.3.
+    std::filesystem::create_directories(dir + "/tls");
+    Space tls_space(dir + "/tls", /*tls=*/true);
+    auto tls_client = connect(tls_space.port(), urs::planet::CLIENT, tls_space.ca_file());
 
-    // 64-byte calls.
-    int fd = echo.connect_client();
-    std::string small(64, 'x');
-    add_row("raw TCP echo", "64 B", [&] { return urs::bench::measure([&] { RawEcho::round_trip(fd, small); }, warmup, iterations, repetitions); }, "", 0);
     URS::Diagnostic_echo_Request echo_req;
     echo_req.set_text(std::string(64, 'x'));
     const std::string echo_payload = echo_req.SerializeAsString();
-    add_row("Planet call client→server→SAM→SA", "64 B",
-            [&] { return urs::bench::measure([&] { expect_ok(client->call("diag", "echo", echo_payload, 5s), "echo"); },
-                                warmup, iterations, repetitions); },
-            "raw TCP echo|64 B", 2.5);
-    add_row("Planet call, Python client (urslink)→server→SAM→SA", "64 B",
-            [&] { return python_client_echo(dir, space.port(), quick); }, "Planet call client→server→SAM→SA|64 B", 0);
-    if (wanted("Planet call over TLS 1.3 client→server→SAM→SA | 64 B")) {
-      // The same path with every connection TLS 1.3, measured in the same run.
-      std::filesystem::create_directories(dir + "/tls");
-      Space tls_space(dir + "/tls", /*tls=*/true);
-      auto tls_client = connect(tls_space.port(), urs::planet::CLIENT, tls_space.ca_file());
-      if (!urs::test::wait_until([&] { return tls_client->call("diag", "echo", echo_payload, 500ms).ok(); }, 10s)) {
-        throw std::runtime_error("diag over TLS never became callable: " + tls_space.sam().log());
-      }
-      add_row("Planet call over TLS 1.3 client→server→SAM→SA", "64 B",
-              [&] { return urs::bench::measure([&] { expect_ok(tls_client->call("diag", "echo", echo_payload, 5s), "echo"); },
-                                  warmup, iterations, repetitions); },
-              "Planet call client→server→SAM→SA|64 B", 1.2);
-    }
-
-    // 921,600-byte replies.
-    std::string big(921600, 'x');
-    add_row("raw TCP echo", "921,600 B", [&] { return urs::bench::measure([&] { RawEcho::round_trip(fd, big); }, 3, big_iterations, repetitions); }, "", 0);
     URS::Diagnostic_blob_Request blob_req;
     blob_req.set_size(921600);
     const std::string blob_payload = blob_req.SerializeAsString();
-    add_row("Planet call client→server→SAM→SA", "921,600 B",
-            [&] { return urs::bench::measure([&] { expect_ok(client->call("diag", "blob", blob_payload, 10s), "blob"); },
-                                3, big_iterations, repetitions); },
-            "raw TCP echo|921,600 B", 0);
-    close(fd);
+    if (!urs::test::wait_until([&] { return tls_client->call("diag", "echo", echo_payload, 500ms).ok(); }, 10s)) {
+      throw std::runtime_error("diag over TLS never became callable: " + tls_space.sam().log());
+    }
 
-    // Throughput: calls per second with 1 and 4 concurrent clients.
-    for (int clients : {1, 4}) {
-      if (!wanted("Planet throughput, " + std::to_string(clients) + " client(s), 64 B")) continue;
-      std::vector<std::unique_ptr<urs::planet::Client>> pool;
-      for (int c = 0; c < clients; ++c) pool.push_back(connect(space.port()));
-      const int per_client = quick ? 200 : 5000;
-      auto t0 = std::chrono::steady_clock::now();
-      std::vector<std::thread> threads;
-      for (auto& c : pool) {
-        threads.emplace_back([&, cl = c.get()] {
-          for (int i = 0; i < per_client; ++i) expect_ok(cl->call("diag", "echo", echo_payload, 5s), "echo");
-        });
+    // One request, one reply, on each path of one space, in turns: the wire (one hop, and two hops
+    // through a relay that parses nothing), gRPC unary (one hop) and Planet (two hops).
+    const int raw_fd = urs::bench::connect_loopback(echo.port());
+    const int relay_fd = urs::bench::connect_loopback(relay.port());
+    urs::bench::GrpcClient grpc_sync(grpc_echo.sync_port());
+    urs::bench::GrpcClient grpc_async(grpc_echo.callback_port());
+    const std::string raw_small(64, 'x');
+    const std::string raw_big_request = urs::bench::blob_request(921600);
+    std::string raw_reply;
+    urs::bench::EchoMessage grpc_small;
+    grpc_small.set_data(std::string(64, 'x'));
+    urs::bench::EchoMessage grpc_big;
+    grpc_big.set_reply_size(921600);
+    const std::string kRaw = "raw TCP echo (one hop)";
+    const std::string kRelay = "raw TCP relay client→relay→echo (two hops)";
+    const std::string kGrpcSync = "gRPC unary, synchronous (one hop)";
+    const std::string kGrpcAsync = "gRPC unary, asynchronous callback API (one hop)";
+    const std::string kPlanet = "Planet call client→server→SAM→SA";
+    for (const bool big_payload : {false, true}) {
+      const std::string size = big_payload ? "921,600 B" : "64 B";
+      const std::string& raw_request = big_payload ? raw_big_request : raw_small;
+      const urs::bench::EchoMessage& grpc_request = big_payload ? grpc_big : grpc_small;
+      const std::string op = big_payload ? "blob" : "echo";
+      const std::string& payload = big_payload ? blob_payload : echo_payload;
+      std::vector<GroupPath> paths{
+          {kRaw, [&] { urs::bench::round_trip(raw_fd, raw_request, raw_reply); }, "", 0},
+          {kRelay, [&] { urs::bench::round_trip(relay_fd, raw_request, raw_reply); }, kRaw + "|" + size, 0},
+          {kGrpcSync, [&] { grpc_sync.call(grpc_request); }, "", 0},
+          {kGrpcAsync, [&] { grpc_async.call_async(grpc_request); }, kGrpcSync + "|" + size, 0},
+          {kPlanet, [&] { expect_ok(client->call("diag", op, payload, 10s), op.c_str()); }, kRelay + "|" + size,
+           big_payload ? 1.5 : 1.25},
+      };
+      if (!big_payload) {
+        paths.push_back({"Planet call over TLS 1.3 client→server→SAM→SA",
+                         [&] { expect_ok(tls_client->call("diag", "echo", echo_payload, 5s), "echo"); },
+                         kPlanet + "|" + size, 1.2});
       }
-      for (auto& t : threads) t.join();
-      double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-      char value[64];
-      std::snprintf(value, sizeof(value), "%.0f calls/s", clients * per_client / seconds);
-      extras.push_back({"Planet throughput, " + std::to_string(clients) + " client(s), 64 B", value});
+      const auto summaries = add_group(size, paths, big_payload ? 3 : warmup, big_payload ? big_iterations : iterations);
+      if (!summaries.empty()) {  // the Planet call's round again, its goal against the one-hop gRPC call
+        rows.push_back({"Planet call (two hops) against gRPC unary (one hop)", size, summaries[4], kGrpcSync + "|" + size,
+                        big_payload ? 0 : 1.0, groups});
+      }
+    }
+    add_row("Planet call, Python client (urslink)→server→SAM→SA", "64 B",
+            [&] { return python_client_echo(dir, space.port(), quick); }, kPlanet + "|64 B", 0);
+    close(raw_fd);
+    close(relay_fd);
+
+    // Throughput with 1 and 4 concurrent clients, 64 B: Planet and gRPC (each client a
+    // connection of its own), in turns, `repetitions` rounds.
+    for (int clients : {1, 4}) {
+      const std::string label = "throughput, " + std::to_string(clients) + " client(s), 64 B: Planet and gRPC";
+      if (!wanted(label)) continue;
+      std::vector<std::unique_ptr<urs::planet::Client>> planets;
+      std::vector<std::unique_ptr<urs::bench::GrpcClient>> grpcs;
+      for (int c = 0; c < clients; ++c) {
+        planets.push_back(connect(space.port()));
+        grpcs.push_back(std::make_unique<urs::bench::GrpcClient>(grpc_echo.sync_port()));
+        grpcs.push_back(std::make_unique<urs::bench::GrpcClient>(grpc_echo.callback_port()));
+      }
+      const int per_client = quick ? 200 : 3000;
+      std::vector<double> planet_rate, sync_rate, async_rate, against_async;
+      for (int r = 0; r < repetitions; ++r) {
+        planet_rate.push_back(throughput(clients, per_client, [&](int c) {
+          return [cl = planets[static_cast<size_t>(c)].get(), &echo_payload] { expect_ok(cl->call("diag", "echo", echo_payload, 5s), "echo"); };
+        }));
+        sync_rate.push_back(throughput(clients, per_client, [&](int c) {
+          return [cl = grpcs[static_cast<size_t>(2 * c)].get(), &grpc_small] { cl->call(grpc_small); };
+        }));
+        async_rate.push_back(throughput(clients, 1, [&](int c) {
+          return [cl = grpcs[static_cast<size_t>(2 * c + 1)].get(), &grpc_small, per_client] { cl->chain_async(grpc_small, per_client); };
+        }) * per_client);
+        against_async.push_back(planet_rate.back() / async_rate.back());
+      }
+      char value[256];
+      std::snprintf(value, sizeof(value),
+                    "Planet %.0f calls/s, gRPC synchronous %.0f, gRPC asynchronous %.0f; Planet/gRPC async %.2f (%.2f – %.2f)%s",
+                    urs::bench::percentile(planet_rate, 0.5), urs::bench::percentile(sync_rate, 0.5),
+                    urs::bench::percentile(async_rate, 0.5), urs::bench::percentile(against_async, 0.5),
+                    *std::min_element(against_async.begin(), against_async.end()),
+                    *std::max_element(against_async.begin(), against_async.end()),
+                    clients == 4 ? (urs::bench::percentile(against_async, 0.5) >= 1.0 ? " (goal >= 1: met)" : " (goal >= 1: missed)") : "");
+      extras.push_back({label, value});
     }
 
     // ---- the RT side, a bridge in the space, and two spaces linked over DDS -------------------
@@ -447,7 +420,7 @@ int main(int argc, char** argv) {
     // Direct Fast DDS request/reply: a DdsLink here and one in urs-dds-echo answering at once (UDP
     // only, between processes as the bridges are).
     auto dds_echo = std::make_unique<urs::test::Process>(
-        std::vector<std::string>{URS_DDS_ECHO_BIN, std::to_string(domains[1]), dir + "/dds-echo.ready"},
+        urs::bench::server_command({URS_DDS_ECHO_BIN, std::to_string(domains[1]), dir + "/dds-echo.ready"}),
         dir + "/dds-echo.log");
     if (!urs::test::wait_until([&] { return std::filesystem::exists(dir + "/dds-echo.ready"); }, 30s)) {
       throw std::runtime_error("urs-dds-echo did not start: " + dds_echo->log());
@@ -475,57 +448,57 @@ int main(int argc, char** argv) {
       auto planet_call = [&](const std::string& service) {
         return [&, service] { expect_ok(client->call(service, op, payload, 10s), service.c_str()); };
       };
-      const std::string omni = std::string("omniORB call, static stubs (direct)|") + size;
-      const std::string planet = std::string("Planet call client→server→SAM→SA|") + size;
-      add_row("omniORB call, static stubs (direct)", size, [&] { return urs::bench::measure(stub_call(direct), w, n, repetitions); }, "", 0);
-      add_row("bridged RTC→CAMUS: client→server→bridge→RTC", size,
-              [&] { return urs::bench::measure(planet_call("rt.diag"), w, n, repetitions); }, omni, big_payload ? 0 : 4.0);
-      add_row("bridged SA→RT: stub→bridge→server→SAM→SA", size,
-              [&] { return urs::bench::measure(stub_call(imported), w, n, repetitions); }, planet, 0);
-      add_row("Fast DDS request/reply, UDP (direct)", size,
-              [&] { return urs::bench::measure([&] { expect_ok(dds_a.call("dds-b", "x", op, payload, 10s), "DDS"); }, w, n, repetitions); },
-              "", 0);
-      // The native hops a cross-space call traverses: Planet (client→server→SAM-like bridge), one
-      // DDS request/reply, one omniORB call.
-      Summary sum;
-      int counted = 0;
-      for (const auto& row : rows) {
-        if (row.payload != size) continue;
-        if (row.path == "omniORB call, static stubs (direct)" || row.path == "Fast DDS request/reply, UDP (direct)" ||
-            row.path == "Planet call client→server→SAM→SA") {
-          ++counted;
-          sum.median_us += row.summary.median_us;
-          sum.p99_us += row.summary.p99_us;
-          sum.min_median_us += row.summary.min_median_us;
-          sum.max_median_us += row.summary.max_median_us;
-        }
+      // In turns: the native paths, the same Planet call as above (its round is needed in this
+      // group for the sums), the bridged and the cross-space paths.
+      const std::string kOmni = "omniORB call, static stubs (direct)";
+      const std::string kDds = "Fast DDS request/reply, UDP (direct)";
+      const std::string kBridgeHops = "Planet call + omniORB call (the hops of a bridged call)";
+      const std::string kHops = "sum of the native hops (Planet + Fast DDS + omniORB)";
+      const std::string at = std::string("|") + size;
+      const auto summaries = add_group(
+          size,
+          {{kOmni, stub_call(direct), "", 0},
+           {kDds, [&] { expect_ok(dds_a.call("dds-b", "x", op, payload, 10s), "DDS"); }, "", 0},
+           {"", planet_call("diag"), "", 0},  // the Planet call's round of this group (no row of its own)
+           {"bridged RTC→CAMUS: client→server→bridge→RTC", planet_call("rt.diag"), kBridgeHops + at, big_payload ? 0 : 1.15},
+           {"bridged SA→RT: stub→bridge→server→SAM→SA", stub_call(imported), kBridgeHops + at, 0},
+           {"cross-space: kr client→server→bridge-kr→DDS→bridge-jp→RTC", planet_call("jp/rt.diag"), kHops + at, 1.2},
+           {"cross-space: jp stub→bridge-jp→DDS→bridge-kr→server→SAM→SA", stub_call(remote), kHops + at, 1.2}},
+          w, n);
+      if (!summaries.empty()) {
+        // The native hops each bridged path traverses, added up repetition by repetition.
+        rows.push_back({kBridgeHops, size, urs::bench::sum_of({&summaries[2], &summaries[0]}), "", 0, groups});
+        rows.push_back({kHops, size, urs::bench::sum_of({&summaries[2], &summaries[1], &summaries[0]}), "", 0, groups});
       }
-      if (counted > 0) rows.push_back({"sum of the native hops (Planet + Fast DDS + omniORB)", size, sum, "", 0});
-      const std::string hops = std::string("sum of the native hops (Planet + Fast DDS + omniORB)|") + size;
-      add_row("cross-space: kr client→server→bridge-kr→DDS→bridge-jp→RTC", size,
-              [&] { return urs::bench::measure(planet_call("jp/rt.diag"), w, n, repetitions); }, hops, 1.3);
-      add_row("cross-space: jp stub→bridge-jp→DDS→bridge-kr→server→SAM→SA", size,
-              [&] { return urs::bench::measure(stub_call(remote), w, n, repetitions); }, hops, 1.3);
     }
 
-    // Throughput, direct omniORB and bridged RTC→CAMUS, 1 and 4 clients.
+    // Throughput, direct omniORB and bridged RTC→CAMUS, 1 and 4 clients, in turns.
     const int per = quick ? 100 : 3000;
     for (int clients : {1, 4}) {
       if (!wanted("throughput RTC→CAMUS, " + std::to_string(clients) + " client(s), 64 B")) continue;
       std::vector<std::unique_ptr<urs::bench::DiagnosticStub>> stubs;
       std::vector<std::unique_ptr<urs::planet::Client>> planets;
-      const double corba = throughput(clients, per, [&](int) {
+      for (int c = 0; c < clients; ++c) {
         CORBA::Object_var object = provider(orb, names, "benchhost.host_cxt/Diagnostic0.rtc", "diagnostic");
         stubs.push_back(std::make_unique<urs::bench::DiagnosticStub>(object));
-        return [stub = stubs.back().get(), &text] { stub->echo(text); };
-      });
-      const double bridged = throughput(clients, per, [&](int) {
         planets.push_back(connect(space.port()));
-        return [cl = planets.back().get(), &echo_payload] { expect_ok(cl->call("rt.diag", "echo", echo_payload, 5s), "echo"); };
-      });
-      char value[160];
-      std::snprintf(value, sizeof(value), "%.0f calls/s bridged vs %.0f direct omniORB: %.0f%%%s", bridged, corba,
-                    100 * bridged / corba, clients == 4 ? (bridged >= 0.35 * corba ? " (goal >= 35%: met)" : " (goal >= 35%: missed)") : "");
+      }
+      std::vector<double> corba, bridged, share;
+      for (int r = 0; r < repetitions; ++r) {
+        corba.push_back(throughput(clients, per, [&](int c) {
+          return [stub = stubs[static_cast<size_t>(c)].get(), &text] { stub->echo(text); };
+        }));
+        bridged.push_back(throughput(clients, per, [&](int c) {
+          return [cl = planets[static_cast<size_t>(c)].get(), &echo_payload] { expect_ok(cl->call("rt.diag", "echo", echo_payload, 5s), "echo"); };
+        }));
+        share.push_back(bridged.back() / corba.back());
+      }
+      const double median_share = urs::bench::percentile(share, 0.5);
+      char value[200];
+      std::snprintf(value, sizeof(value), "%.0f calls/s bridged vs %.0f direct omniORB: %.0f%% (%.0f – %.0f%%)%s",
+                    urs::bench::percentile(bridged, 0.5), urs::bench::percentile(corba, 0.5), 100 * median_share,
+                    100 * *std::min_element(share.begin(), share.end()), 100 * *std::max_element(share.begin(), share.end()),
+                    clients == 4 ? (median_share >= 0.35 ? " (goal >= 35%: met)" : " (goal >= 35%: missed)") : "");
       extras.push_back({"throughput RTC→CAMUS, " + std::to_string(clients) + " client(s), 64 B", value});
     }
 
@@ -624,24 +597,37 @@ int main(int argc, char** argv) {
 
   // Report.
   std::ostringstream md;
-  md << "| path | payload | median | p99 | spread of medians | vs baseline | goal |\n|---|---|---|---|---|---|---|\n";
+  md << "| path | payload | median | p99 | spread of medians | vs baseline (spread of per-repetition ratios) | goal |\n"
+        "|---|---|---|---|---|---|---|\n";
   std::ostringstream json;
   json << "{\"quick\":" << (quick ? "true" : "false") << ",\"rows\":[";
   for (size_t i = 0; i < rows.size(); ++i) {
     const auto& row = rows[i];
     std::string ratio = "baseline";
     std::string goal = "";
-    for (const auto& base : rows) {
-      if (base.path + "|" + base.payload == row.baseline) {
-        char b[64];
-        double x = row.summary.median_us / base.summary.median_us;
-        std::snprintf(b, sizeof(b), "%.2fx %s", x, base.path.c_str());
-        ratio = b;
-        if (row.goal_ratio > 0) {
-          std::snprintf(b, sizeof(b), "<= %.1fx: %s", row.goal_ratio, x <= row.goal_ratio ? "met" : "missed");
-          goal = b;
-        }
+    std::string ratio_json;
+    const Row* base = nullptr;
+    for (const auto& candidate : rows) {  // the baseline of the same group first
+      if (candidate.path + "|" + candidate.payload != row.baseline) continue;
+      if (base == nullptr || (candidate.group == row.group && base->group != row.group)) base = &candidate;
+    }
+    if (base != nullptr) {
+      const bool paired = row.group > 0 && base->group == row.group;
+      const urs::bench::Ratio x = urs::bench::ratio_of(row.summary, base->summary, paired);
+      char b[200];
+      if (x.paired) {
+        std::snprintf(b, sizeof(b), "%.2fx %s (%.2f – %.2f)", x.median, base->path.c_str(), x.low, x.high);
+      } else {
+        std::snprintf(b, sizeof(b), "%.2fx %s", x.median, base->path.c_str());
       }
+      ratio = b;
+      if (row.goal_ratio > 0) {
+        std::snprintf(b, sizeof(b), "<= %.3gx: %s", row.goal_ratio, x.median <= row.goal_ratio ? "met" : "missed");
+        goal = b;
+      }
+      std::snprintf(b, sizeof(b), ",\"ratio\":%.4f,\"ratio_low\":%.4f,\"ratio_high\":%.4f,\"paired\":%s,\"goal\":%.4f",
+                    x.median, x.low, x.high, x.paired ? "true" : "false", row.goal_ratio);
+      ratio_json = b;
     }
     md << "| " << row.path << " | " << row.payload << " | " << fmt_us(row.summary.median_us) << " | "
        << fmt_us(row.summary.p99_us) << " | " << fmt_us(row.summary.min_median_us) << " – "
@@ -649,7 +635,7 @@ int main(int argc, char** argv) {
     json << (i ? "," : "") << "{\"path\":\"" << row.path << "\",\"payload\":\"" << row.payload
          << "\",\"median_us\":" << row.summary.median_us << ",\"p99_us\":" << row.summary.p99_us
          << ",\"min_median_us\":" << row.summary.min_median_us << ",\"max_median_us\":" << row.summary.max_median_us
-         << ",\"samples\":" << row.summary.samples << "}";
+         << ",\"samples\":" << row.summary.samples << ",\"baseline\":\"" << row.baseline << "\"" << ratio_json << "}";
   }
   json << "],\"other\":{";
   md << "\n| measurement | value |\n|---|---|\n";
