@@ -50,6 +50,7 @@
 #include "camus.pb.h"
 #include "certificates.hpp"
 #include "process.hpp"
+#include "urs/planet/call_adapter.hpp"
 #include "urs/planet/client.hpp"
 #include "urs/schema/schema.hpp"
 #include "urs/util/cli.hpp"
@@ -120,6 +121,8 @@ std::unique_ptr<urs::planet::Client> connect(uint16_t port, urs::planet::Role ro
 void expect_ok(const urs::planet::CallResult& r, const char* what) {
   if (!r.ok()) throw std::runtime_error(std::string(what) + ": " + std::string(urs::planet::status_name(r.status)) + ": " + r.message);
 }
+
+void expect_ok(const urs::call::Reply& r, const char* what) { expect_ok(urs::planet::to_call_result(r), what); }
 
 long rss_kib(pid_t pid) { return urs::test::resident_kib(pid); }
 
@@ -430,7 +433,7 @@ int main(int argc, char** argv) {
     a_options.space = "dds-a";
     a_options.bridge = "a";
     a_options.udp_only = true;
-    urs::bridge::DdsLink dds_a(a_options, [] {}, [](urs::bridge::IncomingCall, auto) {});
+    urs::bridge::DdsLink dds_a(a_options, [] {}, [](urs::call::Request, urs::call::Responder) {});
     expect_ok(dds_a.call("dds-b", "echo", "echo", echo_payload, 5s), "direct DDS");
 
     const std::string text(64, 'x');

@@ -283,7 +283,7 @@ struct StateObserver {
     options.bridge = "observer";
     options.lease = lease;
     options.udp_only = true;
-    link = std::make_unique<bridge::DdsLink>(options, [] {}, [](bridge::IncomingCall, auto) {});
+    link = std::make_unique<bridge::DdsLink>(options, [] {}, [](call::Request, call::Responder) {});
     bridge::StateHandlers handlers;
     handlers.component = [this](const bridge::ComponentState& c, bool alive) {
       std::lock_guard lock(mutex);
