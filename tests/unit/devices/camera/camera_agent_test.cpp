@@ -94,7 +94,7 @@ TEST(CameraParams, EveryMistakeIsNamedByItsKey) {
 agent::Outcome invoke(agent::ServiceAgent& agent, const std::string& operation, const google::protobuf::Message& request,
                       google::protobuf::Message& reply, agent::EventSink& events) {
   const auto* method = agent.interface().FindMethodByName(operation);
-  agent::CallContext ctx{"camera", "tester", std::chrono::steady_clock::now() + std::chrono::seconds(10), &events};
+  agent::CallContext ctx{"camera", {"", "tester", ""}, std::chrono::steady_clock::now() + std::chrono::seconds(10), &events};
   return agent.invoke(*method, request, reply, ctx);
 }
 
