@@ -429,16 +429,16 @@ int call(Session& session, const CallRequest& call) {
   const rt_call::ProviderOutcome outcome =
       rt_call::call_provider(session.orb(), target, *method, *request, *reply, call.deadline, call.target);
   std::string json;
-  if (outcome.status == planet::OK) {
+  if (outcome.status == call::Status::OK) {
     schema::message_to_json(*reply, json);
     std::cout << json << "\n";
     return kOk;
   }
-  std::cerr << "urs: rtc call: " << call.target << "." << call.operation << ": " << planet::status_name(outcome.status);
+  std::cerr << "urs: rtc call: " << call.target << "." << call.operation << ": " << call::status_name(outcome.status);
   if (!outcome.exception_type.empty()) std::cerr << " " << outcome.exception_type << " " << outcome.exception_json;
   if (!outcome.message.empty()) std::cerr << ": " << outcome.message;
   std::cerr << "\n";
-  return outcome.status == planet::BAD_ARGUMENTS ? kUsage : outcome.status == planet::UNAVAILABLE ? kUnreachable : kFailed;
+  return outcome.status == call::Status::BAD_ARGUMENTS ? kUsage : outcome.status == call::Status::UNAVAILABLE ? kUnreachable : kFailed;
 }
 
 }  // namespace

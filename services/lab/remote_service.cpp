@@ -5,6 +5,7 @@
 #include "urs/agent/agent.hpp"
 #include "urs/bridge/provider_port.hpp"
 #include "urs/corba_agent/corba_proxy.hpp"
+#include "urs/planet/call_adapter.hpp"
 #include "urs/planet/client.hpp"
 #include "urs/rtc/naming.hpp"
 #include "urs/rtc/orb.hpp"
@@ -43,7 +44,7 @@ class CamusService : public RemoteService {
 
 class NoEvents : public agent::EventSink {
  public:
-  planet::CallResult publish(const std::string&, const gp::Message&) override { return {}; }
+  call::Reply publish(const std::string&, const gp::Message&) override { return {}; }
 };
 
 class RtProvider : public RemoteService {
@@ -59,7 +60,7 @@ class RtProvider : public RemoteService {
     context.events = &events_;
     const agent::Outcome outcome = proxy_.invoke(*method, request, reply, context);
     planet::CallResult result;
-    result.status = outcome.status;
+    result.status = planet::to_planet(outcome.status);
     result.message = outcome.message;
     if (outcome.exception) {
       result.exception_type = outcome.exception->GetTypeName();

@@ -11,6 +11,7 @@
 
 #include "sam_config.hpp"
 #include "urs/agent/agent.hpp"
+#include "urs/agent/camus.hpp"
 #include "urs/agent/client_sink.hpp"
 #include "urs/agent/plugin.hpp"
 #include "urs/devices/catalog.hpp"
@@ -99,9 +100,7 @@ int main(int argc, char** argv) {
   urs::agent::AgentHost host(config.workers, sink);
   for (auto& service : services) host.add(std::move(service));
 
-  client.set_request_handler([&host](const urs::planet::Request& request, urs::planet::Responder responder) {
-    host.dispatch(request, "", std::move(responder));
-  });
+  urs::agent::serve_requests(client, host);
   client.on_connected([&space = program.space, &server](const urs::planet::Welcome& welcome) {
     if (welcome.space() != space) {
       spdlog::critical("server {} serves space '{}' but this SAM was started with --space {}; stopping",
@@ -117,7 +116,7 @@ int main(int argc, char** argv) {
     spdlog::warn("lost the server {}: {}; reconnecting", server, reason);
   });
   for (const auto& service : host.services()) {
-    client.register_service(host.registration(service), [name = service.name](urs::planet::CallResult result) {
+    client.register_service(urs::agent::registration(service), [name = service.name](urs::planet::CallResult result) {
       if (result.ok()) {
         spdlog::info("registered service {}", name);
       } else {

@@ -9,7 +9,6 @@
 #include <string>
 
 #include "Diagnostic.pb.h"
-#include "urs/agent/agent.hpp"
 #include "urs/bridge/dds_link.hpp"
 #include "urs/util/cli.hpp"
 
@@ -29,18 +28,12 @@ int main(int argc, char** argv) {
   options.bridge = "b";
   options.udp_only = true;
   if (argc == 4) options.security = urs::bridge::security_from_folder(argv[3], options.space);
-  // Replies go out from a worker, as a bridge's do: a reply written on the DDS listener thread
-  // would wait there for its writer to match, which that very thread has to discover.
-  urs::agent::WorkerPool replier(1);
-  urs::bridge::DdsLink link(
-      options, [] {},
-      [&](urs::bridge::IncomingCall call, std::function<void(urs::planet::CallResult)> reply) {
-        replier.post([&big_reply, call = std::move(call), reply = std::move(reply)](bool cancelled) {
-          if (!cancelled) reply(urs::planet::CallResult::success(call.operation == "blob" ? big_reply : call.payload));
-        });
-      });
+  // Answered inside the handler, on the DDS listener thread: the link writes the reply from its
+  // replier thread (a reply written on the listener thread could deadlock Fast DDS 2.9).
+  urs::bridge::DdsLink link(options, [] {}, [&](urs::call::Request request, urs::call::Responder responder) {
+    responder.reply(urs::call::Reply::success(request.operation == "blob" ? big_reply : request.payload));
+  });
   urs::util::write_file_atomically(argv[2], "ready\n");
   urs::util::wait_for_shutdown();
-  replier.stop();
   return 0;
 }

@@ -50,6 +50,7 @@
 #include "camus.pb.h"
 #include "certificates.hpp"
 #include "process.hpp"
+#include "urs/planet/call_adapter.hpp"
 #include "urs/planet/client.hpp"
 #include "urs/schema/schema.hpp"
 #include "urs/util/cli.hpp"
@@ -120,6 +121,8 @@ std::unique_ptr<urs::planet::Client> connect(uint16_t port, urs::planet::Role ro
 void expect_ok(const urs::planet::CallResult& r, const char* what) {
   if (!r.ok()) throw std::runtime_error(std::string(what) + ": " + std::string(urs::planet::status_name(r.status)) + ": " + r.message);
 }
+
+void expect_ok(const urs::call::Reply& r, const char* what) { expect_ok(urs::planet::to_call_result(r), what); }
 
 long rss_kib(pid_t pid) { return urs::test::resident_kib(pid); }
 
@@ -430,7 +433,7 @@ int main(int argc, char** argv) {
     a_options.space = "dds-a";
     a_options.bridge = "a";
     a_options.udp_only = true;
-    urs::bridge::DdsLink dds_a(a_options, [] {}, [](urs::bridge::IncomingCall, auto) {});
+    urs::bridge::DdsLink dds_a(a_options, [] {}, [](urs::call::Request, urs::call::Responder) {});
     expect_ok(dds_a.call("dds-b", "echo", "echo", echo_payload, 5s), "direct DDS");
     // The same with DDS-Security (a federation made by deploy/pki.sh, data encrypted), on a domain
     // of its own.
@@ -452,7 +455,7 @@ int main(int argc, char** argv) {
     urs::bridge::DdsOptions secured_options = a_options;
     secured_options.domain = domains[2];
     secured_options.security = urs::bridge::security_from_folder(pki, "dds-a");
-    urs::bridge::DdsLink secured_a(secured_options, [] {}, [](urs::bridge::IncomingCall, auto) {});
+    urs::bridge::DdsLink secured_a(secured_options, [] {}, [](urs::call::Request, urs::call::Responder) {});
     const auto handshake_start = std::chrono::steady_clock::now();
     if (!urs::test::wait_until([&] { return secured_a.call("dds-b", "echo", "echo", echo_payload, 1s).ok(); }, 30s)) {
       throw std::runtime_error("the secured DDS echo never answered: " + secured_echo->log());

@@ -123,7 +123,7 @@ class TtsAgent : public agent::TypedAgent {
     wake_.notify_one();
     Synthesis synthesis = result.get();
     if (synthesis.end == Synthesis::End::cancelled) return not_ready("cancelled: " + synthesis.why);
-    if (synthesis.end == Synthesis::End::failed) return Outcome::error(planet::INTERNAL, synthesis.why);
+    if (synthesis.end == Synthesis::End::failed) return Outcome::error(call::Status::INTERNAL, synthesis.why);
 
     audio::Pcm pcm{kOutputRate, 1, audio::resample(synthesis.samples, engine_.sample_rate(), kOutputRate)};
     info.set_sample_rate(pcm.sample_rate);

@@ -12,6 +12,7 @@
 
 #include "greeter_agent.hpp"
 #include "urs/agent/agent.hpp"
+#include "urs/agent/camus.hpp"
 #include "urs/agent/client_sink.hpp"
 #include "urs/planet/client.hpp"
 #include "urs/util/cli.hpp"
@@ -43,11 +44,9 @@ int main(int argc, char** argv) {
   urs::agent::ClientEventSink events(client);
   urs::agent::AgentHost host(2, events);
   host.add({args["--name"], std::make_shared<example::GreeterAgent>(), {}, 0});
-  client.set_request_handler([&host](const urs::planet::Request& request, urs::planet::Responder responder) {
-    host.dispatch(request, "", std::move(responder));
-  });
+  urs::agent::serve_requests(client, host);
   for (const auto& service : host.services()) {
-    client.register_service(host.registration(service), [name = service.name](urs::planet::CallResult result) {
+    client.register_service(urs::agent::registration(service), [name = service.name](urs::planet::CallResult result) {
       if (result.ok()) spdlog::info("registered service {}", name);
       else spdlog::error("registering {} failed: {}", name, result.message);
     });

@@ -224,33 +224,33 @@ agent::Outcome ContextAgent::invoke(const gp::MethodDescriptor& method, const gp
   if (op == "Get") {
     camus::ContextGetRequest storage;
     auto entry = store_.get(message_as(request, storage).key());
-    if (!entry.ok()) return agent::Outcome::error(entry.status(), entry.message());
+    if (!entry.ok()) return refused(entry);
     fill_reply(reply, entry.value());
     return agent::Outcome::ok();
   }
   if (op == "Set") {
     camus::ContextSetRequest storage;
-    auto entry = store_.set(message_as(request, storage), ctx.caller);
-    if (!entry.ok()) return agent::Outcome::error(entry.status(), entry.message());
+    auto entry = store_.set(message_as(request, storage), ctx.caller.name);
+    if (!entry.ok()) return refused(entry);
     fill_reply(reply, entry.value());
     return agent::Outcome::ok();
   }
   if (op == "Delete") {
     camus::ContextDeleteRequest storage;
-    auto done = store_.remove(message_as(request, storage).key(), ctx.caller);
-    if (!done.ok()) return agent::Outcome::error(done.status(), done.message());
+    auto done = store_.remove(message_as(request, storage).key(), ctx.caller.name);
+    if (!done.ok()) return refused(done);
     return agent::Outcome::ok();
   }
   if (op == "List") {
     camus::ContextListRequest storage;
     auto entries = store_.list(message_as(request, storage).pattern());
-    if (!entries.ok()) return agent::Outcome::error(entries.status(), entries.message());
+    if (!entries.ok()) return refused(entries);
     camus::ContextListReply out;
     for (auto& entry : entries.value()) *out.add_entries() = std::move(entry);
     fill_reply(reply, out);
     return agent::Outcome::ok();
   }
-  return agent::Outcome::error(planet::UNKNOWN_OPERATION, "interface urs.camus.Context has no operation '" + op + "'");
+  return agent::Outcome::error(call::Status::UNKNOWN_OPERATION, "interface urs.camus.Context has no operation '" + op + "'");
 }
 
 }  // namespace urs::camus_server

@@ -496,7 +496,7 @@ void EventBus::process_subscribe(Job& job) {
   }
 }
 
-planet::CallResult BusEventSink::publish(const std::string& topic, const google::protobuf::Message& event) {
+call::Reply BusEventSink::publish(const std::string& topic, const google::protobuf::Message& event) {
   PublishInput input;
   input.topic = topic;
   input.payload = event.SerializeAsString();
@@ -508,8 +508,8 @@ planet::CallResult BusEventSink::publish(const std::string& topic, const google:
     *refusal = ack.message();  // read below only when refused synchronously
     spdlog::warn("internal event on '{}' not stored: {}", topic, ack.message());
   });
-  if (!accepted) return planet::CallResult::error(planet::UNAVAILABLE, *refusal);
-  return planet::CallResult::success({});
+  if (!accepted) return call::Reply::error(call::Status::UNAVAILABLE, *refusal);
+  return call::Reply::success({});
 }
 
 }  // namespace urs::camus_server

@@ -70,7 +70,7 @@ class CamusServer {
         context_(db_path(config, "context.db"), sink_, clock_, timers_),
         host_(kContainerWorkers, sink_),
         registry_service_(registry_),
-        container_(host_),
+        container_(host_, config.space),
         builtins_(registry_service_, container_),
         router_(router_options(config), registry_, builtins_, timers_),
         invoker_(router_),

@@ -45,7 +45,7 @@ void BuiltinServices::dispatch(const Caller& caller, const planet::Request& requ
     if (!request.oneway()) done(std::move(result));
     return;
   }
-  container_.dispatch(request, caller.identity, std::move(done));
+  container_.dispatch(request, caller, std::move(done));
 }
 
 void RouterInvoker::call(const std::string& caller, planet::Request request,

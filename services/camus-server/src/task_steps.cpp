@@ -42,9 +42,9 @@ StepEnd StepRunner::publish(const PublishStep& step, std::string& failure) {
   gp::DynamicMessageFactory factory;
   std::unique_ptr<gp::Message> event(factory.GetPrototype(type)->New());
   event->ParseFromString(encoded.value());
-  const planet::CallResult published = sink_.publish(step.topic, *event);
+  const call::Reply published = sink_.publish(step.topic, *event);
   if (!published.ok()) {
-    failure = status_text(published.status) + ": " + published.message;
+    failure = std::string(call::status_name(published.status)) + ": " + published.message;
     return StepEnd::kFailed;
   }
   return StepEnd::kNext;

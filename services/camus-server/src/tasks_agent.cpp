@@ -14,7 +14,7 @@ agent::Outcome TasksAgent::invoke(const gp::MethodDescriptor& method, const gp::
                                   const agent::CallContext& ctx) {
   const std::string& op = method.name();
   auto answer = [&reply](const auto& result) {
-    if (!result.ok()) return agent::Outcome::error(result.status(), result.message());
+    if (!result.ok()) return refused(result);
     fill_reply(reply, result.value());
     return agent::Outcome::ok();
   };
@@ -22,7 +22,7 @@ agent::Outcome TasksAgent::invoke(const gp::MethodDescriptor& method, const gp::
     camus::TaskDefinition storage;
     const auto& in = message_as(request, storage);
     auto defined = manager_.define(in.name(), in.yaml());
-    if (!defined.ok()) return agent::Outcome::error(defined.status(), defined.message());
+    if (!defined.ok()) return refused(defined);
     camus::TaskDefineReply out;
     *out.mutable_task() = defined.value();
     fill_reply(reply, out);
@@ -30,7 +30,7 @@ agent::Outcome TasksAgent::invoke(const gp::MethodDescriptor& method, const gp::
   }
   if (op == "Run") {
     camus::TaskRunRequest storage;
-    return answer(manager_.run(message_as(request, storage), ctx.caller.empty() ? "call" : "call:" + ctx.caller));
+    return answer(manager_.run(message_as(request, storage), ctx.caller.known() ? "call:" + ctx.caller.name : "call"));
   }
   if (op == "Status") {
     camus::TaskStatusRequest storage;
@@ -38,13 +38,13 @@ agent::Outcome TasksAgent::invoke(const gp::MethodDescriptor& method, const gp::
   }
   if (op == "Cancel") {
     camus::TaskCancelRequest storage;
-    return answer(manager_.cancel(message_as(request, storage).run_id(), ctx.caller));
+    return answer(manager_.cancel(message_as(request, storage).run_id(), ctx.caller.name));
   }
   if (op == "List") {
     fill_reply(reply, manager_.list());
     return agent::Outcome::ok();
   }
-  return agent::Outcome::error(planet::UNKNOWN_OPERATION, "interface urs.camus.Tasks has no operation '" + op + "'");
+  return agent::Outcome::error(call::Status::UNKNOWN_OPERATION, "interface urs.camus.Tasks has no operation '" + op + "'");
 }
 
 }  // namespace urs::camus_server

@@ -147,7 +147,7 @@ class CyclonePeer : public ::testing::Test {
 // request goes out at once; the replier, another vendor's, appears only afterwards. It gets the
 // request all the same, and answers it. A replier appearing after the call ended never sees it.
 TEST_F(CyclonePeer, AReplierMatchingAfterTheRequestWasWrittenStillGetsIt) {
-  bridge::DdsLink caller(link_options(domain(), "req"), [] {}, [](bridge::IncomingCall, auto) {});
+  bridge::DdsLink caller(link_options(domain(), "req"), [] {}, [](call::Request, call::Responder) {});
   RawEndpoint decoy(domain(), "urs/rpc/rep/request");
   decoy.read();
   auto answer = std::async(std::launch::async, [&] { return caller.call("rep", "svc", "echo", "first call", 30s); });
@@ -155,7 +155,7 @@ TEST_F(CyclonePeer, AReplierMatchingAfterTheRequestWasWrittenStillGetsIt) {
 
   peer("replier", {"replier", std::to_string(domain()), "rep"});
   const auto first = answer.get();
-  ASSERT_EQ(first.status, planet::OK) << first.message;
+  ASSERT_EQ(first.status, call::Status::OK) << first.message;
   EXPECT_EQ(first.payload, "first call");
   ASSERT_EQ(executed("replier").size(), 1u);
   const std::string first_id = executed("replier")[0];
@@ -164,7 +164,7 @@ TEST_F(CyclonePeer, AReplierMatchingAfterTheRequestWasWrittenStillGetsIt) {
   peer("late", {"replier", std::to_string(domain()), "rep"});
   peers_.erase("replier");
   const auto second = caller.call("rep", "svc", "echo", "second call", 30s);
-  ASSERT_EQ(second.status, planet::OK) << second.message;
+  ASSERT_EQ(second.status, call::Status::OK) << second.message;
   EXPECT_EQ(second.payload, "second call");
   ASSERT_EQ(executed("late").size(), 1u) << peers_["late"]->log();
   EXPECT_NE(executed("late")[0], first_id);
@@ -173,17 +173,17 @@ TEST_F(CyclonePeer, AReplierMatchingAfterTheRequestWasWrittenStillGetsIt) {
 // A call whose caller gave up (its deadline passed with no replier) is not executed by a replier
 // that appears afterwards.
 TEST_F(CyclonePeer, ARequestItsCallerGaveUpOnIsNeverExecuted) {
-  bridge::DdsLink caller(link_options(domain(), "req"), [] {}, [](bridge::IncomingCall, auto) {});
+  bridge::DdsLink caller(link_options(domain(), "req"), [] {}, [](call::Request, call::Responder) {});
   RawEndpoint decoy(domain(), "urs/rpc/rep/request");
   decoy.read();
   auto abandoned = std::async(std::launch::async, [&] { return caller.call("rep", "svc", "echo", "nobody answers", 3s); });
   ASSERT_TRUE(wait_until([&] { return decoy.requests_seen() == 1; }, 10s));  // the request was out
   const auto gave_up = abandoned.get();
-  ASSERT_EQ(gave_up.status, planet::DEADLINE_EXCEEDED) << gave_up.message;
+  ASSERT_EQ(gave_up.status, call::Status::DEADLINE_EXCEEDED) << gave_up.message;
 
   peer("replier", {"replier", std::to_string(domain()), "rep"});
   const auto answered = caller.call("rep", "svc", "echo", "answered", 30s);
-  ASSERT_EQ(answered.status, planet::OK) << answered.message;
+  ASSERT_EQ(answered.status, call::Status::OK) << answered.message;
   EXPECT_EQ(answered.payload, "answered");
   EXPECT_EQ(executed("replier").size(), 1u);
 }
@@ -277,17 +277,12 @@ TEST_F(CyclonePeer, AServiceItOffersIsImportedAndServedByABridge) {
 TEST(DdsReplier, ExecutesEachRequestOnceAndNoneAfterItsDeadline) {
   const DdsDomains domains;
   std::mutex mutex;
-  std::vector<std::string> served;
-  std::vector<std::future<void>> answering;  // replies leave the DDS listener thread, as the bridge's do
+  std::vector<std::string> served;  // the payloads served: each request carries its id as payload
   bridge::DdsLink replier(link_options(domains[0], "svc"), [] {},
-                          [&](bridge::IncomingCall call, std::function<void(planet::CallResult)> reply) {
+                          [&](call::Request request, call::Responder responder) {
                             std::lock_guard lock(mutex);
-                            served.push_back(call.request_id);
-                            if (reply) {
-                              answering.push_back(std::async(std::launch::async, [payload = call.payload, reply = std::move(reply)] {
-                                reply(planet::CallResult::success(payload));
-                              }));
-                            }
+                            served.push_back(request.payload);
+                            responder.reply(call::Reply::success(request.payload));
                           });
   auto served_now = [&] {
     std::lock_guard lock(mutex);
@@ -310,6 +305,7 @@ TEST(DdsReplier, ExecutesEachRequestOnceAndNoneAfterItsDeadline) {
     r.operation("echo");
     r.deadline_ms(5000);
     r.no_reply(true);
+    r.payload(std::vector<uint8_t>(id.begin(), id.end()));
     return r;
   };
   auto once = request("other/b/1/1");

@@ -52,7 +52,7 @@ pid_t bridge_process(uint32_t domain, const std::string& space) {
   const pid_t child = fork();
   if (child != 0) return child;
   try {  // never back into the test runner
-    bridge::DdsLink link(link_options(domain, space), [] {}, [](bridge::IncomingCall, auto) {});
+    bridge::DdsLink link(link_options(domain, space), [] {}, [](call::Request, call::Responder) {});
     bridge::StateLink state(link, {}, std::nullopt);
     link.announce(entry_named("svc"));
     state.set_component({space, "robot", "rtc", "Active", "Robot", "host", {}});
@@ -93,7 +93,7 @@ TEST_F(LinkedSpaces, AKilledBridgesServicesAndStateEndWithinTheLeaseWhileAnother
       components.erase(c.space + "/" + c.name);
     }
   };
-  bridge::DdsLink seeing(link_options(domains[0], "r"), [] {}, [](bridge::IncomingCall, auto) {});
+  bridge::DdsLink seeing(link_options(domains[0], "r"), [] {}, [](call::Request, call::Responder) {});
   bridge::StateLink state(seeing, handlers, std::nullopt);
   auto services = [&] {
     std::set<std::string> found;
@@ -117,7 +117,7 @@ TEST_F(LinkedSpaces, AKilledBridgesServicesAndStateEndWithinTheLeaseWhileAnother
             << " ms after the kill (lease " << kLease.count() << " ms)\n";
   EXPECT_LT(ended, kLease * 4);
   const auto refused = seeing.call("a", "svc", "echo", "", 5s);
-  EXPECT_EQ(refused.status, planet::UNAVAILABLE) << refused.message;
+  EXPECT_EQ(refused.status, call::Status::UNAVAILABLE) << refused.message;
   EXPECT_NE(refused.message.find("lost its liveliness"), std::string::npos) << refused.message;
 }
 
@@ -125,8 +125,8 @@ TEST_F(LinkedSpaces, AKilledBridgesServicesAndStateEndWithinTheLeaseWhileAnother
 // and what that bridge announces afterwards still arrives.
 TEST(DdsCatalog, AWithdrawnEntryLeavesTheOtherSpaces) {
   const DdsDomains domains;
-  bridge::DdsLink offering(link_options(domains[0], "a"), [] {}, [](bridge::IncomingCall, auto) {});
-  bridge::DdsLink seeing(link_options(domains[0], "b"), [] {}, [](bridge::IncomingCall, auto) {});
+  bridge::DdsLink offering(link_options(domains[0], "a"), [] {}, [](call::Request, call::Responder) {});
+  bridge::DdsLink seeing(link_options(domains[0], "b"), [] {}, [](call::Request, call::Responder) {});
   auto names = [&] {
     std::set<std::string> found;
     for (const auto& entry : seeing.catalog()) found.insert(entry.space + "/" + entry.name);
@@ -146,25 +146,58 @@ TEST(DdsCatalog, AWithdrawnEntryLeavesTheOtherSpaces) {
 // the match wait (not DEADLINE_EXCEEDED).
 TEST(DdsCalls, ACallWaitsForItsSpacesBridgeToMatchAndOnlyThatLong) {
   const DdsDomains domains;
-  bridge::DdsLink calling(link_options(domains[0], "a"), [] {}, [](bridge::IncomingCall, auto) {});
+  bridge::DdsLink calling(link_options(domains[0], "a"), [] {}, [](call::Request, call::Responder) {});
   auto answer = std::async(std::launch::async, [&] { return calling.call("late", "svc", "echo", "ping", 10s); });
-  std::vector<std::future<void>> answering;  // replies leave the DDS listener thread, as the bridge's do
-  std::mutex answering_mutex;
-  bridge::DdsLink late(link_options(domains[0], "late"), [] {},
-                       [&](bridge::IncomingCall call, std::function<void(planet::CallResult)> reply) {
-                         std::lock_guard lock(answering_mutex);
-                         answering.push_back(std::async(std::launch::async, [call = std::move(call), reply = std::move(reply)] {
-                           reply(planet::CallResult::success(call.operation + ":" + call.payload));
-                         }));
-                       });
+  bridge::DdsLink late(link_options(domains[0], "late"), [] {}, [](call::Request request, call::Responder responder) {
+    responder.reply(call::Reply::success(request.operation + ":" + request.payload));
+  });
   ASSERT_EQ(answer.wait_for(30s), std::future_status::ready);
   const auto result = answer.get();
-  EXPECT_EQ(result.status, planet::OK) << result.message;
+  EXPECT_EQ(result.status, call::Status::OK) << result.message;
   EXPECT_EQ(result.payload, "echo:ping");
 
   const auto nobody = calling.call("nobody", "svc", "echo", "", 10s);
-  EXPECT_EQ(nobody.status, planet::UNAVAILABLE) << nobody.message;
+  EXPECT_EQ(nobody.status, call::Status::UNAVAILABLE) << nobody.message;
   EXPECT_NE(nobody.message.find("no bridge of it matched"), std::string::npos) << nobody.message;
+}
+
+// A reply given on the DDS listener thread (inside the handler, or by dropping the responder
+// there) is written by the link's replier thread and reaches its caller: written on the listener
+// thread, the first reply to a space creates its reply writer there, which can deadlock Fast DDS
+// 2.9's in-process delivery. Each calling space makes the replier create another reply writer.
+TEST(DdsCalls, RepliesGivenOnTheListenerThreadReachTheirCallers) {
+  const DdsDomains domains;
+  std::mutex mutex;
+  std::vector<call::Request> received;
+  bridge::DdsLink replier(link_options(domains[0], "here"), [] {}, [&](call::Request request, call::Responder responder) {
+    {
+      std::lock_guard lock(mutex);
+      received.push_back(request);
+    }
+    if (request.operation == "drop") return;  // the responder is dropped unanswered, here
+    responder.reply(call::Reply::success(request.operation + ":" + request.payload));
+  });
+  for (const std::string space : {"a", "b", "c"}) {
+    bridge::DdsLink calling(link_options(domains[0], space), [] {}, [](call::Request, call::Responder) {});
+    for (int i = 0; i < 3; ++i) {
+      const auto echoed = calling.call("here", "svc", "echo", space + std::to_string(i), 10s);
+      ASSERT_EQ(echoed.status, call::Status::OK) << space << i << ": " << echoed.message;
+      EXPECT_EQ(echoed.payload, "echo:" + space + std::to_string(i));
+    }
+    const auto dropped = calling.call("here", "svc", "drop", "", 10s);
+    EXPECT_EQ(dropped.status, call::Status::INTERNAL) << dropped.message;
+    EXPECT_EQ(dropped.message, "provider dropped the request");
+  }
+  std::lock_guard lock(mutex);
+  ASSERT_EQ(received.size(), 12u);
+  // The served request as the neutral call: the calling space as the domain vouches for it, and
+  // the deadline the caller sent, counted from the arrival.
+  EXPECT_EQ(received[0].service, "svc");
+  EXPECT_EQ(received[0].caller.space, "a");
+  EXPECT_EQ(received[0].caller.name, "dds:a");
+  EXPECT_EQ(received[0].caller.role, "bridge");
+  EXPECT_TRUE(received[0].has_deadline());
+  EXPECT_FALSE(received[0].oneway);
 }
 
 // A link destroyed while one of its calls waits for a reply ends that call first ("bridge
@@ -173,15 +206,14 @@ TEST(DdsCalls, ALinkStoppingEndsItsCallsInProgressFirst) {
   const DdsDomains domains;
   std::mutex mutex;
   std::condition_variable arrived;
-  std::vector<std::function<void(planet::CallResult)>> unanswered;  // the replier never answers
-  bridge::DdsLink replier(link_options(domains[0], "slow"), [] {},
-                          [&](bridge::IncomingCall, std::function<void(planet::CallResult)> reply) {
-                            std::lock_guard lock(mutex);
-                            unanswered.push_back(std::move(reply));
-                            arrived.notify_all();
-                          });
+  std::vector<call::Responder> unanswered;  // the replier never answers
+  bridge::DdsLink replier(link_options(domains[0], "slow"), [] {}, [&](call::Request, call::Responder responder) {
+    std::lock_guard lock(mutex);
+    unanswered.push_back(std::move(responder));
+    arrived.notify_all();
+  });
   auto calling = std::make_unique<bridge::DdsLink>(link_options(domains[0], "a"), [] {},
-                                                   [](bridge::IncomingCall, auto) {});
+                                                   [](call::Request, call::Responder) {});
   auto answer = std::async(std::launch::async, [&] { return calling->call("slow", "svc", "sleep", "", 60s); });
   {
     std::unique_lock lock(mutex);
@@ -190,7 +222,7 @@ TEST(DdsCalls, ALinkStoppingEndsItsCallsInProgressFirst) {
   calling.reset();  // returns once the call has ended
   ASSERT_EQ(answer.wait_for(0s), std::future_status::ready);
   const auto result = answer.get();
-  EXPECT_EQ(result.status, planet::UNAVAILABLE) << result.message;
+  EXPECT_EQ(result.status, call::Status::UNAVAILABLE) << result.message;
   EXPECT_EQ(result.message, "bridge stopping");
 }
 

@@ -82,11 +82,9 @@ class SecuredLink : public ::testing::Test {
     }
     try {
       bridge::DdsLink link(options(domain, "kr", member("fed", "kr")), [] {},
-                           [](bridge::IncomingCall call, std::function<void(planet::CallResult)> reply) {
-                             std::thread([call = std::move(call), reply = std::move(reply)] {
-                               reply(planet::CallResult::success("kr heard " + call.payload + " from " +
-                                                                 call.caller_space));
-                             }).detach();
+                           [](call::Request request, call::Responder responder) {
+                             responder.reply(call::Reply::success("kr heard " + request.payload + " from " +
+                                                                  request.caller.space));
                            });
       bridge::ServiceEntry entry;
       entry.name = "svc";
@@ -118,7 +116,7 @@ class SecuredLink : public ::testing::Test {
 };
 std::string* SecuredLink::dir_ = nullptr;
 
-auto no_calls = [](bridge::IncomingCall, std::function<void(planet::CallResult)>) {};
+auto no_calls = [](call::Request, call::Responder) {};
 
 TEST_F(SecuredLink, MembersSeeAndCallEachOther) {
   const DdsDomains domains;
@@ -126,7 +124,7 @@ TEST_F(SecuredLink, MembersSeeAndCallEachOther) {
   bridge::DdsLink jp(options(domains[0], "jp", member("fed", "jp")), [] {}, no_calls);
   ASSERT_TRUE(wait_until([&] { return seen(jp).count("kr/svc") == 1; }, 30s)) << "jp never saw kr's service";
   const auto reply = jp.call("kr", "svc", "echo", "marker-7f3a", 10s);
-  ASSERT_TRUE(reply.ok()) << planet::status_name(reply.status) << ": " << reply.message;
+  ASSERT_TRUE(reply.ok()) << call::status_name(reply.status) << ": " << reply.message;
   EXPECT_EQ(reply.payload, "kr heard marker-7f3a from jp");
 }
 
@@ -156,7 +154,7 @@ TEST_F(SecuredLink, AMemberCallsOnlyTheSpacesItsPermissionsGrant) {
   bridge::DdsLink xx(options(domains[0], "xx", member("fed", "xx")), [] {}, no_calls);
   ASSERT_TRUE(wait_until([&] { return seen(xx).count("kr/svc") == 1; }, 30s)) << "xx, a member, never saw kr";
   const auto refused = xx.call("kr", "svc", "echo", "not granted", 5s);
-  EXPECT_EQ(refused.status, planet::PERMISSION_DENIED) << refused.message;
+  EXPECT_EQ(refused.status, call::Status::PERMISSION_DENIED) << refused.message;
   EXPECT_NE(refused.message.find("do not grant calls to space kr"), std::string::npos) << refused.message;
 }
 

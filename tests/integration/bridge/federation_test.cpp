@@ -260,7 +260,7 @@ TEST_P(Federation, EachSpacesServicesAreCallableFromTheOther) {
   URS::Diagnostic_echo_Reply to_jp;
   const agent::Outcome outcome =
       consumer.invoke(*consumer.interface().FindMethodByName("echo"), from_jp, to_jp, ctx);
-  EXPECT_EQ(outcome.status, planet::OK) << outcome.message;
+  EXPECT_EQ(outcome.status, call::Status::OK) << outcome.message;
   EXPECT_EQ(to_jp.result(), "from jp's RT side");
 }
 
@@ -322,7 +322,7 @@ struct StateObserver {
     options.lease = lease;
     options.udp_only = true;
     options.security = std::move(security);
-    link = std::make_unique<bridge::DdsLink>(options, [] {}, [](bridge::IncomingCall, auto) {});
+    link = std::make_unique<bridge::DdsLink>(options, [] {}, [](call::Request, call::Responder) {});
     bridge::StateHandlers handlers;
     handlers.component = [this](const bridge::ComponentState& c, bool alive) {
       std::lock_guard lock(mutex);

@@ -1,6 +1,6 @@
 // A CAMUS service offered as a CORBA object through the Planet proxy: urs-camus-server and urs-sam
 // (the diagnostic agent as "diag") are real processes; this process fetches diag's interface from
-// the registry, hosts a PlanetProxyAgent for it in a corba_agent::AgentServant, and calls that
+// the registry, hosts a CamusForwardingAgent for it in a corba_agent::AgentServant, and calls that
 // object with the static stubs of URS::Diagnostic, as any CORBA client would.
 
 #include <gtest/gtest.h>
@@ -10,7 +10,7 @@
 
 #include "Diagnostic.hh"
 #include "space_fixture.hpp"
-#include "urs/bridge/planet_proxy_agent.hpp"
+#include "urs/bridge/camus_forwarding_agent.hpp"
 #include "urs/corba_agent/agent_servant.hpp"
 #include "urs/diagnostic/diagnostic.hpp"
 #include "urs/rtc/orb.hpp"
@@ -24,8 +24,8 @@ using Clock = std::chrono::steady_clock;
 // The proxy publishes nothing; the servant still needs a sink for its CallContext.
 class NoEvents : public agent::EventSink {
  public:
-  planet::CallResult publish(const std::string& topic, const google::protobuf::Message&) override {
-    return planet::CallResult::error(planet::UNAVAILABLE, "unexpected event on " + topic);
+  call::Reply publish(const std::string& topic, const google::protobuf::Message&) override {
+    return call::Reply::error(call::Status::UNAVAILABLE, "unexpected event on " + topic);
   }
 };
 
@@ -39,7 +39,7 @@ double milliseconds_since(Clock::time_point start) {
   return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
 }
 
-class PlanetProxyTest : public SpaceTest {
+class CamusForwardingTest : public SpaceTest {
  protected:
   static constexpr auto kServantDeadline = 3000ms;  // below the SAM's 5000 ms for diag
 
@@ -59,7 +59,7 @@ class PlanetProxyTest : public SpaceTest {
     // Learnt at run time: not the compiled-in description of URS.Diagnostic.
     ASSERT_NE(interface->file()->pool(), google::protobuf::DescriptorPool::generated_pool());
     servant_ = std::make_unique<corba_agent::AgentServant>(
-        orb().orb(), std::make_shared<bridge::PlanetProxyAgent>(*client_, "diag", *interface), events_,
+        orb().orb(), std::make_shared<bridge::CamusForwardingAgent>(*client_, "diag", *interface), events_,
         corba_agent::AgentServantOptions{"bridge.diag", kServantDeadline});
     CORBA::Object_var object = orb().activate(servant_.get());
     diag_ = URS::Diagnostic::_narrow(object);
@@ -80,7 +80,7 @@ class PlanetProxyTest : public SpaceTest {
   URS::Diagnostic_var diag_;
 };
 
-TEST_F(PlanetProxyTest, OperationsAnswerThroughTheProxyAsTheCamusServiceDoes) {
+TEST_F(CamusForwardingTest, OperationsAnswerThroughTheProxyAsTheCamusServiceDoes) {
   EXPECT_EQ(servant_->repository_id(), "IDL:URS/Diagnostic:1.0");
   CORBA::String_var echoed = diag_->echo("through the bridge");
   EXPECT_STREQ(echoed.in(), "through the bridge");
@@ -107,7 +107,7 @@ TEST_F(PlanetProxyTest, OperationsAnswerThroughTheProxyAsTheCamusServiceDoes) {
             << "  checksum(921600 B)   " << checksum_ms << " ms\n";
 }
 
-TEST_F(PlanetProxyTest, DeclaredExceptionArrivesAsTheIdlExceptionWithItsFields) {
+TEST_F(CamusForwardingTest, DeclaredExceptionArrivesAsTheIdlExceptionWithItsFields) {
   try {
     diag_->fail("door jammed", -42);
     ADD_FAILURE() << "fail() returned";
@@ -117,13 +117,13 @@ TEST_F(PlanetProxyTest, DeclaredExceptionArrivesAsTheIdlExceptionWithItsFields) 
   }
 }
 
-TEST_F(PlanetProxyTest, CallOutlastingTheDeadlineIsTimeoutAndTheProxyStaysUsable) {
+TEST_F(CamusForwardingTest, CallOutlastingTheDeadlineIsTimeoutAndTheProxyStaysUsable) {
   EXPECT_THROW(diag_->sleep(4500), CORBA::TIMEOUT);
   CORBA::String_var echoed = diag_->echo("still here");
   EXPECT_STREQ(echoed.in(), "still here");
 }
 
-TEST_F(PlanetProxyTest, OnewayNotifyReachesAWatcher) {
+TEST_F(CamusForwardingTest, OnewayNotifyReachesAWatcher) {
   Process watcher({URS_CLI_BIN, "--server", server_address(), "--token-file", dir_ + "/token", "watch", "lab/#",
                    "--count", "1", "--for-ms", "10000"},
                   dir_ + "/watch.log");
@@ -139,7 +139,7 @@ TEST_F(PlanetProxyTest, OnewayNotifyReachesAWatcher) {
   EXPECT_NE(watcher.log().find("\"text\":\"opened\""), std::string::npos) << watcher.log();
 }
 
-TEST_F(PlanetProxyTest, ServiceProviderGoneIsTransient) {
+TEST_F(CamusForwardingTest, ServiceProviderGoneIsTransient) {
   CORBA::String_var echoed = diag_->echo("before");
   sam_->kill9();
   const auto start = Clock::now();

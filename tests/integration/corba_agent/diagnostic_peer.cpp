@@ -44,8 +44,8 @@ class StaticDiagnostic : public virtual POA_URS::Diagnostic {
 // Events of the DSI-hosted agent are dropped: this process only answers calls.
 class NoEvents : public urs::agent::EventSink {
  public:
-  urs::planet::CallResult publish(const std::string&, const google::protobuf::Message&) override {
-    return urs::planet::CallResult::success({});
+  urs::call::Reply publish(const std::string&, const google::protobuf::Message&) override {
+    return urs::call::Reply::success({});
   }
 };
 

@@ -32,10 +32,10 @@ using Clock = std::chrono::steady_clock;
 // Events the agents publish, as "<topic>: <message in text format>".
 class RecordingSink : public agent::EventSink {
  public:
-  planet::CallResult publish(const std::string& topic, const google::protobuf::Message& event) override {
+  call::Reply publish(const std::string& topic, const google::protobuf::Message& event) override {
     std::lock_guard lock(mutex_);
     events_.push_back(topic + ": " + event.ShortDebugString());
-    return planet::CallResult::success({});
+    return call::Reply::success({});
   }
   std::vector<std::string> events() const {
     std::lock_guard lock(mutex_);

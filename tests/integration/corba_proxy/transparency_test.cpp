@@ -28,14 +28,14 @@ using Clock = std::chrono::steady_clock;
 
 class AcceptingSink : public agent::EventSink {
  public:
-  planet::CallResult publish(const std::string&, const google::protobuf::Message&) override {
-    return planet::CallResult::success({});
+  call::Reply publish(const std::string&, const google::protobuf::Message&) override {
+    return call::Reply::success({});
   }
 };
 
-// What a Planet client sees of one call.
+// What a caller sees of one call.
 struct Observed {
-  planet::Status status = planet::INTERNAL;
+  call::Status status = call::Status::INTERNAL;
   std::string payload;
   std::string exception_type;
   std::string message;
@@ -68,14 +68,14 @@ class CorbaProxyTransparency : public RtSpaceTest {
   // Sends the call; the answer comes through the returned future.
   static std::future<Observed> send(agent::AgentHost& host, const std::string& operation,
                                     const google::protobuf::Message& request, std::uint32_t deadline_ms = 0) {
-    planet::Request call;
-    call.set_service("diag");
-    call.set_operation(operation);
-    call.set_payload(request.SerializeAsString());
-    call.set_deadline_ms(deadline_ms);
+    call::Request sent;
+    sent.service = "diag";
+    sent.operation = operation;
+    sent.payload = request.SerializeAsString();
+    if (deadline_ms != 0) sent.deadline = Clock::now() + std::chrono::milliseconds(deadline_ms);
     auto promise = std::make_shared<std::promise<Observed>>();
     auto future = promise->get_future();
-    host.dispatch(call, "tester", planet::Responder::from_callback([promise](planet::CallResult result) {
+    host.dispatch(std::move(sent), call::Responder::from_callback([promise](call::Reply result) {
                     promise->set_value({result.status, result.payload, result.exception_type, result.message});
                   }));
     return future;
@@ -87,7 +87,7 @@ class CorbaProxyTransparency : public RtSpaceTest {
     auto future = send(host, operation, request, deadline_ms);
     const auto patience = deadline_ms == 0 ? std::chrono::milliseconds(20000) : std::chrono::milliseconds(deadline_ms);
     if (future.wait_for(patience) != std::future_status::ready) {
-      return {planet::DEADLINE_EXCEEDED, "", "", "the client gave up"};
+      return {call::Status::DEADLINE_EXCEEDED, "", "", "the client gave up"};
     }
     return future.get();
   }
@@ -98,7 +98,7 @@ class CorbaProxyTransparency : public RtSpaceTest {
     const Observed native = observe(*native_, operation, request, deadline_ms);
     const Clock::time_point start = Clock::now();
     const Observed proxied = observe(*proxy_, operation, request, deadline_ms);
-    std::cout << operation << " through the proxy: " << planet::status_name(proxied.status) << " after "
+    std::cout << operation << " through the proxy: " << call::status_name(proxied.status) << " after "
               << std::chrono::duration_cast<std::chrono::microseconds>(Clock::now() - start).count() << " us\n";
     EXPECT_EQ(proxied.status, native.status) << operation << ": " << native.message << " / " << proxied.message;
     EXPECT_EQ(proxied.payload, native.payload) << operation;
@@ -114,19 +114,19 @@ class CorbaProxyTransparency : public RtSpaceTest {
 TEST_F(CorbaProxyTransparency, ResultsArriveAsFromTheAgentItself) {
   URS::Diagnostic_echo_Request echo;
   echo.set_text("héllo, RT side");
-  EXPECT_EQ(expect_same("echo", echo).status, planet::OK);
+  EXPECT_EQ(expect_same("echo", echo).status, call::Status::OK);
 
   URS::Diagnostic_add_Request add;
   add.set_a(2.5);
   add.set_b(-40.25);
-  EXPECT_EQ(expect_same("add", add).status, planet::OK);
+  EXPECT_EQ(expect_same("add", add).status, call::Status::OK);
 }
 
 TEST_F(CorbaProxyTransparency, AnImageSizedBlobAndItsChecksumMatch) {
   URS::Diagnostic_blob_Request blob;
   blob.set_size(921600);
   const Observed proxied = expect_same("blob", blob);
-  ASSERT_EQ(proxied.status, planet::OK);
+  ASSERT_EQ(proxied.status, call::Status::OK);
   URS::Diagnostic_blob_Reply reply;
   ASSERT_TRUE(reply.ParseFromString(proxied.payload));
   ASSERT_EQ(reply.result().size(), 921600u);
@@ -144,7 +144,7 @@ TEST_F(CorbaProxyTransparency, TheDeclaredExceptionKeepsItsFields) {
   fail.set_reason("wheel jammed");
   fail.set_code(-17);
   const Observed proxied = expect_same("fail", fail);
-  ASSERT_EQ(proxied.status, planet::USER_EXCEPTION);
+  ASSERT_EQ(proxied.status, call::Status::USER_EXCEPTION);
   EXPECT_EQ(proxied.exception_type, "URS.Failure");
   URS::Failure failure;
   ASSERT_TRUE(failure.ParseFromString(proxied.payload));
@@ -155,14 +155,14 @@ TEST_F(CorbaProxyTransparency, TheDeclaredExceptionKeepsItsFields) {
 TEST_F(CorbaProxyTransparency, DeadlinesAndRefusedArgumentsMapAlike) {
   URS::Diagnostic_sleep_Request sleep;
   sleep.set_ms(200);
-  EXPECT_EQ(expect_same("sleep", sleep, 50).status, planet::DEADLINE_EXCEEDED);
+  EXPECT_EQ(expect_same("sleep", sleep, 50).status, call::Status::DEADLINE_EXCEEDED);
   // The proxy answers so by itself: the call to the provider does not outlive the deadline.
   const Observed own = send(*proxy_, "sleep", sleep, 50).get();
-  EXPECT_EQ(own.status, planet::DEADLINE_EXCEEDED) << own.message;
+  EXPECT_EQ(own.status, call::Status::DEADLINE_EXCEEDED) << own.message;
 
   sleep.set_ms(diagnostic::kMaxSleepMs + 1);
   const Observed refused = expect_same("sleep", sleep);
-  EXPECT_EQ(refused.status, planet::BAD_ARGUMENTS) << refused.message;
+  EXPECT_EQ(refused.status, call::Status::BAD_ARGUMENTS) << refused.message;
 }
 
 TEST_F(CorbaProxyTransparency, AProviderKilledMidCallIsUnavailableNotAHang) {
@@ -176,7 +176,7 @@ TEST_F(CorbaProxyTransparency, AProviderKilledMidCallIsUnavailableNotAHang) {
   std::cout << "answer " << std::chrono::duration_cast<std::chrono::milliseconds>(Clock::now() - killed).count()
             << " ms after SIGKILL\n";
   const Observed gone = pending.get();
-  EXPECT_EQ(gone.status, planet::UNAVAILABLE) << gone.message;
+  EXPECT_EQ(gone.status, call::Status::UNAVAILABLE) << gone.message;
   EXPECT_NE(gone.message.find("provider gone"), std::string::npos) << gone.message;
 }
 
@@ -193,7 +193,7 @@ TEST_F(CorbaProxyTransparency, ASlowCallDoesNotHoldUpTheOthers) {
   for (int i = 0; i < 3; ++i) {
     ASSERT_EQ(quick[i].wait_for(20s), std::future_status::ready);
     const Observed answered = quick[i].get();
-    ASSERT_EQ(answered.status, planet::OK) << answered.message;
+    ASSERT_EQ(answered.status, call::Status::OK) << answered.message;
     URS::Diagnostic_echo_Reply reply;
     ASSERT_TRUE(reply.ParseFromString(answered.payload));
     EXPECT_EQ(reply.result(), "call " + std::to_string(i));
@@ -201,7 +201,7 @@ TEST_F(CorbaProxyTransparency, ASlowCallDoesNotHoldUpTheOthers) {
   // Every quick answer came while the slow call was still running.
   EXPECT_EQ(slow.wait_for(0ms), std::future_status::timeout);
   ASSERT_EQ(slow.wait_for(20s), std::future_status::ready);
-  EXPECT_EQ(slow.get().status, planet::OK);
+  EXPECT_EQ(slow.get().status, call::Status::OK);
 }
 
 }  // namespace

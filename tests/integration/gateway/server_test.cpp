@@ -291,7 +291,7 @@ TEST(DdsSource, SeesAnotherSpacesBridgeAndLosesIt) {
   urs::test::DdsDomains domains(1);
   urs::bridge::DdsOptions jp_options = bridge_link_options(domains[0], "jp");
   jp_options.lease = 1000ms;
-  auto jp = std::make_unique<urs::bridge::DdsLink>(jp_options, [] {}, [](urs::bridge::IncomingCall, auto) {});
+  auto jp = std::make_unique<urs::bridge::DdsLink>(jp_options, [] {}, [](urs::call::Request, urs::call::Responder) {});
   auto jp_state = std::make_unique<urs::bridge::StateLink>(*jp, urs::bridge::StateHandlers{}, std::nullopt);
 
   gw::DdsSourceOptions options;
@@ -345,8 +345,8 @@ TEST(DdsSource, SeesAnotherSpacesBridgeAndLosesIt) {
 
 TEST(DdsSource, LeavesOutWhatTheOwnSpacesNativeSourcesShow) {
   urs::test::DdsDomains domains(1);
-  urs::bridge::DdsLink kr(bridge_link_options(domains[0], "kr"), [] {}, [](urs::bridge::IncomingCall, auto) {});
-  urs::bridge::DdsLink jp(bridge_link_options(domains[0], "jp"), [] {}, [](urs::bridge::IncomingCall, auto) {});
+  urs::bridge::DdsLink kr(bridge_link_options(domains[0], "kr"), [] {}, [](urs::call::Request, urs::call::Responder) {});
+  urs::bridge::DdsLink jp(bridge_link_options(domains[0], "jp"), [] {}, [](urs::call::Request, urs::call::Responder) {});
   const auto* diagnostic = URS::Diagnostic_echo_Request::descriptor()->file()->FindServiceByName("Diagnostic");
   const std::string described = urs::schema::descriptor_set_for(*diagnostic->file());
   kr.announce({"kr", "diag", diagnostic->full_name(), "IDL:URS/Diagnostic:1.0", "camus", "bridge-kr", 0, described});

@@ -70,7 +70,8 @@ TEST(PluginLoader, RefusesALibraryWithoutTheSymbols) {
 
 TEST(PluginLoader, RefusesAnotherAbiVersion) {
   expect_refused(library("test_plugin_wrong_abi"), library("test_plugin_wrong_abi"),
-                 "built for plug-in ABI version 1001, this program loads version 1");
+                 "built for plug-in ABI version " + std::to_string(urs::agent::kPluginAbiVersion + 1000) +
+                     ", this program loads version " + std::to_string(urs::agent::kPluginAbiVersion));
 }
 
 TEST(PluginLoader, RefusesAPluginThatRegistersNothing) {

@@ -54,7 +54,7 @@ expect_log() { grep -qF -- "$1" "$work/sam.log" || fail "the SAM's log lacks: $1
 expect_log "plug-in $plugins/libtest_calculator_plugin.so loaded: agent type(s) calculator"
 expect_log "plug-in $work/libmissing.so refused: no such file"
 expect_log "plug-in $plugins/libtest_plugin_no_symbol.so refused: no symbol urs_plugin_abi"
-expect_log "plug-in $plugins/libtest_plugin_wrong_abi.so refused: built for plug-in ABI version 1001, this program loads version 1"
+expect_log "plug-in $plugins/libtest_plugin_wrong_abi.so refused: built for plug-in ABI version 1002, this program loads version 2"
 expect_log "plug-in $plugins/libtest_plugin_registers_nothing.so refused: registers no agent type"
 expect_log "agents[2].type: unknown agent type 'ghost'"
 "$urs_bin" ls 2>/dev/null | grep -q '^ghost ' && fail "ghost was registered"

@@ -15,6 +15,7 @@
 #include "urs/diagnostic/diagnostic_agent.hpp"
 #include "sam_config.hpp"
 #include "urs/agent/agent.hpp"
+#include "urs/agent/camus.hpp"
 #include "urs/util/cli.hpp"
 
 namespace urs::agent {
@@ -25,11 +26,11 @@ using ::testing::HasSubstr;
 
 class RecordingSink : public EventSink {
  public:
-  planet::CallResult publish(const std::string& topic, const google::protobuf::Message& event) override {
+  call::Reply publish(const std::string& topic, const google::protobuf::Message& event) override {
     std::lock_guard<std::mutex> lock(mutex);
     topics.push_back(topic);
     types.push_back(event.GetTypeName());
-    return planet::CallResult::success({});
+    return call::Reply::success({});
   }
   std::mutex mutex;
   std::vector<std::string> topics;
@@ -44,18 +45,18 @@ class HostTest : public ::testing::Test {
     host_.start();
   }
 
-  planet::CallResult call(const std::string& service, const std::string& op, const std::string& payload,
+  call::Reply call(const std::string& service, const std::string& op, const std::string& payload,
                           uint32_t deadline_ms = 0) {
-    planet::Request request;
-    request.set_service(service);
-    request.set_operation(op);
-    request.set_payload(payload);
-    request.set_deadline_ms(deadline_ms);
-    auto promise = std::make_shared<std::promise<planet::CallResult>>();
+    call::Request request;
+    request.service = service;
+    request.operation = op;
+    request.payload = payload;
+    if (deadline_ms != 0) request.deadline = call::Request::Clock::now() + std::chrono::milliseconds(deadline_ms);
+    request.caller = {"lab", "tester", "client"};
+    auto promise = std::make_shared<std::promise<call::Reply>>();
     auto future = promise->get_future();
-    host_.dispatch(request, "tester",
-                   planet::Responder::from_callback([promise](planet::CallResult r) { promise->set_value(r); }));
-    if (future.wait_for(5s) != std::future_status::ready) return planet::CallResult::error(planet::INTERNAL, "no answer");
+    host_.dispatch(std::move(request), call::Responder::from_callback([promise](call::Reply r) { promise->set_value(r); }));
+    if (future.wait_for(5s) != std::future_status::ready) return call::Reply::error(call::Status::INTERNAL, "no answer");
     return future.get();
   }
 
@@ -76,16 +77,16 @@ TEST_F(HostTest, CallsTheAgentAndEncodesTheReply) {
 
 TEST_F(HostTest, UnknownServiceAndOperationAreNamed) {
   auto result = call("nope", "add", "");
-  EXPECT_EQ(result.status, planet::UNKNOWN_SERVICE);
+  EXPECT_EQ(result.status, call::Status::UNKNOWN_SERVICE);
   EXPECT_THAT(result.message, HasSubstr("'nope'"));
   result = call("diag", "explode", "");
-  EXPECT_EQ(result.status, planet::UNKNOWN_OPERATION);
+  EXPECT_EQ(result.status, call::Status::UNKNOWN_OPERATION);
   EXPECT_EQ(result.message, "interface URS.Diagnostic has no operation 'explode'");
 }
 
 TEST_F(HostTest, UnparsablePayloadIsBadArguments) {
   auto result = call("diag", "add", std::string("\xff\xff\xff", 3));
-  EXPECT_EQ(result.status, planet::BAD_ARGUMENTS);
+  EXPECT_EQ(result.status, call::Status::BAD_ARGUMENTS);
   EXPECT_THAT(result.message, HasSubstr("URS.Diagnostic_add_Request"));
 }
 
@@ -94,7 +95,7 @@ TEST_F(HostTest, DeclaredExceptionTravelsTyped) {
   request.set_reason("battery low");
   request.set_code(7);
   auto result = call("diag", "fail", request.SerializeAsString());
-  ASSERT_EQ(result.status, planet::USER_EXCEPTION);
+  ASSERT_EQ(result.status, call::Status::USER_EXCEPTION);
   EXPECT_EQ(result.exception_type, "URS.Failure");
   URS::Failure failure;
   ASSERT_TRUE(failure.ParseFromString(result.payload));
@@ -118,7 +119,7 @@ TEST_F(HostTest, ASleepLongerThanTheCallersDeadlineEndsAtTheDeadline) {
   URS::Diagnostic_sleep_Request sleep;
   sleep.set_ms(60000);  // far beyond call()'s own 5 s wait: only the deadline can end it in time
   const auto result = call("diag", "sleep", sleep.SerializeAsString(), 100);
-  EXPECT_EQ(result.status, planet::DEADLINE_EXCEEDED) << result.message;
+  EXPECT_EQ(result.status, call::Status::DEADLINE_EXCEEDED) << result.message;
 }
 
 TEST_F(HostTest, AgentEventsGoToTheSink) {
@@ -152,12 +153,12 @@ TEST_F(HostTest, OversizedBlobIsRefusedNotAllocated) {
   URS::Diagnostic_blob_Request request;
   request.set_size(1u << 30);
   auto result = call("diag", "blob", request.SerializeAsString());
-  EXPECT_EQ(result.status, planet::BAD_ARGUMENTS);
+  EXPECT_EQ(result.status, call::Status::BAD_ARGUMENTS);
   EXPECT_THAT(result.message, HasSubstr("over the limit"));
 }
 
 TEST_F(HostTest, RegistrationCarriesInterfaceAndItsDescription) {
-  auto reg = host_.registration(*host_.find("diag"));
+  auto reg = registration(*host_.find("diag"));
   EXPECT_EQ(reg.service().name(), "diag");
   EXPECT_EQ(reg.service().interface(), "URS.Diagnostic");
   EXPECT_EQ(reg.service().deadline_ms(), 1500u);
@@ -169,6 +170,59 @@ TEST_F(HostTest, RegistrationCarriesInterfaceAndItsDescription) {
     for (const auto& service : file.service()) found = found || service.name() == "Diagnostic";
   }
   EXPECT_TRUE(found);
+}
+
+// Records what the host tells the agent about each call.
+class ContextProbe : public ServiceAgent {
+ public:
+  const google::protobuf::ServiceDescriptor& interface() const override {
+    return *URS::Diagnostic_add_Request::descriptor()->file()->FindServiceByName("Diagnostic");
+  }
+  Outcome invoke(const google::protobuf::MethodDescriptor&, const google::protobuf::Message&,
+                 google::protobuf::Message&, const CallContext& ctx) override {
+    service = ctx.service;
+    caller = ctx.caller;
+    deadline = ctx.deadline;
+    return Outcome::ok();
+  }
+  std::string service;
+  call::Identity caller;
+  call::Request::Clock::time_point deadline;
+};
+
+TEST_F(HostTest, TheAgentSeesTheCallerAndDeadlineTheAdapterGave) {
+  auto probe = std::make_shared<ContextProbe>();
+  host_.add({"probe", probe, {}, 0});
+  const auto before = call::Request::Clock::now();
+  ASSERT_EQ(call("probe", "add", "", 2000).status, call::Status::OK);
+  EXPECT_EQ(probe->service, "probe");
+  EXPECT_EQ(probe->caller.space, "lab");
+  EXPECT_EQ(probe->caller.name, "tester");
+  EXPECT_EQ(probe->caller.role, "client");
+  EXPECT_GE(probe->deadline, before + 2000ms);
+  EXPECT_LE(probe->deadline, call::Request::Clock::now() + 2000ms);
+}
+
+TEST_F(HostTest, AOnewayCallGetsNoReply) {
+  auto probe = std::make_shared<ContextProbe>();
+  host_.add({"probe", probe, {}, 0});
+  call::Request request;
+  request.service = "probe";
+  request.operation = "add";
+  request.oneway = true;
+  auto replied = std::make_shared<std::promise<call::Reply>>();
+  auto reply = replied->get_future();
+  auto dropped = std::make_shared<std::promise<void>>();
+  auto done = dropped->get_future();
+  // The responder is destroyed unanswered once the call ran: its callback then sees INTERNAL
+  // ("dropped"), never the agent's OK.
+  host_.dispatch(std::move(request), call::Responder::from_callback([replied, dropped](call::Reply r) {
+    replied->set_value(r);
+    dropped->set_value();
+  }));
+  ASSERT_EQ(done.wait_for(5s), std::future_status::ready);
+  EXPECT_EQ(reply.get().status, call::Status::INTERNAL);
+  EXPECT_EQ(probe->service, "probe");
 }
 
 TEST(AgentHostConfig, DuplicateServiceNamesAreRefused) {
@@ -185,14 +239,14 @@ TEST(AgentHostStop, QueuedCallsAreAnsweredWhenTheHostStops) {
   host.start();
   URS::Diagnostic_sleep_Request sleep;
   sleep.set_ms(300);
-  planet::Request request;
-  request.set_service("diag");
-  request.set_operation("sleep");
-  request.set_payload(sleep.SerializeAsString());
+  call::Request request;
+  request.service = "diag";
+  request.operation = "sleep";
+  request.payload = sleep.SerializeAsString();
   std::mutex mutex;
-  std::vector<planet::Status> answers;
+  std::vector<call::Status> answers;
   for (int i = 0; i < 3; ++i) {
-    host.dispatch(request, "t", planet::Responder::from_callback([&](planet::CallResult r) {
+    host.dispatch(request, call::Responder::from_callback([&](call::Reply r) {
       std::lock_guard<std::mutex> lock(mutex);
       answers.push_back(r.status);
     }));
@@ -201,9 +255,9 @@ TEST(AgentHostStop, QueuedCallsAreAnsweredWhenTheHostStops) {
   std::lock_guard<std::mutex> lock(mutex);
   ASSERT_EQ(answers.size(), 3u) << "a queued call was dropped without an answer";
   // One worker: at most the first call started before stop(); the queued ones are refused.
-  EXPECT_GE(std::count(answers.begin(), answers.end(), planet::UNAVAILABLE), 2);
-  EXPECT_EQ(std::count(answers.begin(), answers.end(), planet::UNAVAILABLE) +
-                std::count(answers.begin(), answers.end(), planet::OK),
+  EXPECT_GE(std::count(answers.begin(), answers.end(), call::Status::UNAVAILABLE), 2);
+  EXPECT_EQ(std::count(answers.begin(), answers.end(), call::Status::UNAVAILABLE) +
+                std::count(answers.begin(), answers.end(), call::Status::OK),
             3);
 }
 

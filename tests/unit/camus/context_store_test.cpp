@@ -159,19 +159,19 @@ TEST_F(ContextTest, AgentServesTheContextInterface) {
   const auto& iface = agent.interface();
   EXPECT_EQ(iface.full_name(), "urs.camus.Context");
   agent::CallContext ctx;
-  ctx.caller = "cli@host";
+  ctx.caller.name = "cli@host";
   camus::ContextEntry reply;
   auto outcome = agent.invoke(*iface.FindMethodByName("Set"), set_request("k", 4), reply, ctx);
-  ASSERT_EQ(outcome.status, planet::OK) << outcome.message;
+  ASSERT_EQ(outcome.status, call::Status::OK) << outcome.message;
   EXPECT_EQ(reply.source(), "cli@host");
   camus::ContextGetRequest get;
   get.set_key("missing");
   outcome = agent.invoke(*iface.FindMethodByName("Get"), get, reply, ctx);
-  EXPECT_EQ(outcome.status, planet::NOT_FOUND);
+  EXPECT_EQ(outcome.status, call::Status::NOT_FOUND);
   EXPECT_EQ(outcome.message, "no context entry 'missing'");
   camus::ContextListReply list;
   outcome = agent.invoke(*iface.FindMethodByName("List"), camus::ContextListRequest(), list, ctx);
-  ASSERT_EQ(outcome.status, planet::OK);
+  ASSERT_EQ(outcome.status, call::Status::OK);
   EXPECT_EQ(list.entries_size(), 1);
 }
 

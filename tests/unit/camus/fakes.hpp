@@ -21,6 +21,7 @@
 #include "urs/camus_server/event_bus.hpp"
 #include "urs/camus_server/registry.hpp"
 #include "urs/camus_server/session_handler.hpp"
+#include "urs/planet/call_adapter.hpp"
 #include "urs/camus_server/task_manager.hpp"
 #include "urs/camus_server/timer.hpp"
 
@@ -167,9 +168,9 @@ struct RecordedEvent {
 
 class RecordingSink final : public agent::EventSink {
  public:
-  planet::CallResult publish(const std::string& topic, const google::protobuf::Message& event) override {
+  call::Reply publish(const std::string& topic, const google::protobuf::Message& event) override {
     events_.add({topic, event.GetTypeName(), event.SerializeAsString()});
-    return planet::CallResult::success({});
+    return call::Reply::success({});
   }
   std::vector<RecordedEvent> events() const { return events_.get(); }
   // Waits up to kWait for an event satisfying `pred`.
@@ -264,7 +265,7 @@ class InlineContainer final : public ServiceContainer {
   explicit InlineContainer(agent::EventSink& events) : events_(events) {}
   void add(const std::string& name, agent::ServiceAgent& agent) { agents_[name] = &agent; }
   bool hosts(const std::string& service) const override { return agents_.count(service) != 0; }
-  void dispatch(const planet::Request& request, const std::string& caller, Completion done) override {
+  void dispatch(const planet::Request& request, const Caller& caller, Completion done) override {
     namespace gp = google::protobuf;
     auto* agent = agents_.at(request.service());
     const auto* method = agent->interface().FindMethodByName(request.operation());
@@ -281,11 +282,11 @@ class InlineContainer final : public ServiceContainer {
     }
     agent::CallContext ctx;
     ctx.service = request.service();
-    ctx.caller = caller;
+    ctx.caller = planet::caller_identity("", caller.identity, caller.role);
     ctx.events = &events_;
     auto outcome = agent->invoke(*method, *in, *out, ctx);
-    if (outcome.status != planet::OK) {
-      done(planet::CallResult::error(outcome.status, outcome.message));
+    if (outcome.status != call::Status::OK) {
+      done(planet::CallResult::error(planet::to_planet(outcome.status), outcome.message));
     } else {
       done(planet::CallResult::success(out->SerializeAsString()));
     }

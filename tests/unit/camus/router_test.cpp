@@ -10,7 +10,7 @@ namespace {
 class NoContainer final : public ServiceContainer {
  public:
   bool hosts(const std::string&) const override { return false; }
-  void dispatch(const planet::Request&, const std::string&, Completion) override {}
+  void dispatch(const planet::Request&, const Caller&, Completion) override {}
 };
 
 class RouterTest : public ::testing::Test {

@@ -359,20 +359,20 @@ TEST_F(TaskTest, AgentServesTheTasksInterface) {
   const auto& iface = agent.interface();
   EXPECT_EQ(iface.full_name(), "urs.camus.Tasks");
   agent::CallContext ctx;
-  ctx.caller = "cli@host";
+  ctx.caller.name = "cli@host";
   camus::TaskDefinition def;
   def.set_name("nap");
   def.set_yaml("steps: [{sleep: {ms: 0}}]");
   camus::TaskDefineReply defined;
-  ASSERT_EQ(agent.invoke(*iface.FindMethodByName("Define"), def, defined, ctx).status, planet::OK);
+  ASSERT_EQ(agent.invoke(*iface.FindMethodByName("Define"), def, defined, ctx).status, call::Status::OK);
   EXPECT_EQ(defined.task().name(), "nap");
   camus::TaskRun run;
-  ASSERT_EQ(agent.invoke(*iface.FindMethodByName("Run"), by_name("nap"), run, ctx).status, planet::OK);
+  ASSERT_EQ(agent.invoke(*iface.FindMethodByName("Run"), by_name("nap"), run, ctx).status, call::Status::OK);
   EXPECT_EQ(run.trigger(), "call:cli@host");
   camus::TaskStatusRequest missing;
   missing.set_run_id("r77");
   auto outcome = agent.invoke(*iface.FindMethodByName("Status"), missing, run, ctx);
-  EXPECT_EQ(outcome.status, planet::NOT_FOUND);
+  EXPECT_EQ(outcome.status, call::Status::NOT_FOUND);
   EXPECT_EQ(outcome.message, "no task run 'r77'");
 }
 

@@ -3,8 +3,8 @@
 #include <spdlog/spdlog.h>
 
 #include <stdexcept>
+#include <utility>
 
-#include "urs/schema/schema.hpp"
 
 namespace urs::agent {
 
@@ -127,97 +127,79 @@ void AgentHost::stop() {
   pool_.stop();
 }
 
-camus::RegisterRequest AgentHost::registration(const HostedService& service) const {
-  camus::RegisterRequest out;
-  const gp::ServiceDescriptor& iface = service.agent->interface();
-  auto* info = out.mutable_service();
-  info->set_name(service.name);
-  info->set_interface(iface.full_name());
-  info->set_deadline_ms(service.deadline_ms);
-  for (const auto& [key, value] : service.properties) (*info->mutable_properties())[key] = value;
-  out.set_descriptor_set(schema::descriptor_set_for(*iface.file()));
-  return out;
-}
-
 namespace {
 
-planet::CallResult encode(const Outcome& outcome, const gp::Message& reply) {
-  if (outcome.status == planet::OK) return planet::CallResult::success(reply.SerializeAsString());
-  if (outcome.status == planet::USER_EXCEPTION) {
+using call::Reply;
+using call::Status;
+
+Reply encode(const Outcome& outcome, const gp::Message& reply) {
+  if (outcome.status == Status::OK) return Reply::success(reply.SerializeAsString());
+  if (outcome.status == Status::USER_EXCEPTION) {
     if (!outcome.exception) {
-      return planet::CallResult::error(planet::INTERNAL, "agent raised an exception without a value: " +
-                                                             outcome.message);
+      return Reply::error(Status::INTERNAL, "agent raised an exception without a value: " + outcome.message);
     }
-    return planet::CallResult::user_exception(outcome.exception->GetTypeName(),
-                                              outcome.exception->SerializeAsString(), outcome.message);
+    return Reply::user_exception(outcome.exception->GetTypeName(), outcome.exception->SerializeAsString(),
+                                 outcome.message);
   }
-  return planet::CallResult::error(outcome.status, outcome.message);
+  return Reply::error(outcome.status, outcome.message);
 }
 
 }  // namespace
 
-void AgentHost::dispatch(const planet::Request& request, const std::string& caller,
-                         planet::Responder responder) {
-  const bool oneway = request.oneway();
-  auto answer = [&responder, oneway](planet::CallResult result) {
-    if (!oneway) responder.reply(std::move(result));
+void AgentHost::dispatch(call::Request request, call::Responder responder) {
+  const bool oneway = request.oneway;
+  auto answer = [&responder, oneway](Reply reply) {
+    if (!oneway) responder.reply(std::move(reply));
   };
 
   std::shared_ptr<ServiceAgent> agent;
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    auto it = services_.find(request.service());
+    auto it = services_.find(request.service);
     if (it == services_.end()) {
-      answer(planet::CallResult::error(planet::UNKNOWN_SERVICE,
-                                       "no service named '" + request.service() + "' on this host"));
+      answer(Reply::error(Status::UNKNOWN_SERVICE, "no service named '" + request.service + "' on this host"));
       return;
     }
     agent = it->second.agent;
   }
   const gp::ServiceDescriptor& iface = agent->interface();
-  const gp::MethodDescriptor* method = iface.FindMethodByName(request.operation());
+  const gp::MethodDescriptor* method = iface.FindMethodByName(request.operation);
   if (method == nullptr) {
-    answer(planet::CallResult::error(planet::UNKNOWN_OPERATION, "interface " + iface.full_name() +
-                                                                    " has no operation '" +
-                                                                    request.operation() + "'"));
+    answer(Reply::error(Status::UNKNOWN_OPERATION,
+                        "interface " + iface.full_name() + " has no operation '" + request.operation + "'"));
     return;
   }
   const gp::Message* request_proto = factory_->GetPrototype(method->input_type());
   const gp::Message* reply_proto = factory_->GetPrototype(method->output_type());
   if (request_proto == nullptr || reply_proto == nullptr) {
-    answer(planet::CallResult::error(planet::INTERNAL, "no message factory for " + method->full_name()));
+    answer(Reply::error(Status::INTERNAL, "no message factory for " + method->full_name()));
     return;
   }
   std::shared_ptr<gp::Message> parsed(request_proto->New());
-  if (!parsed->ParseFromString(request.payload())) {
-    answer(planet::CallResult::error(
-        planet::BAD_ARGUMENTS, "payload of " + request.service() + "." + request.operation() +
-                                   " is not a valid " + method->input_type()->full_name()));
+  if (!parsed->ParseFromString(request.payload)) {
+    answer(Reply::error(Status::BAD_ARGUMENTS, "payload of " + request.service + "." + request.operation +
+                                                   " is not a valid " + method->input_type()->full_name()));
     return;
   }
 
   auto ctx = std::make_shared<CallContext>();
-  ctx->service = request.service();
-  ctx->caller = caller;
+  ctx->service = std::move(request.service);
+  ctx->caller = std::move(request.caller);
   ctx->events = &events_;
-  ctx->deadline = request.deadline_ms() == 0
-                      ? std::chrono::steady_clock::time_point::max()
-                      : std::chrono::steady_clock::now() + std::chrono::milliseconds(request.deadline_ms());
-  auto shared_responder = std::make_shared<planet::Responder>(std::move(responder));
+  ctx->deadline = request.deadline;
+  auto shared_responder = std::make_shared<call::Responder>(std::move(responder));
 
   pool_.post([agent, method, parsed, reply_proto, ctx, shared_responder, oneway](bool cancelled) {
-    auto reply_to = [&](planet::CallResult result) {
-      if (!oneway) shared_responder->reply(std::move(result));
+    auto reply_to = [&](Reply reply) {
+      if (!oneway) shared_responder->reply(std::move(reply));
     };
     if (cancelled) {
-      reply_to(planet::CallResult::error(planet::UNAVAILABLE,
-                                         "service host is shutting down; " + ctx->service + " not called"));
+      reply_to(Reply::error(Status::UNAVAILABLE, "service host is shutting down; " + ctx->service + " not called"));
       return;
     }
     if (std::chrono::steady_clock::now() > ctx->deadline) {
-      reply_to(planet::CallResult::error(planet::DEADLINE_EXCEEDED,
-                                         "deadline passed before " + ctx->service + "." +
-                                             method->name() + " could start"));
+      reply_to(Reply::error(Status::DEADLINE_EXCEEDED, "deadline passed before " + ctx->service + "." +
+                                                           method->name() + " could start"));
       return;
     }
     std::unique_ptr<gp::Message> reply(reply_proto->New());
@@ -226,7 +208,7 @@ void AgentHost::dispatch(const planet::Request& request, const std::string& call
       outcome = agent->invoke(*method, *parsed, *reply, *ctx);
     } catch (const std::exception& e) {
       spdlog::error("{}.{} threw: {}", ctx->service, method->name(), e.what());
-      outcome = Outcome::error(planet::INTERNAL, ctx->service + "." + method->name() + " failed: " + e.what());
+      outcome = Outcome::error(Status::INTERNAL, ctx->service + "." + method->name() + " failed: " + e.what());
     }
     reply_to(encode(outcome, *reply));
   });

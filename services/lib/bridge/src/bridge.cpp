@@ -12,6 +12,7 @@
 #include "dds_adapter.hpp"
 #include "rt_adapter.hpp"
 #include "rt_stand_ins.hpp"
+#include "urs/planet/call_adapter.hpp"
 #include "urs/rtc/execution_context.hpp"
 #include "urs/rtc/tools.hpp"
 #include "urs/schema/schema.hpp"
@@ -262,28 +263,17 @@ void Bridge::open_session() {
             return DdsAdapter::Description{interface.full_name(), schema::repository_id(interface),
                                            std::make_shared<const std::string>(schema::descriptor_set_for(*interface.file()))};
           },
-          [this, s](IncomingCall call, bool on_host, std::function<void(planet::CallResult)> reply) {
+          [this, s](call::Request request, bool on_host, call::Responder responder) {
             CamusAdapter& here = *s->camus;
             if (on_host) {
-              planet::Request request;
-              request.set_service(call.service);
-              request.set_operation(call.operation);
-              request.set_payload(std::move(call.payload));
-              request.set_deadline_ms(call.deadline_ms);
-              request.set_oneway(call.oneway);
-              here.host().dispatch(request, "dds:" + call.caller_space,
-                                    planet::Responder::from_callback([reply](planet::CallResult result) {
-                                      if (reply) reply(std::move(result));
-                                    }));
+              here.host().dispatch(std::move(request), std::move(responder));
             } else if (here.client() == nullptr) {
-              if (reply) {
-                reply(planet::CallResult::error(planet::UNAVAILABLE, "space " + config_.space + " has no CAMUS server"));
-              }
-            } else if (call.oneway) {
-              here.client()->oneway(call.service, call.operation, std::move(call.payload));
+              responder.reply(call::Reply::error(call::Status::UNAVAILABLE, "space " + config_.space + " has no CAMUS server"));
+            } else if (request.oneway) {
+              here.client()->oneway(request.service, request.operation, std::move(request.payload));
             } else {
-              here.client()->call_async(call.service, call.operation, std::move(call.payload),
-                                         std::chrono::milliseconds(call.deadline_ms), std::move(reply));
+              here.client()->call_async(request.service, request.operation, std::move(request.payload),
+                                         planet::deadline_left(request), planet::answering(std::move(responder)));
             }
           });
     } catch (const std::exception& e) {

@@ -4,7 +4,8 @@
 
 #include "camus.pb.h"
 #include "urs/agent/client_sink.hpp"
-#include "urs/bridge/planet_proxy_agent.hpp"
+#include "urs/agent/camus.hpp"
+#include "urs/bridge/camus_forwarding_agent.hpp"
 #include "urs/schema/json.hpp"
 
 namespace urs::bridge {
@@ -18,8 +19,8 @@ constexpr auto kCamusTimeout = std::chrono::milliseconds(2000);  // a registry c
 // Where the forwarding agents' events go when the bridge has no CAMUS server.
 class NoEvents : public agent::EventSink {
  public:
-  planet::CallResult publish(const std::string& topic, const gp::Message&) override {
-    return planet::CallResult::error(planet::UNAVAILABLE, "no CAMUS server: event on " + topic + " not published");
+  call::Reply publish(const std::string& topic, const gp::Message&) override {
+    return call::Reply::error(call::Status::UNAVAILABLE, "no CAMUS server: event on " + topic + " not published");
   }
 };
 
@@ -45,9 +46,7 @@ CamusAdapter::~CamusAdapter() { stop(); }
 
 void CamusAdapter::start() {
   if (client_) {
-    client_->set_request_handler([this](const planet::Request& request, planet::Responder responder) {
-      host_.dispatch(request, "", std::move(responder));
-    });
+    agent::serve_requests(*client_, host_);
     client_->on_connected([this](const planet::Welcome& welcome) {
       spdlog::info("bridge {}: connected to the CAMUS server of space {}", config_.name, welcome.space());
     });
@@ -146,7 +145,7 @@ std::shared_ptr<agent::ServiceAgent> CamusAdapter::forwarder(const core::Route& 
   const gp::ServiceDescriptor* interface =
       describe_service(*client_, route.offer.name, described_interfaces_, kCamusTimeout, error);
   if (interface == nullptr) throw std::runtime_error(error);
-  return std::make_shared<PlanetProxyAgent>(*client_, route.offer.name, *interface);
+  return std::make_shared<CamusForwardingAgent>(*client_, route.offer.name, *interface);
 }
 
 std::shared_ptr<const std::string> CamusAdapter::description(const std::string& service) {

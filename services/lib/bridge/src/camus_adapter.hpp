@@ -3,7 +3,7 @@
 // session (a SAM-role client; none for a space without a CAMUS server) and the AgentHost of the
 // forwarding agents that stand for other sides' services (CamusStandIns; they are also what other
 // spaces' calls reach, DdsAdapter). What it gives the core: the registry's services as offers,
-// and a forwarding agent for each (PlanetProxyAgent). Besides routes it carries the data relay:
+// and a forwarding agent for each (CamusForwardingAgent). Besides routes it carries the data relay:
 // values of the bridge RTC's in<N> published as CAMUS events (and context), and the events of
 // events_to_rt written to out<N>.
 //
@@ -59,7 +59,7 @@ class CamusAdapter {
   // The registry's available services but this bridge's own. nullopt if the registry cannot be
   // read now (logged once) or there is no CAMUS server.
   std::optional<std::vector<Service>> list_services();
-  // A PlanetProxyAgent for the CAMUS service of route.offer, its interface described by the
+  // A CamusForwardingAgent for the CAMUS service of route.offer, its interface described by the
   // registry (throws with the registry's answer if it cannot be).
   std::shared_ptr<agent::ServiceAgent> forwarder(const core::Route& route);
   // The descriptor set of a CAMUS service, from the registry, kept (services of one interface

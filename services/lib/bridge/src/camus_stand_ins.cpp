@@ -2,6 +2,8 @@
 
 #include <spdlog/spdlog.h>
 
+#include "urs/agent/camus.hpp"
+
 namespace urs::bridge {
 
 CamusStandIns::CamusStandIns(agent::AgentHost& host, planet::Client* client, std::string bridge,
@@ -17,7 +19,7 @@ std::map<std::string, std::string> CamusStandIns::properties_of(const core::Rout
 
 void CamusStandIns::register_service(const agent::HostedService& hosted, const std::string& what) {
   if (!client_) return;
-  client_->register_service(host_.registration(hosted), [name = hosted.name, what](planet::CallResult result) {
+  client_->register_service(agent::registration(hosted), [name = hosted.name, what](planet::CallResult result) {
     if (result.ok()) {
       spdlog::info("bridge: {} offered to CAMUS as {}", what, name);
     } else {
@@ -48,7 +50,7 @@ void CamusStandIns::update(const core::Route& route) {
   const auto health = updated.properties.find(kHealthProperty);
   if (health != updated.properties.end()) spdlog::info("bridge: {} is {} ({})", route.name, health->second, route.offer.name);
   // Registering again under the same name replaces the registry's entry.
-  if (client_) client_->register_service(host_.registration(updated));
+  if (client_) client_->register_service(agent::registration(updated));
 }
 
 }  // namespace urs::bridge

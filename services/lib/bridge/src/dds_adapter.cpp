@@ -26,8 +26,8 @@ DdsAdapter::DdsAdapter(const BridgeConfig& config, planet::Client* client, DdsLi
     }
   }
   link_ = std::make_unique<DdsLink>(options, std::move(catalog_changed),
-                                    [this](IncomingCall call, std::function<void(planet::CallResult)> reply) {
-                                      serve_call(std::move(call), std::move(reply));
+                                    [this](call::Request request, call::Responder responder) {
+                                      serve_call(std::move(request), std::move(responder));
                                     });
   std::string discovery;
   if (!options.discovery_listen.empty()) discovery = ", discovery server at " + options.discovery_listen;
@@ -91,7 +91,7 @@ std::shared_ptr<agent::ServiceAgent> DdsAdapter::forwarder(const core::Route& ro
   const google::protobuf::ServiceDescriptor* interface = in->find_service(entry.interface_name);
   if (interface == nullptr) throw std::runtime_error("its description lacks " + entry.interface_name);
   DdsLink* link = link_.get();
-  PlanetProxyAgent::Route to_space{
+  CamusForwardingAgent::Route to_space{
       [link, space = entry.space, name = entry.name](const std::string& operation, std::string payload,
                                                        std::chrono::milliseconds deadline) {
         return link->call(space, name, operation, std::move(payload), deadline);
@@ -100,7 +100,7 @@ std::shared_ptr<agent::ServiceAgent> DdsAdapter::forwarder(const core::Route& ro
         return link->oneway(space, name, operation, std::move(payload));
       },
       "space " + entry.space};
-  auto agent = std::make_shared<PlanetProxyAgent>(to_space, entry.name, *interface);
+  auto agent = std::make_shared<CamusForwardingAgent>(to_space, entry.name, *interface);
   forwarding_[key] = {route.offer.revision, agent};
   return agent;
 }
@@ -144,21 +144,19 @@ void DdsAdapter::withdraw(const core::Route& route) {
 
 void DdsAdapter::update(const core::Route& route) { offer(route); }
 
-void DdsAdapter::serve_call(IncomingCall call, std::function<void(planet::CallResult)> reply) {
+void DdsAdapter::serve_call(call::Request request, call::Responder responder) {
   bool on_host = false;
   {
     std::lock_guard lock(served_mutex_);
-    const auto it = served_.find(call.service);
+    const auto it = served_.find(request.service);
     if (it == served_.end()) {
-      if (reply) {
-        reply(planet::CallResult::error(planet::UNKNOWN_SERVICE,
-                                        "space " + config_.space + " offers no service '" + call.service + "'"));
-      }
+      responder.reply(call::Reply::error(call::Status::UNKNOWN_SERVICE,
+                                         "space " + config_.space + " offers no service '" + request.service + "'"));
       return;
     }
     on_host = it->second;
   }
-  serve_(std::move(call), on_host, std::move(reply));
+  serve_(std::move(request), on_host, std::move(responder));
 }
 
 }  // namespace urs::bridge

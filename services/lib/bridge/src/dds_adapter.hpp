@@ -3,7 +3,7 @@
 // session: the DdsLink (catalog and calls) and the SpaceState shared on it. What it gives the
 // core: the other spaces' catalog as offers (key and name "<space>/<service>", fields {space}
 // {service}, revision the interface and its description), a forwarding agent for each
-// (PlanetProxyAgent over the link), and, as a ServiceOffering, this space's catalog: a route's
+// (CamusForwardingAgent over the link), and, as a ServiceOffering, this space's catalog: a route's
 // stand-in is an announced entry, whose calls are served by the host of forwarding agents or by
 // the CAMUS server.
 //
@@ -29,7 +29,7 @@
 #include "urs/bridge/config.hpp"
 #include "urs/bridge/core/route_reconciler.hpp"
 #include "urs/bridge/dds_link.hpp"
-#include "urs/bridge/planet_proxy_agent.hpp"
+#include "urs/bridge/camus_forwarding_agent.hpp"
 #include "urs/bridge/space_state.hpp"
 #include "urs/schema/schema.hpp"
 
@@ -47,7 +47,7 @@ class DdsAdapter : public core::ServiceOffering {
   using Describe = std::function<std::optional<Description>(const core::Route& route)>;
   // A call from another space to a service this space offers; `on_host`: served by the host of
   // forwarding agents, else by the CAMUS server. Runs on a DDS listener thread: must not block.
-  using Serve = std::function<void(IncomingCall call, bool on_host, std::function<void(planet::CallResult)> reply)>;
+  using Serve = std::function<void(call::Request request, bool on_host, call::Responder responder)>;
 
   // Joins the link (throws std::runtime_error if DDS refuses) and shares the space's state on it
   // (logged, and none shared, if that fails). `client` (null: no CAMUS server) outlives this.
@@ -76,7 +76,7 @@ class DdsAdapter : public core::ServiceOffering {
   void update(const core::Route& route) override;
 
  private:
-  void serve_call(IncomingCall call, std::function<void(planet::CallResult)> reply);
+  void serve_call(call::Request request, call::Responder responder);
 
   const BridgeConfig& config_;
   const Describe describe_;
@@ -86,7 +86,7 @@ class DdsAdapter : public core::ServiceOffering {
   std::map<std::string, ServiceEntry> catalog_;  // the others' entries last read, by "<space>/<service>"
   struct Forwarding {
     std::string revision;
-    std::shared_ptr<PlanetProxyAgent> agent;
+    std::shared_ptr<CamusForwardingAgent> agent;
   };
   std::map<std::string, Forwarding> forwarding_;  // by "<space>/<service>": one agent for its stand-ins
   std::map<std::string, std::unique_ptr<schema::SchemaPool>> space_pools_;

@@ -34,6 +34,7 @@
 #include "FederationPubSubTypes.h"
 #include "dds_qos.hpp"
 #include "liveliness_asserter.hpp"
+#include "urs/agent/agent.hpp"
 
 namespace urs::bridge {
 
@@ -70,7 +71,7 @@ constexpr std::chrono::milliseconds kDefaultDeadline{10000};
 // (discovery, for the first call to it). The wait is on a condition variable the writer's
 // matched-status listener signals, on a DDS listener thread: so call() and oneway() never run on
 // one (nor on a Planet client's I/O thread, which they would hold up). The bridge calls them from
-// its agent host's workers (PlanetProxyAgent) and CORBA's threads; what arrives over DDS
+// its agent host's workers (CamusForwardingAgent) and CORBA's threads; what arrives over DDS
 // (serve_remote) is only dispatched or sent on asynchronously.
 constexpr std::chrono::milliseconds kMatchWait{2000};
 // Executed request ids remembered at most (the oldest forgotten first).
@@ -116,11 +117,11 @@ std::vector<rtps::Locator_t> peer_locators(const std::string& peer, uint32_t dom
 
 }  // namespace
 
-struct DdsLink::Impl : public fdds::DataReaderListener {
+struct DdsLink::Impl : public fdds::DataReaderListener, public std::enable_shared_from_this<DdsLink::Impl> {
   // A call waiting for its reply.
   struct Pending {
     std::string space;
-    std::promise<planet::CallResult> promise;
+    std::promise<call::Reply> promise;
   };
   // Follows a request writer's matched readers: wakes the callers waiting for the first one
   // (wait_matched), and notices the writer losing its last: the target space's bridge left.
@@ -160,9 +161,24 @@ struct DdsLink::Impl : public fdds::DataReaderListener {
   Impl(const DdsOptions& options, CatalogHandler on_catalog, CallHandler on_call)
       : options(options), on_catalog(std::move(on_catalog)), on_call(std::move(on_call)) {}
 
+  // Set while this thread runs one of the link's reader listeners (on_data_available).
+  static thread_local bool on_listener_thread;
+  class OnListener {
+   public:
+    OnListener() : outer_(on_listener_thread) { on_listener_thread = true; }
+    ~OnListener() { on_listener_thread = outer_; }
+    OnListener(const OnListener&) = delete;
+    OnListener& operator=(const OnListener&) = delete;
+
+   private:
+    bool outer_;
+  };
+
   const DdsOptions& options;
   CatalogHandler on_catalog;
   CallHandler on_call;
+  // Writes the replies given on the link's listener threads (responder_for).
+  agent::WorkerPool replier{1};
   const std::string request_name = request_topic(options.space);  // this space's requests
   const std::string reply_name = reply_topic(options.space);      // replies to this space's calls
   // Part of every request id: ids stay unique across restarts of this bridge, so a replier that
@@ -373,8 +389,8 @@ struct DdsLink::Impl : public fdds::DataReaderListener {
       }
     }
     for (auto& call : failed) {
-      call->promise.set_value(planet::CallResult::error(
-          planet::PROVIDER_GONE, "the bridge of space " + space + " left during the call"));
+      call->promise.set_value(
+          call::Reply::error(call::Status::PROVIDER_GONE, "the bridge of space " + space + " left during the call"));
     }
   }
 
@@ -385,6 +401,7 @@ struct DdsLink::Impl : public fdds::DataReaderListener {
   static const std::string& topic_of(fdds::DataReader* reader) { return reader->get_topicdescription()->get_name(); }
 
   void on_data_available(fdds::DataReader* reader) override {
+    const OnListener on_listener;
     const std::string& name = topic_of(reader);
     if (name == kCatalogTopic || name == kInterfaceTopic) {
       on_catalog();  // the entries stay in the readers' caches: catalog() reads them
@@ -498,26 +515,56 @@ struct DdsLink::Impl : public fdds::DataReaderListener {
                      sample.caller_space());
         continue;
       }
-      IncomingCall call{sample.request_id(), sample.caller_space(), sample.service(), sample.operation(),
-                        sample.deadline_ms(), sample.no_reply(), text_of(sample.payload())};
+      const std::string& id = sample.request_id();
+      const auto arrived = Clock::now();
       const auto until =
-          Clock::now() + (call.deadline_ms == 0 ? kDefaultDeadline : std::chrono::milliseconds(call.deadline_ms));
-      if (!first_delivery(call.request_id, until)) {
-        spdlog::debug("dds: request {} delivered again; executed once already", call.request_id);
+          arrived + (sample.deadline_ms() == 0 ? kDefaultDeadline : std::chrono::milliseconds(sample.deadline_ms()));
+      if (!first_delivery(id, until)) {
+        spdlog::debug("dds: request {} delivered again; executed once already", id);
         continue;
       }
-      if (!call.oneway) serve(info.instance_handle, call.request_id, until);
-      std::function<void(planet::CallResult)> reply;
-      if (!call.oneway) {
-        reply = [this, id = call.request_id, space = call.caller_space, until](planet::CallResult result) {
-          send_reply(space, id, result, until);
-        };
+      call::Request request;
+      request.service = sample.service();
+      request.operation = sample.operation();
+      request.payload = text_of(sample.payload());
+      if (sample.deadline_ms() != 0) request.deadline = arrived + std::chrono::milliseconds(sample.deadline_ms());
+      request.caller = {sample.caller_space(), "dds:" + sample.caller_space(), "bridge"};
+      request.oneway = sample.no_reply();
+      call::Responder responder;
+      if (!request.oneway) {
+        serve(info.instance_handle, id, until);
+        responder = responder_for(sample.caller_space(), id, until);
       }
-      on_call(std::move(call), std::move(reply));
+      on_call(std::move(request), std::move(responder));
     }
   }
 
-  void send_reply(const std::string& space, const std::string& id, const planet::CallResult& result,
+  // Answers a call of `space` through the link while it exists: off this link's listener threads
+  // at once, on one of them through the replier thread (see CallHandler).
+  call::Responder responder_for(const std::string& space, const std::string& id, Clock::time_point until) {
+    std::weak_ptr<Impl> link = weak_from_this();
+    return call::Responder::from_callback([link, space, id, until](call::Reply reply) {
+      auto d = link.lock();
+      if (!d) return;  // the link is gone: nobody to write the reply
+      if (!on_listener_thread) {
+        d->reply_if_open(space, id, reply, until);
+        return;
+      }
+      d->replier.post([link, space, id, reply = std::move(reply), until](bool cancelled) {
+        if (cancelled) return;  // the link is stopping
+        if (auto d = link.lock()) d->reply_if_open(space, id, reply, until);
+      });
+    });
+  }
+
+  // The reply is written unless the link is stopping (its writers may be deleted then).
+  void reply_if_open(const std::string& space, const std::string& id, const call::Reply& reply,
+                     Clock::time_point until) {
+    const InProgress in_progress(*this);
+    if (in_progress.admitted()) send_reply(space, id, reply, until);
+  }
+
+  void send_reply(const std::string& space, const std::string& id, const call::Reply& result,
                   Clock::time_point until) {
     // Written at once, matched reader or not: the caller's reply reader, if it matches this
     // writer later, still gets the reply while it is registered (until the caller's deadline).
@@ -533,7 +580,7 @@ struct DdsLink::Impl : public fdds::DataReaderListener {
     lock.unlock();
     dds::CallReply reply;
     reply.request_id(id);
-    reply.status(static_cast<int32_t>(result.status));
+    reply.status(call::status_number(result.status));
     reply.message(result.message);
     reply.exception_type(result.exception_type);
     reply.payload(bytes_of(result.payload));
@@ -553,15 +600,20 @@ struct DdsLink::Impl : public fdds::DataReaderListener {
         call = it->second;
         pending.erase(it);
       }
-      planet::CallResult result;
-      result.status = static_cast<planet::Status>(sample.status());
-      result.message = sample.message();
+      call::Reply result;
+      const auto status = call::status_from_number(sample.status());
+      result.status = status.value_or(call::Status::INTERNAL);
+      result.message = status ? sample.message()
+                              : "space " + call->space + " answered with status " + std::to_string(sample.status()) +
+                                    ", which this bridge does not know: " + sample.message();
       result.exception_type = sample.exception_type();
       result.payload = text_of(sample.payload());
       call->promise.set_value(std::move(result));
     }
   }
 };
+
+thread_local bool DdsLink::Impl::on_listener_thread = false;
 
 // Discovery through a Fast DDS discovery server: this participant is the server, or a client of
 // the servers given (their GUID prefixes are Fast DDS's defaults for their ids).
@@ -596,7 +648,7 @@ void DdsLink::use_discovery_server(fdds::DomainParticipantQos& qos) const {
 }
 
 DdsLink::DdsLink(DdsOptions options, CatalogHandler on_catalog, CallHandler on_call)
-    : options_(std::move(options)), impl_(std::make_unique<Impl>(options_, std::move(on_catalog), std::move(on_call))) {
+    : options_(std::move(options)), impl_(std::make_shared<Impl>(options_, std::move(on_catalog), std::move(on_call))) {
   auto* factory = fdds::DomainParticipantFactory::get_instance();
   factory->load_profiles();  // an XML default profile's settings, but for the transports set below
   fdds::DomainParticipantQos qos = factory->get_default_participant_qos();
@@ -701,7 +753,8 @@ DdsLink::~DdsLink() {
     for (auto& [id, call] : d.pending) left.push_back(call);
     d.pending.clear();
   }
-  for (auto& call : left) call->promise.set_value(planet::CallResult::error(planet::UNAVAILABLE, "bridge stopping"));
+  for (auto& call : left) call->promise.set_value(call::Reply::error(call::Status::UNAVAILABLE, "bridge stopping"));
+  d.replier.stop();  // a reply it writes now is refused (closing); those queued are dropped
   {
     std::unique_lock lock(d.calls_mutex);
     d.calls_done.wait(lock, [&] { return d.calls_in_progress == 0; });
@@ -807,13 +860,13 @@ void DdsLink::withdraw(const std::string& name) {
   impl_->catalog_writer->unregister_instance(&sample, fdds::HANDLE_NIL);
 }
 
-planet::CallResult DdsLink::call(const std::string& space, const std::string& service, const std::string& operation,
-                                 std::string payload, std::chrono::milliseconds deadline) {
+call::Reply DdsLink::call(const std::string& space, const std::string& service, const std::string& operation,
+                          std::string payload, std::chrono::milliseconds deadline) {
   Impl& d = *impl_;
   const Impl::InProgress in_progress(d);  // first: the last to end
-  if (!in_progress.admitted()) return planet::CallResult::error(planet::UNAVAILABLE, "bridge stopping");
+  if (!in_progress.admitted()) return call::Reply::error(call::Status::UNAVAILABLE, "bridge stopping");
   if (d.space_lost(space)) {
-    return planet::CallResult::error(planet::UNAVAILABLE, "the bridge of space " + space + " lost its liveliness");
+    return call::Reply::error(call::Status::UNAVAILABLE, "the bridge of space " + space + " lost its liveliness");
   }
   const auto until = Clock::now() + deadline;
   const std::string id = d.next_request_id();
@@ -823,15 +876,15 @@ planet::CallResult DdsLink::call(const std::string& space, const std::string& se
   Impl::RequestRoute route;
   try {
     std::lock_guard lock(d.mutex);
-    if (d.closing) return planet::CallResult::error(planet::UNAVAILABLE, "bridge stopping");
+    if (d.closing) return call::Reply::error(call::Status::UNAVAILABLE, "bridge stopping");
     route = d.request_writer(space);
     d.pending[id] = pending;
   } catch (const std::exception& e) {
     if (options_.security.enabled()) {  // on a secured link, the access control refused the writer
-      return planet::CallResult::error(planet::PERMISSION_DENIED, "the permissions of space " + options_.space +
-                                                                       " do not grant calls to space " + space);
+      return call::Reply::error(call::Status::PERMISSION_DENIED, "the permissions of space " + options_.space +
+                                                                     " do not grant calls to space " + space);
     }
-    return planet::CallResult::error(planet::UNAVAILABLE, e.what());
+    return call::Reply::error(call::Status::UNAVAILABLE, e.what());
   }
   fdds::DataWriter* writer = route.writer;
   auto forget = [&] {
@@ -841,8 +894,8 @@ planet::CallResult DdsLink::call(const std::string& space, const std::string& se
   // A writer made for this call waits for discovery; a known space's is matched already.
   if (!route.listener->wait_matched(std::min(until, Clock::now() + kMatchWait))) {
     forget();
-    if (d.closing) return planet::CallResult::error(planet::UNAVAILABLE, "bridge stopping");
-    return planet::CallResult::error(planet::UNAVAILABLE, "space " + space + " is not reachable over DDS (no bridge of it matched)");
+    if (d.closing) return call::Reply::error(call::Status::UNAVAILABLE, "bridge stopping");
+    return call::Reply::error(call::Status::UNAVAILABLE, "space " + space + " is not reachable over DDS (no bridge of it matched)");
   }
   dds::CallRequest request;
   request.request_id(id);
@@ -855,7 +908,7 @@ planet::CallResult DdsLink::call(const std::string& space, const std::string& se
   request.payload(bytes_of(payload));
   if (!writer->write(&request)) {
     forget();
-    return planet::CallResult::error(planet::UNAVAILABLE, "the request to space " + space + " could not be written");
+    return call::Reply::error(call::Status::UNAVAILABLE, "the request to space " + space + " could not be written");
   }
   // Whatever the outcome, nobody waits for this request any more: a replier matching later must
   // not execute it, and the one that did may forget its reply.
@@ -863,7 +916,7 @@ planet::CallResult DdsLink::call(const std::string& space, const std::string& se
   Impl::retire(writer, id, false);
   if (!answered) {
     forget();
-    return planet::CallResult::error(planet::DEADLINE_EXCEEDED, "no reply from space " + space + " for " + service +
+    return call::Reply::error(call::Status::DEADLINE_EXCEEDED, "no reply from space " + space + " for " + service +
                                                                     "." + operation + " within " +
                                                                     std::to_string(deadline.count()) + " ms");
   }

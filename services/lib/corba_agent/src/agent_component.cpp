@@ -74,19 +74,19 @@ class AgentComponent::Sink : public agent::EventSink {
 
   void route(const std::string& topic, RawOutPort& port) { ports_[topic] = &port; }
 
-  planet::CallResult publish(const std::string& topic, const google::protobuf::Message& event) override {
+  call::Reply publish(const std::string& topic, const google::protobuf::Message& event) override {
     const auto it = ports_.find(topic);
     if (it == ports_.end()) {
       spdlog::debug("{}: event on topic '{}' ({}) has no port", owner_.instance_name(), topic,
                     event.GetDescriptor()->full_name());
-      return planet::CallResult::success({});
+      return call::Reply::success({});
     }
     try {
       it->second->write(event);
-      return planet::CallResult::success({});
+      return call::Reply::success({});
     } catch (const std::exception& e) {
       spdlog::warn("{}: event on topic '{}' not sent: {}", owner_.instance_name(), topic, e.what());
-      return planet::CallResult::error(planet::BAD_ARGUMENTS, e.what());
+      return call::Reply::error(call::Status::BAD_ARGUMENTS, e.what());
     }
   }
 

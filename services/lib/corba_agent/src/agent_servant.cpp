@@ -63,16 +63,16 @@ void insert(CORBA::Any& any, CORBA::TypeCode_ptr type, const Marshal& what) {
 }
 
 // The system exception an agent's error status becomes (docs/devices.md).
-[[noreturn]] void throw_system_exception(planet::Status status) {
+[[noreturn]] void throw_system_exception(call::Status status) {
   switch (status) {
-    case planet::BAD_ARGUMENTS: throw CORBA::BAD_PARAM(0, CORBA::COMPLETED_NO);
-    case planet::DEADLINE_EXCEEDED: throw CORBA::TIMEOUT(0, CORBA::COMPLETED_MAYBE);
-    case planet::UNKNOWN_OPERATION: throw CORBA::BAD_OPERATION(0, CORBA::COMPLETED_NO);
-    case planet::UNAVAILABLE: throw CORBA::TRANSIENT(0, CORBA::COMPLETED_NO);
+    case call::Status::BAD_ARGUMENTS: throw CORBA::BAD_PARAM(0, CORBA::COMPLETED_NO);
+    case call::Status::DEADLINE_EXCEEDED: throw CORBA::TIMEOUT(0, CORBA::COMPLETED_MAYBE);
+    case call::Status::UNKNOWN_OPERATION: throw CORBA::BAD_OPERATION(0, CORBA::COMPLETED_NO);
+    case call::Status::UNAVAILABLE: throw CORBA::TRANSIENT(0, CORBA::COMPLETED_NO);
     // A service reached through a bridge (urs::bridge) that is not there, or went away mid-call:
     // the caller may retry later, as for UNAVAILABLE.
-    case planet::UNKNOWN_SERVICE: throw CORBA::TRANSIENT(0, CORBA::COMPLETED_NO);
-    case planet::PROVIDER_GONE: throw CORBA::TRANSIENT(0, CORBA::COMPLETED_MAYBE);
+    case call::Status::UNKNOWN_SERVICE: throw CORBA::TRANSIENT(0, CORBA::COMPLETED_NO);
+    case call::Status::PROVIDER_GONE: throw CORBA::TRANSIENT(0, CORBA::COMPLETED_MAYBE);
     default: throw CORBA::INTERNAL(0, CORBA::COMPLETED_MAYBE);
   }
 }
@@ -193,17 +193,17 @@ void AgentServant::invoke(CORBA::ServerRequest_ptr request) {
   }
 
   std::unique_ptr<Message> out(factory_.GetPrototype(op.method->output_type())->New());
-  agent::CallContext context{options_.service_name, "", std::chrono::steady_clock::now() + options_.deadline, &events_};
+  agent::CallContext context{options_.service_name, {}, std::chrono::steady_clock::now() + options_.deadline, &events_};
   agent::Outcome outcome;
   try {
     outcome = agent_->invoke(*op.method, *in, *out, context);
   } catch (const std::exception& e) {
-    outcome = agent::Outcome::error(planet::INTERNAL, e.what());
+    outcome = agent::Outcome::error(call::Status::INTERNAL, e.what());
   }
   if (op.oneway) {
-    if (outcome.status != planet::OK) {
+    if (outcome.status != call::Status::OK) {
       spdlog::warn("{}: oneway {} failed: {} {}", options_.service_name, op.method->name(),
-                   planet::status_name(outcome.status), outcome.message);
+                   call::status_name(outcome.status), outcome.message);
     }
     return;
   }
@@ -212,7 +212,7 @@ void AgentServant::invoke(CORBA::ServerRequest_ptr request) {
 
 void AgentServant::answer(CORBA::ServerRequest_ptr request, const Operation& op, CORBA::NVList_ptr arguments,
                           const agent::Outcome& outcome, const Message& reply) {
-  if (outcome.status == planet::USER_EXCEPTION && outcome.exception) {
+  if (outcome.status == call::Status::USER_EXCEPTION && outcome.exception) {
     const auto raised = op.raises.find(outcome.exception->GetDescriptor()->full_name());
     if (raised == op.raises.end()) {
       spdlog::warn("{}: {} raised {}, which the operation does not declare", options_.service_name,
@@ -229,8 +229,8 @@ void AgentServant::answer(CORBA::ServerRequest_ptr request, const Operation& op,
     request->set_exception(exception);
     return;
   }
-  if (outcome.status != planet::OK) {
-    spdlog::debug("{}: {}: {} {}", options_.service_name, op.method->name(), planet::status_name(outcome.status),
+  if (outcome.status != call::Status::OK) {
+    spdlog::debug("{}: {}: {} {}", options_.service_name, op.method->name(), call::status_name(outcome.status),
                   outcome.message);
     throw_system_exception(outcome.status);
   }

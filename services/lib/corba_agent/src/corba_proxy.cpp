@@ -70,20 +70,20 @@ agent::Outcome from_system_exception(const CORBA::SystemException& e, const std:
   const std::string what = operation + ": " + rtc::describe(e);
   if (dynamic_cast<const CORBA::TIMEOUT*>(&e) != nullptr ||
       (dynamic_cast<const CORBA::TRANSIENT*>(&e) != nullptr && e.minor() == omni::TRANSIENT_CallTimedout)) {
-    return agent::Outcome::error(planet::DEADLINE_EXCEEDED, "deadline passed: " + what);
+    return agent::Outcome::error(call::Status::DEADLINE_EXCEEDED, "deadline passed: " + what);
   }
   if (dynamic_cast<const CORBA::TRANSIENT*>(&e) != nullptr || dynamic_cast<const CORBA::COMM_FAILURE*>(&e) != nullptr ||
       dynamic_cast<const CORBA::OBJECT_NOT_EXIST*>(&e) != nullptr) {
-    return agent::Outcome::error(planet::UNAVAILABLE, "provider gone: " + what);
+    return agent::Outcome::error(call::Status::UNAVAILABLE, "provider gone: " + what);
   }
   if (dynamic_cast<const CORBA::BAD_PARAM*>(&e) != nullptr || dynamic_cast<const CORBA::MARSHAL*>(&e) != nullptr) {
-    return agent::Outcome::error(planet::BAD_ARGUMENTS, "refused by the provider: " + what);
+    return agent::Outcome::error(call::Status::BAD_ARGUMENTS, "refused by the provider: " + what);
   }
   if (dynamic_cast<const CORBA::BAD_OPERATION*>(&e) != nullptr ||
       dynamic_cast<const CORBA::NO_IMPLEMENT*>(&e) != nullptr) {
-    return agent::Outcome::error(planet::UNKNOWN_OPERATION, "not served by the provider: " + what);
+    return agent::Outcome::error(call::Status::UNKNOWN_OPERATION, "not served by the provider: " + what);
   }
-  return agent::Outcome::error(planet::INTERNAL, "provider failed: " + what);
+  return agent::Outcome::error(call::Status::INTERNAL, "provider failed: " + what);
 }
 
 std::string repository_id_of(const gp::Descriptor& message) {
@@ -183,7 +183,7 @@ agent::Outcome CorbaProxyAgent::invoke(const gp::MethodDescriptor& method, const
                                        const agent::CallContext& ctx) {
   const auto found = calls_.find(&method);
   if (found == calls_.end()) {
-    return agent::Outcome::error(planet::UNKNOWN_OPERATION, interface_.full_name() + " has no operation " + method.full_name());
+    return agent::Outcome::error(call::Status::UNKNOWN_OPERATION, interface_.full_name() + " has no operation " + method.full_name());
   }
   const Call& call = *found->second;
 
@@ -193,7 +193,7 @@ agent::Outcome CorbaProxyAgent::invoke(const gp::MethodDescriptor& method, const
                      : std::chrono::ceil<std::chrono::milliseconds>(ctx.deadline - now);
   if (options_.max_deadline.count() > 0) timeout = std::min(timeout, options_.max_deadline);
   if (timeout.count() <= 0) {
-    return agent::Outcome::error(planet::DEADLINE_EXCEEDED, "deadline passed before " + call.operation + " was sent");
+    return agent::Outcome::error(call::Status::DEADLINE_EXCEEDED, "deadline passed before " + call.operation + " was sent");
   }
 
   try {
@@ -222,7 +222,7 @@ agent::Outcome CorbaProxyAgent::invoke(const gp::MethodDescriptor& method, const
     if (CORBA::Exception* raised = dii->env()->exception()) {
       if (auto* user = CORBA::UnknownUserException::_downcast(raised)) return answer_user_exception(call, *user);
       if (auto* system = CORBA::SystemException::_downcast(raised)) return answer_system_exception(call, *system);
-      return agent::Outcome::error(planet::INTERNAL, call.operation + ": " + rtc::describe(*raised));
+      return agent::Outcome::error(call::Status::INTERNAL, call.operation + ": " + rtc::describe(*raised));
     }
     try {
       for (CORBA::ULong i = 0; i < call.parameters.size(); ++i) {
@@ -231,11 +231,11 @@ agent::Outcome CorbaProxyAgent::invoke(const gp::MethodDescriptor& method, const
       }
       if (call.result != nullptr) read_any(*codec_, dii->return_value(), reply, call.result);
     } catch (const ConversionError& e) {
-      return agent::Outcome::error(planet::INTERNAL, call.operation + ": the provider's reply cannot be read: " + e.what());
+      return agent::Outcome::error(call::Status::INTERNAL, call.operation + ": the provider's reply cannot be read: " + e.what());
     }
     return agent::Outcome::ok();
   } catch (const ConversionError& e) {
-    return agent::Outcome::error(planet::BAD_ARGUMENTS, call.operation + ": " + e.what());
+    return agent::Outcome::error(call::Status::BAD_ARGUMENTS, call.operation + ": " + e.what());
   } catch (const CORBA::SystemException& e) {
     return answer_system_exception(call, e);
   }
@@ -244,7 +244,7 @@ agent::Outcome CorbaProxyAgent::invoke(const gp::MethodDescriptor& method, const
 agent::Outcome CorbaProxyAgent::answer_system_exception(const Call& call, const CORBA::SystemException& raised) const {
   if (options_.explain_missing_target && dynamic_cast<const CORBA::OBJECT_NOT_EXIST*>(&raised) != nullptr) {
     const std::string why = options_.explain_missing_target();
-    if (!why.empty()) return agent::Outcome::error(planet::UNAVAILABLE, call.operation + ": " + why);
+    if (!why.empty()) return agent::Outcome::error(call::Status::UNAVAILABLE, call.operation + ": " + why);
   }
   return from_system_exception(raised, call.operation);
 }
@@ -255,13 +255,13 @@ agent::Outcome CorbaProxyAgent::answer_user_exception(const Call& call, CORBA::U
   const std::string id = type->id();
   const auto declared = call.declared.find(id);
   if (declared == call.declared.end()) {
-    return agent::Outcome::error(planet::INTERNAL, call.operation + " raised " + id + ", which it does not declare");
+    return agent::Outcome::error(call::Status::INTERNAL, call.operation + " raised " + id + ", which it does not declare");
   }
   std::shared_ptr<gp::Message> exception(declared->second.prototype->New());
   try {
     read_any(*codec_, value, *exception, nullptr);
   } catch (const ConversionError& e) {
-    return agent::Outcome::error(planet::INTERNAL, call.operation + " raised an exception that cannot be read: " + e.what());
+    return agent::Outcome::error(call::Status::INTERNAL, call.operation + " raised an exception that cannot be read: " + e.what());
   }
   const std::string text = call.operation + " raised " + exception->GetTypeName();
   return agent::Outcome::raise(std::move(exception), text);

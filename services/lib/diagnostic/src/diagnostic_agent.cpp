@@ -26,13 +26,13 @@ DiagnosticAgent::DiagnosticAgent()
       });
   on<URS::Diagnostic_sleep_Request, URS::Diagnostic_sleep_Reply>(
       "sleep", [](const auto& req, auto&, const CallContext& ctx) {
-        if (auto refused = check_sleep(req.ms())) return Outcome::error(planet::BAD_ARGUMENTS, *refused);
+        if (auto refused = check_sleep(req.ms())) return Outcome::error(call::Status::BAD_ARGUMENTS, *refused);
         const auto until = std::chrono::steady_clock::now() + std::chrono::milliseconds(req.ms());
         spdlog::debug("diagnostic: sleep {} ms begins", req.ms());  // the call reached the provider
         // The caller stops waiting at its deadline; so does the agent, which frees its worker.
         if (ctx.deadline < until) {
           std::this_thread::sleep_until(ctx.deadline);
-          return Outcome::error(planet::DEADLINE_EXCEEDED,
+          return Outcome::error(call::Status::DEADLINE_EXCEEDED,
                                 "sleep: the caller's deadline came before " + std::to_string(req.ms()) + " ms");
         }
         std::this_thread::sleep_until(until);
@@ -40,7 +40,7 @@ DiagnosticAgent::DiagnosticAgent()
       });
   on<URS::Diagnostic_blob_Request, URS::Diagnostic_blob_Reply>(
       "blob", [](const auto& req, auto& rep, const CallContext&) {
-        if (auto refused = check_blob(req.size())) return Outcome::error(planet::BAD_ARGUMENTS, *refused);
+        if (auto refused = check_blob(req.size())) return Outcome::error(call::Status::BAD_ARGUMENTS, *refused);
         rep.set_result(patterned_bytes(req.size()));
         return Outcome::ok();
       });
@@ -58,7 +58,7 @@ DiagnosticAgent::DiagnosticAgent()
       });
   on<URS::Diagnostic_notify_Request, URS::Diagnostic_notify_Reply>(
       "notify", [](const auto& req, auto&, const CallContext& ctx) {
-        if (req.topic().empty()) return Outcome::error(planet::BAD_ARGUMENTS, "notify: topic is empty");
+        if (req.topic().empty()) return Outcome::error(call::Status::BAD_ARGUMENTS, "notify: topic is empty");
         auto published = ctx.events->publish(req.topic(), req);
         if (!published.ok()) return Outcome::error(published.status, published.message);
         return Outcome::ok();

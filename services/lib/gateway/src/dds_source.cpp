@@ -26,9 +26,9 @@ void DdsSource::start(ViewSink& sink) {
   link_ = std::make_unique<bridge::DdsLink>(
       link,
       [this] { poller_.wake(); },
-      [](bridge::IncomingCall call, std::function<void(planet::CallResult)> reply) {
+      [](call::Request request, call::Responder responder) {
         // Nobody calls a gateway over DDS (it announces nothing); refuse whatever arrives.
-        if (reply) reply(planet::CallResult::error(planet::UNKNOWN_SERVICE, "urs-gateway serves no " + call.service));
+        responder.reply(call::Reply::error(call::Status::UNKNOWN_SERVICE, "urs-gateway serves no " + request.service));
       });
   bridge::StateHandlers handlers;
   handlers.component = [this](const bridge::ComponentState& state, bool alive) { component(state, alive); };

@@ -223,12 +223,12 @@ void RtSource::call(const std::string& path, const std::string& port, const std:
       return;
     }
     std::string out;
-    if (outcome.status == planet::OK) {
+    if (outcome.status == call::Status::OK) {
       schema::message_to_json(*response, out);
       reply(CallReply::success(std::move(out)));
       return;
     }
-    std::string why = std::string(planet::status_name(outcome.status));
+    std::string why = std::string(call::status_name(outcome.status));
     if (!outcome.exception_type.empty()) why += " " + outcome.exception_type + " " + outcome.exception_json;
     if (!outcome.message.empty()) why += ": " + outcome.message;
     reply(CallReply::failure(std::move(why)));

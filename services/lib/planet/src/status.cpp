@@ -1,27 +1,13 @@
 #include "urs/planet/status.hpp"
 
+#include "urs/call/call.hpp"
+
 namespace urs::planet {
 
 std::string_view status_name(Status status) {
-  switch (status) {
-    case Status::OK: return "OK";
-    case Status::UNKNOWN_SERVICE: return "UNKNOWN_SERVICE";
-    case Status::UNKNOWN_OPERATION: return "UNKNOWN_OPERATION";
-    case Status::BAD_ARGUMENTS: return "BAD_ARGUMENTS";
-    case Status::PROVIDER_GONE: return "PROVIDER_GONE";
-    case Status::DEADLINE_EXCEEDED: return "DEADLINE_EXCEEDED";
-    case Status::INTERNAL: return "INTERNAL";
-    case Status::USER_EXCEPTION: return "USER_EXCEPTION";
-    case Status::UNAVAILABLE: return "UNAVAILABLE";
-    case Status::UNAUTHENTICATED: return "UNAUTHENTICATED";
-    case Status::PAYLOAD_TOO_LARGE: return "PAYLOAD_TOO_LARGE";
-    case Status::ALREADY_EXISTS: return "ALREADY_EXISTS";
-    case Status::NOT_FOUND: return "NOT_FOUND";
-    case Status::RESOURCE_EXHAUSTED: return "RESOURCE_EXHAUSTED";
-    case Status::PERMISSION_DENIED: return "PERMISSION_DENIED";
-    default: break;  // proto3 enums are open: values of a newer peer land here
-  }
-  return "UNKNOWN_STATUS";
+  // Planet's statuses are call::Status's numbers and names (checked in call_adapter.cpp); a number
+  // of a newer peer's (proto3 enums are open) is named "UNKNOWN_STATUS" there.
+  return call::status_name(static_cast<call::Status>(status));
 }
 
 }  // namespace urs::planet

@@ -38,7 +38,7 @@ ProviderOutcome call_provider(const rtc::Orb& orb, const ProviderTarget& target,
                                           corba_agent::CorbaProxyOptions{deadline, deadline});
     class NoEvents : public agent::EventSink {
      public:
-      planet::CallResult publish(const std::string&, const google::protobuf::Message&) override { return {}; }
+      call::Reply publish(const std::string&, const google::protobuf::Message&) override { return {}; }
     } events;
     agent::CallContext context;
     context.service = what;
@@ -52,9 +52,9 @@ ProviderOutcome call_provider(const rtc::Orb& orb, const ProviderTarget& target,
     }
     return out;
   } catch (const std::invalid_argument& e) {
-    return {planet::BAD_ARGUMENTS, what + ": " + e.what(), {}, {}};
+    return {call::Status::BAD_ARGUMENTS, what + ": " + e.what(), {}, {}};
   } catch (const CORBA::Exception& e) {
-    return {planet::UNAVAILABLE, what + ": " + rtc::describe(e), {}, {}};
+    return {call::Status::UNAVAILABLE, what + ": " + rtc::describe(e), {}, {}};
   }
 }
 

@@ -27,13 +27,13 @@ using namespace std::chrono_literals;
 
 class RecordingSink : public agent::EventSink {
  public:
-  planet::CallResult publish(const std::string& topic, const google::protobuf::Message& event) override {
+  call::Reply publish(const std::string& topic, const google::protobuf::Message& event) override {
     std::lock_guard<std::mutex> lock(mutex_);
     URC::ImageRecognition_recognize_Reply markers;
     markers.CopyFrom(event);
     events_.emplace_back(topic, markers);
     arrived_.notify_all();
-    return planet::CallResult::success({});
+    return call::Reply::success({});
   }
   std::vector<std::pair<std::string, URC::ImageRecognition_recognize_Reply>> wait_for(size_t count) {
     std::unique_lock<std::mutex> lock(mutex_);
@@ -54,16 +54,15 @@ class CameraHost {
     host_.start();
   }
 
-  planet::CallResult call(const std::string& operation, const google::protobuf::Message& request) {
-    planet::Request wire;
-    wire.set_service("camera");
-    wire.set_operation(operation);
-    wire.set_payload(request.SerializeAsString());
-    auto promise = std::make_shared<std::promise<planet::CallResult>>();
+  call::Reply call(const std::string& operation, const google::protobuf::Message& request) {
+    call::Request sent;
+    sent.service = "camera";
+    sent.operation = operation;
+    sent.payload = request.SerializeAsString();
+    auto promise = std::make_shared<std::promise<call::Reply>>();
     auto future = promise->get_future();
-    host_.dispatch(wire, "tester",
-                   planet::Responder::from_callback([promise](planet::CallResult r) { promise->set_value(r); }));
-    if (future.wait_for(10s) != std::future_status::ready) return planet::CallResult::error(planet::INTERNAL, "no answer");
+    host_.dispatch(std::move(sent), call::Responder::from_callback([promise](call::Reply r) { promise->set_value(r); }));
+    if (future.wait_for(10s) != std::future_status::ready) return call::Reply::error(call::Status::INTERNAL, "no answer");
     return future.get();
   }
 
@@ -99,8 +98,8 @@ class CameraHost {
 };
 
 template <class Exception>
-Exception raised(const planet::CallResult& result, const std::string& type) {
-  EXPECT_EQ(result.status, planet::USER_EXCEPTION) << result.message;
+Exception raised(const call::Reply& result, const std::string& type) {
+  EXPECT_EQ(result.status, call::Status::USER_EXCEPTION) << result.message;
   EXPECT_EQ(result.exception_type, type);
   Exception exception;
   EXPECT_TRUE(exception.ParseFromString(result.payload));

@@ -36,7 +36,7 @@ constexpr auto kHang = std::chrono::seconds(120);
 
 class RecordingSink : public urs::agent::EventSink {
  public:
-  urs::planet::CallResult publish(const std::string& topic, const google::protobuf::Message& event) override {
+  urs::call::Reply publish(const std::string& topic, const google::protobuf::Message& event) override {
     std::lock_guard<std::mutex> lock(mutex_);
     events_.push_back({topic, std::shared_ptr<google::protobuf::Message>(event.New())});
     events_.back().second->CopyFrom(event);
@@ -149,7 +149,7 @@ class RobotLocalizerTest : public ::testing::Test {
     // The robot knows where it is once the localizer's first fix has reached it.
     ASSERT_TRUE(eventually([&] {
       URC::Navigation_getPosition_Reply reply;
-      return call(*robot_, "getPosition", URC::Navigation_getPosition_Request(), reply).status == urs::planet::OK;
+      return call(*robot_, "getPosition", URC::Navigation_getPosition_Request(), reply).status == urs::call::Status::OK;
     }));
   }
 
@@ -170,7 +170,7 @@ TEST_F(RobotLocalizerTest, SquarePathWithTheLocalizerInTheLoopEndsWithin5cmOfEve
   Recorder recorder(*robot_);
   std::vector<double> errors;
   for (const auto& [x, y] : waypoints) {
-    ASSERT_EQ(move_to(*robot_, x, y).status, urs::planet::OK);
+    ASSERT_EQ(move_to(*robot_, x, y).status, urs::call::Status::OK);
     ASSERT_TRUE(eventually([&] { return state_of(*robot_) == URC::NAVIGATION_STATE_ARRIVED; }))
         << "never arrived at (" << x << ", " << y << ")";
     // The controller declares arrival on its estimate; the truth is where the base comes to rest.
@@ -209,11 +209,11 @@ TEST_F(RobotLocalizerTest, SquarePathWithTheLocalizerInTheLoopEndsWithin5cmOfEve
 TEST_F(RobotLocalizerTest, SpeedChangesAreFollowedWithinTheAccelerationLimit) {
   start(", x: 0, y: 0, theta: 0, speed: 200, max_accel: 0.5", "");
   Recorder recorder(*robot_);
-  ASSERT_EQ(move_to(*robot_, 40, 0).status, urs::planet::OK);
+  ASSERT_EQ(move_to(*robot_, 40, 0).status, urs::call::Status::OK);
   const std::vector<uint32_t> commands = {200, 800, 500, 0};
   for (std::size_t i = 0; i < commands.size(); ++i) {
     recorder.phase = static_cast<int>(i);
-    ASSERT_EQ(set_speed(*robot_, commands[i]).status, urs::planet::OK);
+    ASSERT_EQ(set_speed(*robot_, commands[i]).status, urs::call::Status::OK);
     const double target = commands[i] / 1000.0;
     ASSERT_TRUE(eventually([&] { return std::abs(robot_->truth().velocity.v - target) < 0.002; }))
         << "speed never reached " << commands[i] << " mm/s";
@@ -250,26 +250,26 @@ TEST_F(RobotLocalizerTest, BadInputsRaiseTheirIdlExceptions) {
   lonely->start(sink);
   URC::Localization_getPose_Reply pose;
   auto outcome = call(*lonely, "getPose", URC::Localization_getPose_Request(), pose);
-  ASSERT_EQ(outcome.status, urs::planet::USER_EXCEPTION);
+  ASSERT_EQ(outcome.status, urs::call::Status::USER_EXCEPTION);
   EXPECT_EQ(outcome.exception->GetDescriptor(), URC::NotReady::descriptor());
   lonely->stop();
 
   start("", "");
   outcome = set_speed(*robot_, 5000);
-  ASSERT_EQ(outcome.status, urs::planet::USER_EXCEPTION);
+  ASSERT_EQ(outcome.status, urs::call::Status::USER_EXCEPTION);
   const auto* invalid = dynamic_cast<const URC::InvalidArgument*>(outcome.exception.get());
   ASSERT_NE(invalid, nullptr);
   EXPECT_EQ(invalid->parameter(), "speed");
   EXPECT_NE(invalid->reason().find("1200"), std::string::npos) << invalid->reason();
 
   outcome = move_to(*robot_, std::nan(""), 1.0);
-  ASSERT_EQ(outcome.status, urs::planet::USER_EXCEPTION);
+  ASSERT_EQ(outcome.status, urs::call::Status::USER_EXCEPTION);
   EXPECT_EQ(outcome.exception->GetDescriptor(), URC::InvalidTarget::descriptor());
   EXPECT_EQ(state_of(*robot_), URC::NAVIGATION_STATE_IDLE);
 
   URC::Navigation__get_max_speed_Reply max_speed;
   ASSERT_EQ(call(*robot_, "_get_max_speed", URC::Navigation__get_max_speed_Request(), max_speed).status,
-            urs::planet::OK);
+            urs::call::Status::OK);
   EXPECT_EQ(max_speed.result(), 1200u);
 }
 

@@ -17,7 +17,7 @@ namespace urs::devices::testing {
 
 class RecordingSink : public agent::EventSink {
  public:
-  planet::CallResult publish(const std::string& topic, const google::protobuf::Message& event) override {
+  call::Reply publish(const std::string& topic, const google::protobuf::Message& event) override {
     std::lock_guard lock(mutex_);
     events_.emplace_back(topic, event.SerializeAsString());
     return {};

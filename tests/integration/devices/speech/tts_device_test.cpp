@@ -41,7 +41,7 @@ class TtsDevice : public ::testing::Test {
 
 TEST_F(TtsDevice, SpeaksACompleteSixteenKilohertzMonoWav) {
   URC::AudioInfo info;
-  ASSERT_EQ(speak("Go to the kitchen, please.", &info).status, planet::OK);
+  ASSERT_EQ(speak("Go to the kitchen, please.", &info).status, call::Status::OK);
   EXPECT_EQ(info.sample_rate(), 16000u);
   EXPECT_EQ(info.channels(), 1u);
   EXPECT_EQ(info.bits_per_sample(), 16u);
@@ -72,7 +72,7 @@ TEST_F(TtsDevice, SpeaksACompleteSixteenKilohertzMonoWav) {
 TEST_F(TtsDevice, ListsVoicesAndSwitchesBetweenThem) {
   URC::TextToSpeech_getAvailableVoices_Reply voices;
   ASSERT_EQ(call(*agent_, sink_, "getAvailableVoices", URC::TextToSpeech_getAvailableVoices_Request(), voices).status,
-            planet::OK);
+            call::Status::OK);
   ASSERT_GT(voices.result_size(), 10);
   bool us_english = false;
   for (const auto& v : voices.result()) {
@@ -84,22 +84,22 @@ TEST_F(TtsDevice, ListsVoicesAndSwitchesBetweenThem) {
   EXPECT_TRUE(us_english);
 
   URC::TextToSpeech__get_voice_Reply current;
-  ASSERT_EQ(call(*agent_, sink_, "_get_voice", URC::TextToSpeech__get_voice_Request(), current).status, planet::OK);
+  ASSERT_EQ(call(*agent_, sink_, "_get_voice", URC::TextToSpeech__get_voice_Request(), current).status, call::Status::OK);
   EXPECT_EQ(current.result(), "en-us");
 
   URC::TextToSpeech_setVoice_Request set;
   URC::TextToSpeech_setVoice_Reply done;
   set.set_name("de");
-  ASSERT_EQ(call(*agent_, sink_, "setVoice", set, done).status, planet::OK);
-  ASSERT_EQ(call(*agent_, sink_, "_get_voice", URC::TextToSpeech__get_voice_Request(), current).status, planet::OK);
+  ASSERT_EQ(call(*agent_, sink_, "setVoice", set, done).status, call::Status::OK);
+  ASSERT_EQ(call(*agent_, sink_, "_get_voice", URC::TextToSpeech__get_voice_Request(), current).status, call::Status::OK);
   EXPECT_EQ(current.result(), "de");
-  EXPECT_EQ(speak("Guten Tag").status, planet::OK);
+  EXPECT_EQ(speak("Guten Tag").status, call::Status::OK);
 
   set.set_name("klingon");
   const auto refused = call(*agent_, sink_, "setVoice", set, done);
-  EXPECT_EQ(refused.status, planet::USER_EXCEPTION);
+  EXPECT_EQ(refused.status, call::Status::USER_EXCEPTION);
   EXPECT_EQ(invalid_parameter(refused), "name");
-  ASSERT_EQ(call(*agent_, sink_, "_get_voice", URC::TextToSpeech__get_voice_Request(), current).status, planet::OK);
+  ASSERT_EQ(call(*agent_, sink_, "_get_voice", URC::TextToSpeech__get_voice_Request(), current).status, call::Status::OK);
   EXPECT_EQ(current.result(), "de");
 }
 
@@ -141,12 +141,12 @@ TEST_F(TtsDevice, CancelAllAnswersEveryWaitingUtteranceAndKeepsWorking) {
   URC::TextToSpeech_cancelAll_Request cancel;
   cancel.set_details("the user said stop");
   URC::TextToSpeech_cancelAll_Reply cancelled_reply;
-  ASSERT_EQ(call(*agent_, sink_, "cancelAll", cancel, cancelled_reply).status, planet::OK);
+  ASSERT_EQ(call(*agent_, sink_, "cancelAll", cancel, cancelled_reply).status, call::Status::OK);
   int finished = 0, cancelled = 0;
   for (auto& c : calls) {
     const auto outcome = c.get();
     const std::string reason = not_ready_reason(outcome);
-    if (outcome.status == planet::OK) {
+    if (outcome.status == call::Status::OK) {
       ++finished;
     } else if (reason.find("already waiting") == std::string::npos) {
       EXPECT_THAT(reason, ::testing::StartsWith("cancelled"));
@@ -157,7 +157,7 @@ TEST_F(TtsDevice, CancelAllAnswersEveryWaitingUtteranceAndKeepsWorking) {
               refused);
   EXPECT_EQ(finished + cancelled + refused, 6);
   EXPECT_GE(cancelled, 1) << "cancelAll came while utterances waited";
-  EXPECT_EQ(speak("stop").status, planet::OK);
+  EXPECT_EQ(speak("stop").status, call::Status::OK);
 }
 
 TEST_F(TtsDevice, AnswersNotReadyOnceStopped) {

@@ -45,7 +45,7 @@ class Speech : public ::testing::Test {
     request.set_text(text);
     URC::TextToSpeech_speak_Reply reply;
     const auto outcome = call(*tts_, *sink_, "speak", request, reply);
-    EXPECT_EQ(outcome.status, planet::OK) << outcome.message;
+    EXPECT_EQ(outcome.status, call::Status::OK) << outcome.message;
     return reply.result().wav();
   }
 
@@ -62,7 +62,7 @@ class Speech : public ::testing::Test {
   static std::string recognised(agent::ServiceAgent& voice, const std::string& wav) {
     URC::RecognitionResult best;
     const auto outcome = play_bytes(voice, wav, &best);
-    EXPECT_EQ(outcome.status, planet::OK) << outcome.message;
+    EXPECT_EQ(outcome.status, call::Status::OK) << outcome.message;
     return best.text();
   }
 
@@ -142,7 +142,7 @@ TEST_F(Speech, RoundTripFullLanguageModelIsMeasured) {
 TEST_F(Speech, ResultsCarryConfidenceAndStampAndArePublished) {
   const auto before = std::chrono::system_clock::now();
   URC::RecognitionResult best;
-  ASSERT_EQ(play_bytes(*grammar_, spoken("turn left"), &best).status, planet::OK);
+  ASSERT_EQ(play_bytes(*grammar_, spoken("turn left"), &best).status, call::Status::OK);
   EXPECT_EQ(best.text(), "turn left");
   EXPECT_GT(best.confidence(), 0.0f);
   EXPECT_LE(best.confidence(), 1.0f);
@@ -163,7 +163,7 @@ TEST_F(Speech, ResultsCarryConfidenceAndStampAndArePublished) {
 TEST_F(Speech, SilenceGivesAnEmptyResult) {
   URC::RecognitionResult best;
   ASSERT_EQ(play_bytes(*grammar_, audio::encode_wav(audio::Pcm{16000, 1, std::vector<int16_t>(16000)}), &best).status,
-            planet::OK);
+            call::Status::OK);
   EXPECT_EQ(best.text(), "");
 }
 
@@ -173,10 +173,10 @@ TEST_F(Speech, StreamingInHundredMillisecondChunksGivesTheSameTextAsPlayBytes) {
     const std::string whole = recognised(*grammar_, wav);
     const std::string pcm = wav.substr(44);
     uint32_t id = 0;
-    ASSERT_EQ(start_stream(16000, 1, id).status, planet::OK);
-    for (std::size_t at = 0; at < pcm.size(); at += 3200) ASSERT_EQ(feed(id, pcm.substr(at, 3200)).status, planet::OK);
+    ASSERT_EQ(start_stream(16000, 1, id).status, call::Status::OK);
+    for (std::size_t at = 0; at < pcm.size(); at += 3200) ASSERT_EQ(feed(id, pcm.substr(at, 3200)).status, call::Status::OK);
     std::string streamed;
-    ASSERT_EQ(finish(id, streamed).status, planet::OK);
+    ASSERT_EQ(finish(id, streamed).status, call::Status::OK);
     EXPECT_EQ(streamed, whole);
     EXPECT_EQ(streamed, command);
   }
@@ -186,20 +186,20 @@ TEST_F(Speech, ConcurrentStreamsKeepTheirOwnAudio) {
   const std::string left = spoken("turn left").substr(44);
   const std::string right = spoken("go to the living room").substr(44);
   uint32_t a = 0, b = 0;
-  ASSERT_EQ(start_stream(16000, 1, a).status, planet::OK);
-  ASSERT_EQ(start_stream(16000, 1, b).status, planet::OK);
+  ASSERT_EQ(start_stream(16000, 1, a).status, call::Status::OK);
+  ASSERT_EQ(start_stream(16000, 1, b).status, call::Status::OK);
   EXPECT_NE(a, b);
   for (std::size_t at = 0; at < std::max(left.size(), right.size()); at += 3200) {
     if (at < left.size()) {
-      ASSERT_EQ(feed(a, left.substr(at, 3200)).status, planet::OK);
+      ASSERT_EQ(feed(a, left.substr(at, 3200)).status, call::Status::OK);
     }
     if (at < right.size()) {
-      ASSERT_EQ(feed(b, right.substr(at, 3200)).status, planet::OK);
+      ASSERT_EQ(feed(b, right.substr(at, 3200)).status, call::Status::OK);
     }
   }
   std::string text_a, text_b;
-  ASSERT_EQ(finish(b, text_b).status, planet::OK);
-  ASSERT_EQ(finish(a, text_a).status, planet::OK);
+  ASSERT_EQ(finish(b, text_b).status, call::Status::OK);
+  ASSERT_EQ(finish(a, text_a).status, call::Status::OK);
   EXPECT_EQ(text_a, "turn left");
   EXPECT_EQ(text_b, "go to the living room");
 }
@@ -215,11 +215,11 @@ TEST_F(Speech, OtherRatesAndStereoAreConverted) {
   EXPECT_EQ(recognised(*grammar_, audio::encode_wav(stereo)), "come here");
 
   uint32_t id = 0;
-  ASSERT_EQ(start_stream(44100, 2, id).status, planet::OK);
+  ASSERT_EQ(start_stream(44100, 2, id).status, call::Status::OK);
   const std::string pcm = audio::encode_wav(stereo).substr(44);
-  for (std::size_t at = 0; at < pcm.size(); at += 17640) ASSERT_EQ(feed(id, pcm.substr(at, 17640)).status, planet::OK);
+  for (std::size_t at = 0; at < pcm.size(); at += 17640) ASSERT_EQ(feed(id, pcm.substr(at, 17640)).status, call::Status::OK);
   std::string text;
-  ASSERT_EQ(finish(id, text).status, planet::OK);
+  ASSERT_EQ(finish(id, text).status, call::Status::OK);
   EXPECT_EQ(text, "come here");
 }
 
@@ -229,7 +229,7 @@ TEST_F(Speech, PlayFileReadsAWavOnTheDevicesHost) {
   URC::VoiceRecognition_playFile_Request request;
   request.set_path(path);
   URC::VoiceRecognition_playFile_Reply reply;
-  ASSERT_EQ(call(*grammar_, *sink_, "playFile", request, reply).status, planet::OK);
+  ASSERT_EQ(call(*grammar_, *sink_, "playFile", request, reply).status, call::Status::OK);
   ASSERT_EQ(reply.result_size(), 1);
   EXPECT_EQ(reply.result(0).text(), "follow me");
   std::remove(path.c_str());
@@ -253,21 +253,21 @@ TEST_F(Speech, BadInputsNameTheirParameter) {
   std::string text;
   EXPECT_EQ(invalid_parameter(finish(999999, text)), "stream");
 
-  ASSERT_EQ(start_stream(16000, 2, id).status, planet::OK);
+  ASSERT_EQ(start_stream(16000, 2, id).status, call::Status::OK);
   EXPECT_EQ(invalid_parameter(feed(id, "abc")), "pcm");
   EXPECT_EQ(invalid_parameter(feed(id, "ab")), "pcm") << "half a stereo frame";
-  ASSERT_EQ(finish(id, text).status, planet::OK);
+  ASSERT_EQ(finish(id, text).status, call::Status::OK);
   EXPECT_EQ(invalid_parameter(finish(id, text)), "stream") << "a finished stream is gone";
 }
 
 TEST_F(Speech, CancelAllClosesOpenStreams) {
   uint32_t id = 0;
-  ASSERT_EQ(start_stream(16000, 1, id).status, planet::OK);
-  ASSERT_EQ(feed(id, pcm_bytes(std::vector<int16_t>(1600))).status, planet::OK);
+  ASSERT_EQ(start_stream(16000, 1, id).status, call::Status::OK);
+  ASSERT_EQ(feed(id, pcm_bytes(std::vector<int16_t>(1600))).status, call::Status::OK);
   URC::VoiceRecognition_cancelAll_Request cancel;
   cancel.set_details("operator reset");
   URC::VoiceRecognition_cancelAll_Reply done;
-  ASSERT_EQ(call(*grammar_, *sink_, "cancelAll", cancel, done).status, planet::OK);
+  ASSERT_EQ(call(*grammar_, *sink_, "cancelAll", cancel, done).status, call::Status::OK);
   EXPECT_EQ(invalid_parameter(feed(id, pcm_bytes(std::vector<int16_t>(1600)))), "stream");
   EXPECT_EQ(recognised(*grammar_, spoken("stop")), "stop") << "decoders are free again";
 }
@@ -278,12 +278,12 @@ TEST_F(Speech, BusyDecodersAnswerNotReady) {
   request.mutable_format()->set_sample_rate(16000);
   request.mutable_format()->set_channels(1);
   URC::VoiceRecognition_startStream_Reply reply;
-  ASSERT_EQ(call(*single, *sink_, "startStream", request, reply).status, planet::OK);
+  ASSERT_EQ(call(*single, *sink_, "startStream", request, reply).status, call::Status::OK);
   const auto outcome = play_bytes(*single, spoken("stop"), nullptr, std::chrono::milliseconds(300));
   EXPECT_THAT(not_ready_reason(outcome), ::testing::HasSubstr("decoders are busy"));
   single->stop();  // closes the stream, which frees the decoder
   URC::RecognitionResult best;
-  ASSERT_EQ(play_bytes(*single, spoken("go"), &best).status, planet::OK);
+  ASSERT_EQ(play_bytes(*single, spoken("go"), &best).status, call::Status::OK);
   EXPECT_EQ(best.text(), "go");
 }
 

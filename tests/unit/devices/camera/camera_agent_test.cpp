@@ -23,13 +23,13 @@ class MockPoseSource : public PoseSource {
 
 class MockEventSink : public agent::EventSink {
  public:
-  MOCK_METHOD(planet::CallResult, publish, (const std::string&, const google::protobuf::Message&), (override));
+  MOCK_METHOD(call::Reply, publish, (const std::string&, const google::protobuf::Message&), (override));
 };
 
 agent::Outcome invoke(agent::ServiceAgent& agent, const std::string& operation, const google::protobuf::Message& request,
                       google::protobuf::Message& reply, agent::EventSink& events) {
   const auto* method = agent.interface().FindMethodByName(operation);
-  agent::CallContext ctx{"camera", "tester", std::chrono::steady_clock::now() + std::chrono::seconds(10), &events};
+  agent::CallContext ctx{"camera", {"", "tester", ""}, std::chrono::steady_clock::now() + std::chrono::seconds(10), &events};
   return agent.invoke(*method, request, reply, ctx);
 }
 
@@ -46,21 +46,21 @@ TEST(CameraAgent, RendersFromThePoseSourcesCurrentPose) {
       .WillOnce(Return(std::nullopt))
       .WillOnce(Return(Pose{3.25, 2.0, 0.0}))
       .WillOnce(Return(Pose{3.0, 2.0, kPi / 2}));
-  EXPECT_CALL(events, publish("camera/markers", _)).Times(2).WillRepeatedly(Return(planet::CallResult::success({})));
+  EXPECT_CALL(events, publish("camera/markers", _)).Times(2).WillRepeatedly(Return(call::Reply::success({})));
   CameraAgent agent(parse_camera_params(YAML::Node()), poses);
 
   URC::ImageRecognition_openCamera_Reply opened;
   ASSERT_TRUE(invoke(agent, "openCamera", URC::ImageRecognition_openCamera_Request(), opened, events).status ==
-              planet::OK);
+              call::Status::OK);
   URC::ImageRecognition_recognize_Reply reply;
   const auto no_pose = invoke(agent, "recognize", URC::ImageRecognition_recognize_Request(), reply, events);
-  ASSERT_EQ(no_pose.status, planet::USER_EXCEPTION);
+  ASSERT_EQ(no_pose.status, call::Status::USER_EXCEPTION);
   EXPECT_EQ(no_pose.message, "NotReady: no robot pose known yet");
 
-  ASSERT_EQ(invoke(agent, "recognize", URC::ImageRecognition_recognize_Request(), reply, events).status, planet::OK);
+  ASSERT_EQ(invoke(agent, "recognize", URC::ImageRecognition_recognize_Request(), reply, events).status, call::Status::OK);
   EXPECT_EQ(contents(reply), (std::set<std::string>{"urs:marker:1@6.5,1.0", "urs:marker:2@6.5,3.0"}));
   reply.Clear();
-  ASSERT_EQ(invoke(agent, "recognize", URC::ImageRecognition_recognize_Request(), reply, events).status, planet::OK);
+  ASSERT_EQ(invoke(agent, "recognize", URC::ImageRecognition_recognize_Request(), reply, events).status, call::Status::OK);
   EXPECT_EQ(contents(reply), std::set<std::string>{"urs:marker:3@3.0,4.0"});
 }
 
@@ -72,7 +72,7 @@ TEST(CameraAgent, AClosedCameraDoesNotAskForThePose) {
   CameraAgent agent(parse_camera_params(YAML::Node()), poses);
   URC::ImageRecognition_recognize_Reply reply;
   const auto closed = invoke(agent, "recognize", URC::ImageRecognition_recognize_Request(), reply, events);
-  ASSERT_EQ(closed.status, planet::USER_EXCEPTION);
+  ASSERT_EQ(closed.status, call::Status::USER_EXCEPTION);
   ASSERT_TRUE(closed.exception);
   EXPECT_EQ(closed.exception->GetTypeName(), "URC.NotReady");
   EXPECT_EQ(static_cast<const URC::NotReady&>(*closed.exception).reason(), "camera not open");

@@ -3,6 +3,10 @@
 
 #include <google/protobuf/message.h>
 
+#include "urs/agent/agent.hpp"
+#include "urs/camus_server/result.hpp"
+#include "urs/planet/call_adapter.hpp"
+
 namespace urs::camus_server {
 
 // `message` as T: the same object when it is a generated T, else a copy parsed into `storage`
@@ -21,6 +25,12 @@ inline void fill_reply(google::protobuf::Message& reply, const google::protobuf:
   } else {
     reply.ParseFromString(value.SerializeAsString());
   }
+}
+
+// The Outcome of a refused Result: its status (a Planet status, of the same number) and message.
+template <class T>
+agent::Outcome refused(const Result<T>& result) {
+  return agent::Outcome::error(planet::to_call(result.status()), result.message());
 }
 
 }  // namespace urs::camus_server

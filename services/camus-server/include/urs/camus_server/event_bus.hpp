@@ -185,7 +185,7 @@ class BusEventSink final : public agent::EventSink {
  public:
   explicit BusEventSink(EventBus& bus, std::string source = kServerPeerName)
       : bus_(bus), source_(std::move(source)) {}
-  planet::CallResult publish(const std::string& topic, const google::protobuf::Message& event) override;
+  call::Reply publish(const std::string& topic, const google::protobuf::Message& event) override;
 
  private:
   EventBus& bus_;

@@ -31,6 +31,7 @@
 #include "urs/camus_server/result.hpp"
 #include "urs/camus_server/schema.hpp"
 #include "urs/planet/server.hpp"
+#include "urs/planet/status.hpp"
 
 namespace urs::camus_server {
 

@@ -23,8 +23,8 @@ class ServiceContainer {
   virtual ~ServiceContainer() = default;
   virtual bool hosts(const std::string& service) const = 0;
   // Never blocks; `done` runs exactly once (on a worker thread) unless the request is oneway.
-  // `caller` is the caller's authenticated identity (Caller::identity).
-  virtual void dispatch(const planet::Request& request, const std::string& caller, Completion done) = 0;
+  // `caller` is who the router admitted (its authenticated identity and role).
+  virtual void dispatch(const planet::Request& request, const Caller& caller, Completion done) = 0;
 };
 
 // Who may call what of the built-ins: camus.registry Register/Unregister need role SAM;

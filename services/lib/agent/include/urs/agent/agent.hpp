@@ -3,9 +3,12 @@
 //
 // A ServiceAgent implements one interface (a Protobuf service generated from IDL). It sees parsed
 // request messages and fills reply messages; it never touches the wire. An AgentHost maps
-// service names to agents, decodes Planet requests, validates them, runs the agent on a worker
-// pool (so a slow agent never blocks another) and encodes the outcome. The same host serves
-// agents inside urs-sam and the server-side service container of urs-camus-server.
+// service names to agents, decodes neutral calls (urs/call/call.hpp), validates them, runs the
+// agent on a worker pool (so a slow agent never blocks another) and encodes the outcome. The same
+// host serves agents inside urs-sam, the server-side service container of urs-camus-server and the
+// bridge; each hands it the calls its middleware adapter converted. Nothing here knows Planet:
+// what a CAMUS session needs (the registration of a hosted service, serving a host's agents on a
+// Planet client, an EventSink over one) is in urs/agent/camus.hpp and urs/agent/client_sink.hpp.
 
 #include <google/protobuf/descriptor.h>
 #include <google/protobuf/message.h>
@@ -21,8 +24,7 @@
 #include <thread>
 #include <vector>
 
-#include "urs/planet/client.hpp"
-#include "urs/planet/status.hpp"
+#include "urs/call/call.hpp"
 
 namespace urs::agent {
 
@@ -31,29 +33,29 @@ class EventSink {
  public:
   virtual ~EventSink() = default;
   // Never blocks; returns !ok() with a reason if the event cannot be accepted (e.g. queue full).
-  virtual planet::CallResult publish(const std::string& topic, const google::protobuf::Message& event) = 0;
+  virtual call::Reply publish(const std::string& topic, const google::protobuf::Message& event) = 0;
 };
 
 struct CallContext {
   std::string service;                               // the service name the caller used
-  std::string caller;                                // the calling peer's name, when known
+  call::Identity caller;                             // as the receiving adapter verified it; empty if unknown
   std::chrono::steady_clock::time_point deadline;    // after this the caller has given up
   EventSink* events = nullptr;                       // never null inside invoke()
 };
 
 // What invoke() returns. On OK the reply message has been filled.
 struct Outcome {
-  planet::Status status = planet::OK;
+  call::Status status = call::Status::OK;
   std::string message;
   std::shared_ptr<const google::protobuf::Message> exception;  // USER_EXCEPTION only
 
   static Outcome ok() { return {}; }
-  static Outcome error(planet::Status status, std::string message) {
+  static Outcome error(call::Status status, std::string message) {
     return {status, std::move(message), nullptr};
   }
   // Raise an IDL exception (a message whose type is listed in the method's raises).
   static Outcome raise(std::shared_ptr<const google::protobuf::Message> exception, std::string message) {
-    return {planet::USER_EXCEPTION, std::move(message), std::move(exception)};
+    return {call::Status::USER_EXCEPTION, std::move(message), std::move(exception)};
   }
 };
 
@@ -120,11 +122,9 @@ class AgentHost {
   void stop();   // stops agents, then the pool (queued calls answered UNAVAILABLE)
 
   // Never blocks. Answers UNKNOWN_SERVICE, UNKNOWN_OPERATION, BAD_ARGUMENTS itself; otherwise
-  // runs the agent on the pool and answers with its outcome. Oneway requests get no reply.
-  void dispatch(const planet::Request& request, const std::string& caller, planet::Responder responder);
-
-  // The registration to send for `service` (interface name + descriptor set of its file).
-  camus::RegisterRequest registration(const HostedService& service) const;
+  // runs the agent on the pool and answers with its outcome. Oneway requests get no reply (their
+  // responder is left unanswered: the adapter passes one that answers nowhere).
+  void dispatch(call::Request request, call::Responder responder);
 
  private:
   EventSink& events_;

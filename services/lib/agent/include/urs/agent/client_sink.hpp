@@ -2,6 +2,7 @@
 // EventSink that publishes through a Planet client (at-least-once, queued while disconnected).
 
 #include "urs/agent/agent.hpp"
+#include "urs/planet/call_adapter.hpp"
 #include "urs/planet/client.hpp"
 
 namespace urs::agent {
@@ -9,8 +10,8 @@ namespace urs::agent {
 class ClientEventSink : public EventSink {
  public:
   explicit ClientEventSink(planet::Client& client) : client_(client) {}
-  planet::CallResult publish(const std::string& topic, const google::protobuf::Message& event) override {
-    return client_.publish(topic, event.SerializeAsString(), event.GetTypeName());
+  call::Reply publish(const std::string& topic, const google::protobuf::Message& event) override {
+    return planet::to_reply(client_.publish(topic, event.SerializeAsString(), event.GetTypeName()));
   }
 
  private:

@@ -41,7 +41,7 @@ namespace urs::agent {
 
 // Raised with every change of PluginRegistry, PluginAgent, ServiceAgent or TypedAgent that a
 // plug-in built earlier would misread.
-inline constexpr std::uint32_t kPluginAbiVersion = 1;
+inline constexpr std::uint32_t kPluginAbiVersion = 2;
 
 // Builds an agent from the `params:` node of its entry in the host's configuration (a null node
 // when there is none). Throws urs::util::ConfigError (or any std::exception) naming the bad key:

@@ -29,7 +29,7 @@ class TypedAgent : public ServiceAgent {
                  google::protobuf::Message& reply, const CallContext& ctx) override {
     auto it = handlers_.find(method.name());
     if (it == handlers_.end()) {
-      return Outcome::error(planet::UNKNOWN_OPERATION,
+      return Outcome::error(call::Status::UNKNOWN_OPERATION,
                             interface_->full_name() + "." + method.name() + " is not implemented by this agent");
     }
     return it->second(request, reply, ctx);

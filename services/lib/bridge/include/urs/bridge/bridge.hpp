@@ -16,7 +16,7 @@
 //   RT provider -> CAMUS     provider ports connected to the bridge RTC's "providers" port (rules
 //                            rt_to_camus.providers) -> CorbaProxyAgents hosted and registered
 //   CAMUS service -> RT      the registry's services (camus_to_rt.services) -> RTCs hosting a
-//                            PlanetProxyAgent
+//                            CamusForwardingAgent
 //   other space -> CAMUS/RT  the DDS catalog (dds.import) -> agents forwarding over DdsLink
 //   this space -> others     the RT providers' agents and this space's CAMUS services
 //                            (dds.export) -> entries of this space's DDS catalog

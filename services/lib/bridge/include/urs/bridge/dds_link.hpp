@@ -5,6 +5,9 @@
 // serves calls to its space's services and makes calls to the others' (DDS-RPC: a request topic
 // per space, a reply topic per calling space, replies correlated by request id).
 //
+// Calls travel as the neutral call model (urs/call/call.hpp): CallReply.status is a call::Status
+// number, and the calls served arrive as a call::Request and a call::Responder.
+//
 // Threads: handlers run on DDS listener threads and must not block; call() and oneway() block (a
 // first match, then the reply): never from a DDS listener or Planet I/O thread (see dds_link.cpp).
 
@@ -16,7 +19,7 @@
 #include <vector>
 
 #include "urs/bridge/dds_security.hpp"
-#include "urs/planet/status.hpp"
+#include "urs/call/call.hpp"
 
 namespace eprosima::fastdds::dds {
 class DataWriter;
@@ -68,26 +71,20 @@ struct ServiceEntry {
   std::string descriptor_set;
 };
 
-struct IncomingCall {
-  std::string request_id;
-  std::string caller_space;
-  std::string service;
-  std::string operation;
-  uint32_t deadline_ms = 0;
-  bool oneway = false;
-  std::string payload;
-};
-
 class DdsLink {
  public:
   // The other spaces' catalog changed (an entry written, disposed, or its bridge lost or back):
   // read catalog() for what it holds now. Runs on a DDS thread; must not block.
   using CatalogHandler = std::function<void()>;
-  // A call to this space's services. Runs on a DDS listener thread. `reply` may be called once
-  // (not for a oneway call), from any thread but that one: answering inside the handler may create
-  // the reply writer there, which can deadlock Fast DDS 2.9's in-process delivery (the bridge
-  // answers from its agent host's workers).
-  using CallHandler = std::function<void(IncomingCall call, std::function<void(planet::CallResult)> reply)>;
+  // A call to this space's services. Runs on a DDS listener thread. The request's deadline counts
+  // from its arrival; its caller is the calling space as the DDS domain vouches for it
+  // (Identity{space, "dds:<space>", "bridge"}: the domain is the trust boundary; no participant
+  // authentication). The responder answers from any thread, once; a oneway call's answers nowhere.
+  // Answered on this link's listener thread (inside the handler, or by dropping the responder
+  // there), the reply is written by the link's replier thread instead: writing it there may create
+  // the reply writer, which can deadlock Fast DDS 2.9's in-process delivery. Replies after the
+  // link is destroyed are dropped.
+  using CallHandler = std::function<void(call::Request request, call::Responder responder)>;
 
   // Joins the domain; throws std::runtime_error if DDS refuses (bad domain, bad peer address).
   DdsLink(DdsOptions options, CatalogHandler on_catalog, CallHandler on_call);
@@ -116,8 +113,8 @@ class DdsLink {
   // (unknown, dead or unreachable space) or every one of them lost its liveliness; PROVIDER_GONE
   // if it leaves or loses it during the call;
   // DEADLINE_EXCEEDED when the deadline passes; otherwise the remote outcome.
-  planet::CallResult call(const std::string& space, const std::string& service, const std::string& operation,
-                          std::string payload, std::chrono::milliseconds deadline);
+  call::Reply call(const std::string& space, const std::string& service, const std::string& operation,
+                   std::string payload, std::chrono::milliseconds deadline);
   bool oneway(const std::string& space, const std::string& service, const std::string& operation,
               std::string payload);
 
@@ -126,7 +123,7 @@ class DdsLink {
 
   struct Impl;
   const DdsOptions options_;
-  std::unique_ptr<Impl> impl_;
+  std::shared_ptr<Impl> impl_;  // shared with the responders of the calls served (weakly)
 };
 
 }  // namespace urs::bridge

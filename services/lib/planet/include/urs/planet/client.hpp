@@ -25,6 +25,7 @@
 
 #include "camus.pb.h"
 #include "planet.pb.h"
+#include "urs/call/call.hpp"
 #include "urs/planet/status.hpp"
 #include "urs/util/tls.hpp"
 
@@ -54,26 +55,25 @@ struct ClientOptions {
 using ReplyHandler = std::function<void(CallResult)>;
 using EventHandler = std::function<void(const Event&)>;
 
-// Answers one incoming request (provider role). Move-only; reply() may be called from any thread,
-// once. Destroying it unanswered replies INTERNAL "provider dropped the request".
+// Answers one incoming request (provider role): the neutral call::Responder, taking Planet's result
+// type. Move-only; reply() may be called from any thread, once. Destroying it unanswered replies
+// INTERNAL "provider dropped the request". A oneway request's responder answers nothing.
 class Responder {
  public:
   Responder() = default;
-  Responder(Responder&&) noexcept;
-  Responder& operator=(Responder&&) noexcept;
-  ~Responder();
+  explicit Responder(call::Responder neutral) : neutral_(std::move(neutral)) {}
   void reply(CallResult result);
-  bool pending() const;
+  bool pending() const { return neutral_.pending(); }
 
   // A responder that hands the result to `fn` (in-process hosts such as the server's service
   // container, and tests). Destroyed unanswered, it calls fn with INTERNAL as above.
   static Responder from_callback(std::function<void(CallResult)> fn);
 
-  struct State;  // implementation detail
-  explicit Responder(std::shared_ptr<State> state);
+  // The neutral responder it answers through (what agent hosts and links take).
+  call::Responder neutral() && { return std::move(neutral_); }
 
  private:
-  std::shared_ptr<State> state_;
+  call::Responder neutral_;
 };
 using RequestHandler = std::function<void(const Request& request, Responder responder)>;
 

@@ -33,7 +33,7 @@ ProviderTarget provider_target(RTC::PortService_ptr port, const bridge::Interfac
 // What a call came to. An IDL exception is given as its type and its fields in JSON: the message
 // the consumer decoded does not outlive the call.
 struct ProviderOutcome {
-  planet::Status status = planet::OK;
+  call::Status status = call::Status::OK;
   std::string message;
   std::string exception_type;  // USER_EXCEPTION: the exception's Protobuf full name, e.g. "URS.Failure"
   std::string exception_json;  // and its fields, e.g. {"reason":"jammed","code":9}

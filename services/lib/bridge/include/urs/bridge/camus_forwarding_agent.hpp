@@ -1,5 +1,6 @@
 #pragma once
-// PlanetProxyAgent: a service agent that forwards every call to a CAMUS service over Planet.
+// CamusForwardingAgent: a service agent that forwards every call to a CAMUS service: over Planet
+// to this space's CAMUS server, or over DDS to the bridge of the space that offers it.
 //
 // It knows nothing of the interface at compile time: the descriptor it is given (typically the
 // service's description fetched from the CAMUS registry by describe_service()) drives everything,
@@ -7,7 +8,7 @@
 // service the program was not compiled with.
 //
 // Outcomes: the reply of a successful call fills `reply`; a declared IDL exception is raised as
-// that exception's message; every other Planet status is returned as is, with its message (the
+// that exception's message; every other status is returned as is, with its message (the
 // host maps it, e.g. UNKNOWN_SERVICE / PROVIDER_GONE / UNAVAILABLE become CORBA::TRANSIENT). The
 // call's deadline is what remains of CallContext::deadline. Oneway operations are sent and not
 // waited for.
@@ -20,6 +21,7 @@
 #include <string>
 
 #include "urs/agent/agent.hpp"
+#include "urs/call/call.hpp"
 #include "urs/planet/client.hpp"
 #include "urs/schema/schema.hpp"
 
@@ -33,13 +35,12 @@ const google::protobuf::ServiceDescriptor* describe_service(planet::Client& clie
                                                             schema::SchemaPool& pool, std::chrono::milliseconds timeout,
                                                             std::string& error);
 
-class PlanetProxyAgent : public agent::ServiceAgent {
+class CamusForwardingAgent : public agent::ServiceAgent {
  public:
-  // How calls reach the service as Planet requests: a Planet client, or another space over DDS
-  // (DdsLink carries the same requests, statuses and exceptions).
+  // How calls reach the service: a Planet client, or another space over DDS (DdsLink carries the
+  // same requests, statuses and exceptions).
   struct Route {
-    std::function<planet::CallResult(const std::string& operation, std::string payload,
-                                     std::chrono::milliseconds deadline)>
+    std::function<call::Reply(const std::string& operation, std::string payload, std::chrono::milliseconds deadline)>
         call;
     std::function<bool(const std::string& operation, std::string payload)> oneway;  // false: not sent
     std::string to;  // for messages, e.g. "the CAMUS server", "space jp"
@@ -47,8 +48,8 @@ class PlanetProxyAgent : public agent::ServiceAgent {
 
   // `client` and the pool holding `interface` must outlive the agent; `service` is the CAMUS
   // service name calls are sent to.
-  PlanetProxyAgent(planet::Client& client, std::string service, const google::protobuf::ServiceDescriptor& interface);
-  PlanetProxyAgent(Route route, std::string service, const google::protobuf::ServiceDescriptor& interface);
+  CamusForwardingAgent(planet::Client& client, std::string service, const google::protobuf::ServiceDescriptor& interface);
+  CamusForwardingAgent(Route route, std::string service, const google::protobuf::ServiceDescriptor& interface);
 
   const google::protobuf::ServiceDescriptor& interface() const override { return interface_; }
   agent::Outcome invoke(const google::protobuf::MethodDescriptor& method, const google::protobuf::Message& request,
@@ -57,7 +58,7 @@ class PlanetProxyAgent : public agent::ServiceAgent {
   const std::string& service() const { return service_; }
 
  private:
-  agent::Outcome raised(const google::protobuf::MethodDescriptor& method, const planet::CallResult& result);
+  agent::Outcome raised(const google::protobuf::MethodDescriptor& method, const call::Reply& result);
 
   const Route route_;
   const std::string service_;

@@ -1,0 +1,19 @@
+#pragma once
+// A host's service agents offered on a CAMUS server through a Planet client: the CAMUS-facing
+// edge of urs/agent/agent.hpp (which knows no middleware).
+
+#include "camus.pb.h"
+#include "urs/agent/agent.hpp"
+#include "urs/planet/client.hpp"
+
+namespace urs::agent {
+
+// The registration to send for `service` (interface name + descriptor set of its file).
+camus::RegisterRequest registration(const HostedService& service);
+
+// Makes `host` answer the requests the server routes to `client` (Client::set_request_handler:
+// call it before client.start()). The server does not tell a provider who calls: the agents see
+// an empty CallContext::caller. `host` outlives the client's I/O thread.
+void serve_requests(planet::Client& client, AgentHost& host);
+
+}  // namespace urs::agent
