@@ -562,7 +562,7 @@ int main(int argc, char** argv) {
                                           {URS_RTC_MANAGER_BIN, "--space", "jp", "--naming", naming.address(), "--host", host});
         const std::string service = "jp/Diagnostic0@" + host;
         if (!urs::test::wait_until([&] { return client->call(service, "echo", echo_payload, 200ms).ok(); }, 30s)) {
-          throw std::runtime_error(service + " never became callable");
+          throw std::runtime_error(service + " never became callable: " + bridge_jp->log() + bridge_kr->log());
         }
         discoveries.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
       }
