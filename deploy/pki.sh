@@ -243,14 +243,13 @@ cmd_tls() {
     openssl req -newkey ec -pkeyopt ec_paramgen_curve:prime256v1 -nodes -subj "/O=URSLink federation/CN=$name" \
       -keyout "$dir/tls/$name.key" -out "$dir/tls/$name.csr" 2>/dev/null
   ) || die "openssl could not make $name's key"
+  local extensions=()
   if [[ -n "$san" ]]; then
     printf 'subjectAltName=%s\n' "$san" >"$dir/tls/$name.ext"
-    openssl x509 -req -in "$dir/tls/$name.csr" -CA "$dir/ca.pem" -CAkey "$dir/ca.key" -CAcreateserial -days 825 \
-      -extfile "$dir/tls/$name.ext" -out "$dir/tls/$name.pem" 2>/dev/null || die "cannot sign $name's certificate"
-  else
-    openssl x509 -req -in "$dir/tls/$name.csr" -CA "$dir/ca.pem" -CAkey "$dir/ca.key" -CAcreateserial -days 825 \
-      -out "$dir/tls/$name.pem" 2>/dev/null || die "cannot sign $name's certificate"
+    extensions=(-extfile "$dir/tls/$name.ext")
   fi
+  openssl x509 -req -in "$dir/tls/$name.csr" -CA "$dir/ca.pem" -CAkey "$dir/ca.key" -CAcreateserial -days 825 \
+    "${extensions[@]}" -out "$dir/tls/$name.pem" 2>/dev/null || die "cannot sign $name's certificate"
   rm -f "$dir/tls/$name.csr" "$dir/tls/$name.ext"
   chmod 0644 "$dir/tls/$name.key"
   echo "pki: TLS certificate $(subject_of "$dir/tls/$name.pem") in $dir/tls/$name.pem"

@@ -126,17 +126,24 @@ void expect_ok(const urs::call::Reply& r, const char* what) { expect_ok(urs::pla
 
 long rss_kib(pid_t pid) { return urs::test::resident_kib(pid); }
 
+// A server process (under server_command) that writes DIR/NAME.ready once it serves, which its
+// `argv` names; returned once that file exists. Its output goes to DIR/NAME.log.
+std::unique_ptr<urs::test::Process> start_until_ready(const std::string& dir, const std::string& name,
+                                                     const std::vector<std::string>& argv) {
+  auto process = std::make_unique<urs::test::Process>(urs::bench::server_command(argv), dir + "/" + name + ".log");
+  if (!urs::test::wait_until([&] { return std::filesystem::exists(dir + "/" + name + ".ready"); }, 30s)) {
+    throw std::runtime_error(name + " did not start: " + process->log());
+  }
+  return process;
+}
+
 // A real process started from a YAML configuration, up once its ready file exists.
 std::unique_ptr<urs::test::Process> start_with_config(const std::string& dir, const std::string& name,
                                                      const std::string& yaml, std::vector<std::string> argv) {
   std::ofstream(dir + "/" + name + ".yaml") << yaml;
   argv.insert(argv.end(), {"--config", dir + "/" + name + ".yaml", "--ready-file", dir + "/" + name + ".ready",
                            "--log-level", "warn"});
-  auto process = std::make_unique<urs::test::Process>(urs::bench::server_command(argv), dir + "/" + name + ".log");
-  if (!urs::test::wait_until([&] { return std::filesystem::exists(dir + "/" + name + ".ready"); }, 30s)) {
-    throw std::runtime_error(name + " did not start: " + process->log());
-  }
-  return process;
+  return start_until_ready(dir, name, argv);
 }
 
 // The object a provider port offers, as a foreign consumer gets it.
@@ -422,12 +429,8 @@ int main(int argc, char** argv) {
 
     // Direct Fast DDS request/reply: a DdsLink here and one in urs-dds-echo answering at once (UDP
     // only, between processes as the bridges are).
-    auto dds_echo = std::make_unique<urs::test::Process>(
-        urs::bench::server_command({URS_DDS_ECHO_BIN, std::to_string(domains[1]), dir + "/dds-echo.ready"}),
-        dir + "/dds-echo.log");
-    if (!urs::test::wait_until([&] { return std::filesystem::exists(dir + "/dds-echo.ready"); }, 30s)) {
-      throw std::runtime_error("urs-dds-echo did not start: " + dds_echo->log());
-    }
+    auto dds_echo =
+        start_until_ready(dir, "dds-echo", {URS_DDS_ECHO_BIN, std::to_string(domains[1]), dir + "/dds-echo.ready"});
     urs::bridge::DdsOptions a_options;
     a_options.domain = domains[1];
     a_options.space = "dds-a";
@@ -438,20 +441,10 @@ int main(int argc, char** argv) {
     // The same with DDS-Security (a federation made by deploy/pki.sh, data encrypted), on a domain
     // of its own.
     const std::string pki = dir + "/pki";
-    for (const std::vector<std::string>& step :
-         {std::vector<std::string>{"init", pki}, {"governance", pki}, {"member", pki, "dds-a", "--calls", "dds-b"},
-          {"member", pki, "dds-b"}}) {
-      std::vector<std::string> argv{URS_PKI_SCRIPT};
-      argv.insert(argv.end(), step.begin(), step.end());
-      const auto made = urs::test::run_command(argv, 60s);
-      if (made.exit_code != 0) throw std::runtime_error("deploy/pki.sh " + step[0] + ": " + made.err);
-    }
-    auto secured_echo = std::make_unique<urs::test::Process>(
-        urs::bench::server_command({URS_DDS_ECHO_BIN, std::to_string(domains[2]), dir + "/secured-echo.ready", pki}),
-        dir + "/secured-echo.log");
-    if (!urs::test::wait_until([&] { return std::filesystem::exists(dir + "/secured-echo.ready"); }, 30s)) {
-      throw std::runtime_error("urs-dds-echo with security did not start: " + secured_echo->log());
-    }
+    urs::test::run_pki({{"init", pki}, {"governance", pki}, {"member", pki, "dds-a", "--calls", "dds-b"},
+                        {"member", pki, "dds-b"}});
+    auto secured_echo = start_until_ready(
+        dir, "secured-echo", {URS_DDS_ECHO_BIN, std::to_string(domains[2]), dir + "/secured-echo.ready", pki});
     urs::bridge::DdsOptions secured_options = a_options;
     secured_options.domain = domains[2];
     secured_options.security = urs::bridge::security_from_folder(pki, "dds-a");

@@ -43,4 +43,16 @@ void make_leaf(const std::string& dir, const std::string& name, const std::strin
   openssl(sign);
 }
 
+void run_pki(const std::vector<std::vector<std::string>>& steps) {
+  for (const auto& step : steps) {
+    std::vector<std::string> argv{URS_PKI_SCRIPT};
+    argv.insert(argv.end(), step.begin(), step.end());
+    const CommandResult made = run_command(argv, std::chrono::seconds(60));
+    if (made.exit_code != 0) {
+      throw std::runtime_error("deploy/pki.sh " + (step.empty() ? std::string() : step[0]) + " failed: " + made.out +
+                               made.err);
+    }
+  }
+}
+
 }  // namespace urs::test

@@ -16,6 +16,7 @@
 #include <set>
 #include <thread>
 
+#include "certificates.hpp"
 #include "dds_domain.hpp"
 #include "process.hpp"
 #include "urs/bridge/dds_link.hpp"
@@ -26,14 +27,6 @@ namespace {
 
 using namespace std::chrono_literals;
 
-// deploy/pki.sh COMMAND DIR ARGS..., which must succeed.
-void pki(const std::vector<std::string>& args) {
-  std::vector<std::string> argv{URS_PKI_SCRIPT};
-  argv.insert(argv.end(), args.begin(), args.end());
-  const CommandResult result = run_command(argv, 60s);
-  ASSERT_EQ(result.exit_code, 0) << result.out << result.err;
-}
-
 // The federation "fed" (kr calls jp and jp calls kr; member xx may call no one) and a rogue CA
 // that issued its own "jp"; made once for the whole test program.
 class SecuredLink : public ::testing::Test {
@@ -42,14 +35,14 @@ class SecuredLink : public ::testing::Test {
     dir_ = new std::string(make_temp_dir("dds-security"));
     const std::string fed = *dir_ + "/fed";
     const std::string rogue = *dir_ + "/rogue";
-    pki({"init", fed});
-    pki({"governance", fed});
-    pki({"member", fed, "kr", "--calls", "jp"});
-    pki({"member", fed, "jp", "--calls", "kr"});
-    pki({"member", fed, "xx"});
-    pki({"init", rogue});
-    pki({"governance", rogue});
-    pki({"member", rogue, "jp", "--calls", "kr"});
+    ASSERT_NO_THROW(run_pki({{"init", fed},
+                             {"governance", fed},
+                             {"member", fed, "kr", "--calls", "jp"},
+                             {"member", fed, "jp", "--calls", "kr"},
+                             {"member", fed, "xx"},
+                             {"init", rogue},
+                             {"governance", rogue},
+                             {"member", rogue, "jp", "--calls", "kr"}}));
   }
   static void TearDownTestSuite() {
     std::filesystem::remove_all(*dir_);
@@ -205,9 +198,9 @@ TEST_F(SecuredLink, ABadFileIsNamedWithWhatIsWrong) {
 // A revoked member is refused by the check and cannot rejoin: the others' CRL names it.
 TEST_F(SecuredLink, ARevokedMemberCannotRejoin) {
   const std::string fed = *dir_ + "/fed";
-  pki({"member", fed, "old", "--calls", "kr"});
+  ASSERT_NO_THROW(run_pki({{"member", fed, "old", "--calls", "kr"}}));
   EXPECT_TRUE(bridge::check_dds_security(member("fed", "old"), "old").empty());
-  pki({"revoke", fed, "old"});
+  ASSERT_NO_THROW(run_pki({{"revoke", fed, "old"}}));
   EXPECT_NE(joined(bridge::check_dds_security(member("fed", "old"), "old")).find("certificate revoked"),
             std::string::npos)
       << joined(bridge::check_dds_security(member("fed", "old"), "old"));

@@ -35,6 +35,7 @@
 
 #include "Diagnostic.pb.h"
 #include "bridge_fixture.hpp"
+#include "certificates.hpp"
 #include "dds_domain.hpp"
 #include "camus.pb.h"
 #include "SpaceState.h"
@@ -59,14 +60,11 @@ class Federation : public BridgeSpaceTest, public ::testing::WithParamInterface<
  protected:
   static void SetUpTestSuite() {
     pki_ = new std::string(make_temp_dir("federation-pki"));
-    for (const std::vector<std::string>& step :
-         {std::vector<std::string>{"init", *pki_}, {"governance", *pki_}, {"member", *pki_, "kr", "--calls", "jp"},
-          {"member", *pki_, "jp", "--calls", "kr"}, {"member", *pki_, "obs"}}) {
-      std::vector<std::string> argv{URS_PKI_SCRIPT};
-      argv.insert(argv.end(), step.begin(), step.end());
-      const CommandResult made = run_command(argv, 60s);
-      ASSERT_EQ(made.exit_code, 0) << made.out << made.err;
-    }
+    ASSERT_NO_THROW(run_pki({{"init", *pki_},
+                             {"governance", *pki_},
+                             {"member", *pki_, "kr", "--calls", "jp"},
+                             {"member", *pki_, "jp", "--calls", "kr"},
+                             {"member", *pki_, "obs"}}));
   }
   static void TearDownTestSuite() {
     std::filesystem::remove_all(*pki_);
