@@ -88,15 +88,21 @@ class BridgeSpaceTest : public RtSpaceTest {
   }
 
   // Starts a urs-bridge named `name` (files <dir>/<name>.*) with `sides` (its --server and/or
-  // --naming arguments) and waits for its ready file.
+  // --naming arguments) and waits for its ready file. A `wrapper` (a command that ends by exec'ing
+  // its arguments) runs it.
   std::unique_ptr<Process> launch_bridge(const std::string& name, const std::string& config_yaml,
-                                         const std::vector<std::string>& sides, const std::string& space = "") {
+                                         const std::vector<std::string>& sides, const std::string& space = "",
+                                         std::vector<std::string> wrapper = {}) {
     const std::string config = dir_ + "/" + name + ".yaml";
     const std::string ready = dir_ + "/" + name + ".ready";
     std::ofstream(config) << config_yaml;
     std::filesystem::remove(ready);
-    std::vector<std::string> argv{URS_BRIDGE_BIN, "--space", space.empty() ? space_ : space, "--config", config, "--ready-file", ready,
-                                  "--log-level", "debug"};
+    std::vector<std::string> argv = std::move(wrapper);
+    for (const std::string& arg : {std::string(URS_BRIDGE_BIN), std::string("--space"), space.empty() ? space_ : space,
+                                   std::string("--config"), config, std::string("--ready-file"), ready,
+                                   std::string("--log-level"), std::string("debug")}) {
+      argv.push_back(arg);
+    }
     argv.insert(argv.end(), sides.begin(), sides.end());
     auto process = std::make_unique<Process>(argv, dir_ + "/" + name + ".log");
     const bool up = wait_until([&] { return std::filesystem::exists(ready) || !process->running(); },

@@ -86,13 +86,14 @@ class Federation : public BridgeSpaceTest, public ::testing::WithParamInterface<
     start_kr();
   }
 
-  void start_kr(const std::string& discovery = "", const std::string& context_allow = "\"room.*\"") {
+  void start_kr(const std::string& discovery = "", const std::string& context_allow = "\"room.*\"",
+                std::vector<std::string> wrapper = {}) {
     kr_ = launch_bridge("bridge-kr",
                         "name: bridge-kr\n" + dds(discovery) +
                             "  export: {allow: [\"*\"], deny: []}\n"
                             "  import: {as_rtc: \"\"}\n"
                             "  state: {events: [\"alarm/#\"], context: {allow: [" + context_allow + "]}}\n",
-                        {"--server", server_address_});
+                        {"--server", server_address_}, "", std::move(wrapper));
   }
 
   void TearDown() override {
@@ -307,6 +308,35 @@ TEST_F(PlainFederation, SpacesLinkThroughADiscoveryServer) {
   ASSERT_TRUE(wait_for_service("jp/rt.Diagnostic0", 20s)) << jp_->log() << kr_->log();
   ASSERT_NO_FATAL_FAILURE(expect_echo("jp/rt.Diagnostic0", "through the discovery server"));
   EXPECT_NE(kr_->log().find("discovery server"), std::string::npos) << kr_->log();
+}
+
+// A peer whose name resolves only after the bridge started (between containers: the other space's
+// bridge container started later). The space works without the link meanwhile, and the bridge
+// joins the link once the name resolves. bridge-kr runs in a mount namespace of its own, over a
+// hosts file the test writes; without the right to make one (not root), the test is skipped.
+TEST_F(PlainFederation, ABridgeJoinsTheLinkOnceItsPeersNameResolves) {
+  kr_.reset();
+  ASSERT_TRUE(wait_service_gone("jp/rt.Diagnostic0", 15s));
+  const std::string hosts = dir_ + "/hosts";
+  std::filesystem::copy_file("/etc/hosts", hosts);
+  const std::vector<std::string> own_hosts{"/usr/bin/unshare", "--mount", "--", "/bin/sh", "-c",
+                                           "mount --bind \"$0\" /etc/hosts && exec \"$@\"", hosts};
+  std::vector<std::string> probe = own_hosts;
+  probe.push_back("true");
+  const CommandResult can = run_command(probe, 10s);
+  if (can.exit_code != 0) GTEST_SKIP() << "no private /etc/hosts here: " << can.err;
+
+  start_kr("  initial_peers: [\"jp-bridge-later\"]\n", "\"room.*\"", own_hosts);
+  ASSERT_TRUE(wait_until([&] { return kr_->log().find("no link to other spaces yet") != std::string::npos; }, 10s))
+      << kr_->log();
+  EXPECT_NE(kr_->log().find("cannot resolve jp-bridge-later"), std::string::npos) << kr_->log();
+  EXPECT_FALSE(wait_for_service("jp/rt.Diagnostic0", 3s));
+  ASSERT_NO_FATAL_FAILURE(expect_echo("diag", "kr works without the link"));
+
+  std::ofstream(hosts, std::ios::app) << "127.0.0.1 jp-bridge-later\n";  // the same file: the bind mount sees it
+  ASSERT_TRUE(wait_for_service("jp/rt.Diagnostic0", 20s)) << kr_->log();
+  ASSERT_NO_FATAL_FAILURE(expect_echo("jp/rt.Diagnostic0", "linked once the name resolved"));
+  EXPECT_NE(kr_->log().find("joined the link to other spaces"), std::string::npos) << kr_->log();
 }
 
 // What a third space sees of the others' state over DDS: a participant of the link (a member "obs"

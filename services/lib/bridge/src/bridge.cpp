@@ -28,6 +28,7 @@ namespace {
 constexpr const char* kConnectorName = "urs-bridge";  // profile name prefix of the connections the watch makes
 constexpr auto kRetryPeriod = std::chrono::milliseconds(2000);        // a stand-in its side refused
 constexpr auto kServiceRetryPeriod = std::chrono::seconds(10);        // an RTC for a CAMUS service
+constexpr auto kLinkRetryPeriod = std::chrono::seconds(2);            // joining the DDS link again
 
 std::string file_safe(const std::string& text) {
   std::string out = text;
@@ -198,7 +199,8 @@ void Bridge::run() {
       std::unique_lock lock(mutex_);
       auto changed = [&] { return stopping_ || want_active_ != (session_ != nullptr); };
       if (session_) {
-        const auto next = std::min(next_rt, next_camus);
+        auto next = std::min(next_rt, next_camus);
+        if (config_.dds.enabled && !session_->dds) next = std::min(next, next_link_attempt_);
         wake_.wait_until(lock, next, [&] { return changed() || remote_pending_.load() || Clock::now() >= next; });
       } else {
         wake_.wait(lock, changed);
@@ -224,6 +226,7 @@ void Bridge::run() {
         poll_camus(*session_);
         next_camus = Clock::now() + config_.camus_poll;
       }
+      if (config_.dds.enabled && !session_->dds && now >= next_link_attempt_) join_link(*session_);
       poll_dds(*session_);
     } catch (const std::exception& e) {
       spdlog::error("bridge: {}", e.what());
@@ -242,50 +245,10 @@ void Bridge::open_session() {
   session->camus->start();
   CamusAdapter& camus = *session->camus;
   planet::Client* client = camus.client();
-  if (config_.dds.enabled) {
-    Session* s = session.get();
-    try {
-      session->dds = std::make_unique<DdsAdapter>(
-          config_, client,
-          [this] {
-            remote_pending_ = true;
-            wake_.notify_all();
-          },
-          [s](const core::Route& route) -> std::optional<DdsAdapter::Description> {
-            if (route.offer.source == "camus") {
-              auto description = s->camus->description(route.name);
-              if (!description) return std::nullopt;
-              return DdsAdapter::Description{route.offer.interface_name, "", std::move(description)};
-            }
-            const agent::HostedService* hosted = s->camus->host().find(route.name);
-            if (hosted == nullptr) return std::nullopt;
-            const gp::ServiceDescriptor& interface = hosted->agent->interface();
-            return DdsAdapter::Description{interface.full_name(), schema::repository_id(interface),
-                                           std::make_shared<const std::string>(schema::descriptor_set_for(*interface.file()))};
-          },
-          [this, s](call::Request request, bool on_host, call::Responder responder) {
-            CamusAdapter& here = *s->camus;
-            if (on_host) {
-              here.host().dispatch(std::move(request), std::move(responder));
-            } else if (here.client() == nullptr) {
-              responder.reply(call::Reply::error(call::Status::UNAVAILABLE, "space " + config_.space + " has no CAMUS server"));
-            } else if (request.oneway) {
-              here.client()->oneway(request.service, request.operation, std::move(request.payload));
-            } else {
-              here.client()->call_async(request.service, request.operation, std::move(request.payload),
-                                         planet::deadline_left(request), planet::answering(std::move(responder)));
-            }
-          });
-    } catch (const std::exception& e) {
-      spdlog::error("bridge {}: no link to other spaces: {}", config_.name, e.what());
-    }
-  }
 
   // The stand-ins each side offers, and the routes that make them.
   const auto from_rt = [this](const core::Route& route) { return rt_->forwarder(route); };
   const auto from_camus = [&camus](const core::Route& route) { return camus.forwarder(route); };
-  DdsAdapter* dds = session->dds.get();
-  const auto from_dds = [dds](const core::Route& route) { return dds->forwarder(route); };
   if (rt_) {
     session->on_camus_for_rt = std::make_unique<CamusStandIns>(camus.host(), client, config_.name, from_rt);
     session->providers_to_camus = std::make_unique<core::RouteReconciler>(
@@ -296,34 +259,102 @@ void Bridge::open_session() {
           "CAMUS -> RT", service_rules(config_), *session->on_rt_for_camus, kServiceRetryPeriod);
     }
   }
-  if (dds) {
-    if (client && !config_.dds.as_camus.empty()) {
-      session->on_camus_for_dds = std::make_unique<CamusStandIns>(camus.host(), client, config_.name, from_dds);
-      session->remote_to_camus = std::make_unique<core::RouteReconciler>(
-          "other spaces -> CAMUS", std::vector{import_rule(config_.dds, config_.dds.as_camus)},
-          *session->on_camus_for_dds, kServiceRetryPeriod);
-    }
-    if (rt_ && !config_.dds.as_rtc.empty()) {
-      session->on_rt_for_dds = std::make_unique<RtStandIns>(*manager_, config_.name, "RemoteService", from_dds);
-      session->remote_to_rt = std::make_unique<core::RouteReconciler>(
-          "other spaces -> RT", std::vector{import_rule(config_.dds, config_.dds.as_rtc)}, *session->on_rt_for_dds,
-          kServiceRetryPeriod);
-    }
-    session->space_to_dds = std::make_unique<core::RouteReconciler>(
-        "this space -> other spaces",
-        std::vector{core::RouteRule{config_.dds.export_allow, config_.dds.export_deny, "*", "{name}", 0}}, *dds,
-        kRetryPeriod);
-  }
   {
     std::lock_guard lock(mutex_);
     session_ = session;
   }
+  if (config_.dds.enabled) join_link(*session);
   if (connections_) connections_->load();
   if (planet_) {
     spdlog::info("bridge {}: active (CAMUS server {}:{})", config_.name, planet_->host, planet_->port);
   } else {
     spdlog::info("bridge {}: active (no CAMUS server)", config_.name);
   }
+}
+
+// The DDS side of a session: this space joins the link, offers its services to the other spaces and
+// imports theirs. A link that cannot be joined yet (an initial peer or discovery server whose name
+// resolves only once its container has started) leaves the rest of the space working; the run loop
+// tries again every kLinkRetryPeriod until it is joined.
+void Bridge::join_link(Session& session) {
+  const auto failed = [&](const std::string& why) {
+    if (why != link_failure_) {
+      spdlog::error("bridge {}: no link to other spaces yet: {}; trying again every {} s", config_.name, why,
+                    std::chrono::duration_cast<std::chrono::seconds>(kLinkRetryPeriod).count());
+    }
+    link_failure_ = why;
+    next_link_attempt_ = Clock::now() + kLinkRetryPeriod;
+  };
+  CamusAdapter& camus = *session.camus;
+  planet::Client* client = camus.client();
+  Session* s = &session;
+  std::unique_ptr<DdsAdapter> dds;
+  try {
+    dds = std::make_unique<DdsAdapter>(
+        config_, client,
+        [this] {
+          remote_pending_ = true;
+          wake_.notify_all();
+        },
+        [s](const core::Route& route) -> std::optional<DdsAdapter::Description> {
+          if (route.offer.source == "camus") {
+            auto description = s->camus->description(route.name);
+            if (!description) return std::nullopt;
+            return DdsAdapter::Description{route.offer.interface_name, "", std::move(description)};
+          }
+          const agent::HostedService* hosted = s->camus->host().find(route.name);
+          if (hosted == nullptr) return std::nullopt;
+          const gp::ServiceDescriptor& interface = hosted->agent->interface();
+          return DdsAdapter::Description{interface.full_name(), schema::repository_id(interface),
+                                         std::make_shared<const std::string>(schema::descriptor_set_for(*interface.file()))};
+        },
+        [this, s](call::Request request, bool on_host, call::Responder responder) {
+          CamusAdapter& here = *s->camus;
+          if (on_host) {
+            here.host().dispatch(std::move(request), std::move(responder));
+          } else if (here.client() == nullptr) {
+            responder.reply(call::Reply::error(call::Status::UNAVAILABLE, "space " + config_.space + " has no CAMUS server"));
+          } else if (request.oneway) {
+            here.client()->oneway(request.service, request.operation, std::move(request.payload));
+          } else {
+            here.client()->call_async(request.service, request.operation, std::move(request.payload),
+                                       planet::deadline_left(request), planet::answering(std::move(responder)));
+          }
+        });
+  } catch (const std::exception& e) {
+    failed(e.what());
+    return;
+  }
+  DdsAdapter* link = dds.get();
+  const auto from_dds = [link](const core::Route& route) { return link->forwarder(route); };
+  std::unique_ptr<CamusStandIns> on_camus;
+  std::unique_ptr<core::RouteReconciler> to_camus;
+  if (client && !config_.dds.as_camus.empty()) {
+    on_camus = std::make_unique<CamusStandIns>(camus.host(), client, config_.name, from_dds);
+    to_camus = std::make_unique<core::RouteReconciler>("other spaces -> CAMUS",
+                                                       std::vector{import_rule(config_.dds, config_.dds.as_camus)},
+                                                       *on_camus, kServiceRetryPeriod);
+  }
+  std::unique_ptr<RtStandIns> on_rt;
+  std::unique_ptr<core::RouteReconciler> to_rt;
+  if (rt_ && !config_.dds.as_rtc.empty()) {
+    on_rt = std::make_unique<RtStandIns>(*manager_, config_.name, "RemoteService", from_dds);
+    to_rt = std::make_unique<core::RouteReconciler>(
+        "other spaces -> RT", std::vector{import_rule(config_.dds, config_.dds.as_rtc)}, *on_rt, kServiceRetryPeriod);
+  }
+  auto to_dds = std::make_unique<core::RouteReconciler>(
+      "this space -> other spaces",
+      std::vector{core::RouteRule{config_.dds.export_allow, config_.dds.export_deny, "*", "{name}", 0}}, *link,
+      kRetryPeriod);
+  if (!link_failure_.empty()) spdlog::info("bridge {}: joined the link to other spaces", config_.name);
+  link_failure_.clear();
+  std::lock_guard lock(mutex_);  // status() reads the routes
+  session.dds = std::move(dds);
+  session.on_camus_for_dds = std::move(on_camus);
+  session.remote_to_camus = std::move(to_camus);
+  session.on_rt_for_dds = std::move(on_rt);
+  session.remote_to_rt = std::move(to_rt);
+  session.space_to_dds = std::move(to_dds);
 }
 
 void Bridge::close_session() {

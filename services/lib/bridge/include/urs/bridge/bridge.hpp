@@ -32,6 +32,7 @@
 // "dds:<space>/<service>"), and nothing that carries one is bridged again (core::bridgeable).
 
 #include <atomic>
+#include <chrono>
 #include <condition_variable>
 #include <map>
 #include <memory>
@@ -91,6 +92,7 @@ class Bridge {
   void run();
   void open_session();
   void close_session();
+  void join_link(Session& session);  // the DDS side of the session, once the link can be joined
   // The passes of the run loop (the bridge's thread).
   void poll_rt(Session& session);
   void poll_camus(Session& session);
@@ -117,6 +119,11 @@ class Bridge {
   bool stopping_ = false;
   std::thread thread_;
   std::shared_ptr<Session> session_;
+
+  // The bridge's thread only: why the link could not be joined last time ("" when it was), and when
+  // to try again.
+  std::string link_failure_;
+  std::chrono::steady_clock::time_point next_link_attempt_{};
 
   // Set by DDS threads when the other spaces' catalog changed; the bridge's thread reads it.
   std::atomic<bool> remote_pending_{false};
