@@ -33,6 +33,7 @@ t_base=$((SECONDS - t0))
 "$here/stage.sh" "$ctx"
 "$root/compose/make-token.sh"  # the Planet token compose gives space kr (a secret, not in an image)
 "$root/compose/make-certs.sh"  # kr's CA and CAMUS server certificate: kr's Planet runs over TLS 1.3
+"$root/compose/make-pki.sh"    # the federation PKI: the link between the spaces runs on DDS-Security
 # kr's operators' own credential (compose/config/kr-credentials.yaml): the dashboard's login.
 "$root/compose/make-token.sh" "${URS_KR_OPERATOR_TOKEN_FILE:-$root/compose/config/kr-operator.token}"
 # jp's gateway: the credential its operators log in with (jp has no CAMUS server to check one).

@@ -16,6 +16,7 @@
 #include <memory>
 
 #include "urs/gateway/camus_source.hpp"
+#include "urs/bridge/dds_security.hpp"
 #include "urs/gateway/dds_source.hpp"
 #include "urs/gateway/gateway.hpp"
 #include "urs/gateway/hub.hpp"
@@ -68,6 +69,7 @@ int main(int argc, char** argv) {
   int dds_domain = -1, devices_domain = -1, dds_lease_ms = 3000, rt_poll_ms = 1000, call_deadline_ms = 10000,
       max_clients = 64, max_queue_kib = 8192;
   std::vector<std::string> dds_peers, dds_servers, idl_files;
+  std::string dds_pki;
   app.add_option("--space", space, "Name of the space the gateway shows and drives")->required()->envname("URS_SPACE");
   app.add_option("--server", server, "CAMUS server HOST:PORT (none: a space without CAMUS)")->envname("URS_SERVER");
   app.add_option("--naming", naming, "Naming service HOST:PORT (none: a space without RT side)")->envname("URS_NAMING");
@@ -91,6 +93,10 @@ int main(int argc, char** argv) {
   app.add_option("--dds-peer", dds_peers, "Unicast DDS peer HOST or HOST:PORT (repeatable), for networks without multicast");
   app.add_option("--dds-discovery-server", dds_servers, "Fast DDS discovery server HOST:PORT (repeatable)");
   app.add_flag("--dds-udp-only", dds_udp_only, "No shared-memory transport (between containers)");
+  app.add_option("--dds-pki", dds_pki,
+                 "Join a link secured with DDS-Security: deploy/pki.sh's folder (ca.pem, governance.p7s, crl.pem) "
+                 "holding this gateway's member folder urs-gateway.<space>")
+      ->envname("URS_DDS_PKI");
   app.add_option("--dds-lease-ms", dds_lease_ms, "The link's lease, as the bridges' dds.lease_ms")
       ->check(CLI::Range(100, 600000))
       ->capture_default_str();
@@ -211,6 +217,7 @@ int main(int argc, char** argv) {
       options.link.udp_only = dds_udp_only;
       options.link.initial_peers = dds_peers;
       options.link.discovery_servers = dds_servers;
+      if (!dds_pki.empty()) options.link.security = urs::bridge::security_from_folder(dds_pki, gw::DdsSource::reader_name(space));
       options.own_services = server.empty() && naming.empty();
       options.own_state = server.empty();
       options.own_poses = devices_domain < 0;

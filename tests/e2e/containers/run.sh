@@ -189,6 +189,11 @@ out=$(jp rtc call "bridge-jp.host_cxt/kr_diag-$sam1.rtc:diagnostic" echo '{"text
   || fail "cross-space RT call: $(cat "$tmp/cli.err")"
 [[ "$out" == '{"result":"from jp to kr"}' ]] || fail "cross-space RT echo answered $out"
 
+step "link: the bridges and gateways joined it secured (DDS-Security, compose/make-pki.sh's members)"
+for member in bridge-kr bridge-jp; do
+  dc logs "$member" 2>&1 | grep -q "secured (DDS-Security" || fail "$member is not on a secured link: $(dc logs "$member" 2>&1 | grep 'DDS domain')"
+done
+
 step "demo: a kr client drives jp's robot around the square (waypoint errors < 50 mm), kr's dashboard watching"
 # kr's dashboard in headless Chromium, logged in with kr's operators' credential: every service of
 # both spaces listed (kr's registry as `urs ls` shows it, and jp's catalog: the jp/... names),

@@ -3,10 +3,14 @@
 # address on a veth link and a firewall that drops multicast, so DDS discovery can only be unicast:
 #   site jp (10.77.0.1): omniNames, urs-rtc-manager with a Diagnostic RTC, bridge-jp
 #   site kr (10.77.0.2): urs-camus-server, urs-sam with the diagnostic agent, bridge-kr
-# First bridge-jp is a Fast DDS discovery server and bridge-kr its client; then bridge-kr is
-# restarted with bridge-jp's address as an initial peer instead. Each time, from kr: jp's RTC is a
-# CAMUS service that answers, its lifecycle state is in kr's context, and kr's agent answers from
-# jp through the RTC bridge-jp made for it. Needs root (ip netns); always removes the namespaces.
+# First bridge-jp is a Fast DDS discovery server and bridge-kr its client, on a plain link; then
+# both bridges are restarted with each other's address as an initial peer, on a link secured with
+# DDS-Security (a federation PKI made by deploy/pki.sh; Fast DDS 2.9's discovery server and
+# DDS-Security do not go together). Each time, from kr: jp's RTC is a CAMUS service that answers,
+# its lifecycle state is in kr's context, and kr's agent answers from jp through the RTC bridge-jp
+# made for it. A capture of the frames between the hosts (capture.py) holds the text of a call on
+# the plain link, and none of it on the secured one. Needs root (ip netns, AF_PACKET); always
+# removes the namespaces.
 #   tests/e2e/two_hosts/run.sh [SOURCE_DIR [BUILD_DIR]]
 set -uo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
@@ -110,13 +114,13 @@ EOF
 }
 start_kr_bridge 'discovery: {servers: ["10.77.0.1:11811"]}'
 
-linked() {  # what each check says of the link between the sites, as seen from both
-  local t=$SECONDS
+linked() {  # linked MARKER: what each check says of the link between the sites, as seen from both
+  local marker=$1 t=$SECONDS
   listed() { urs ls jp/rt.Diagnostic0 2>/dev/null | grep -q '^jp/rt.Diagnostic0 '; }
   eventually 30 listed || fail "jp's Diagnostic RTC is not a service in kr: $(urs ls 2>&1)"
   say "jp/rt.Diagnostic0 listed in kr $((SECONDS - t)) s after bridge-kr started"
-  out=$(urs call jp/rt.Diagnostic0 echo '{"text":"across hosts"}') || fail "call from kr to jp's RTC failed"
-  [[ "$out" == '{"result":"across hosts"}' ]] || fail "the echo across hosts answered $out"
+  out=$(urs call jp/rt.Diagnostic0 echo "{\"text\":\"$marker\"}") || fail "call from kr to jp's RTC failed"
+  [[ "$out" == "{\"result\":\"$marker\"}" ]] || fail "the echo across hosts answered $out"
   state() { urs context get jp/component/jp1.host_cxt/Diagnostic0.rtc 2>/dev/null | grep -q '"state":"Inactive"'; }
   eventually 20 state || fail "jp's RTC state is not in kr's context: $(urs context ls 'jp/*' 2>&1)"
   bound() { in_jp "$bin/cli/urs" rtc --naming 10.77.0.1:2809 ls jp-bridge.host_cxt 2>/dev/null | grep -q kr_diag.rtc; }
@@ -126,16 +130,42 @@ linked() {  # what each check says of the link between the sites, as seen from b
   [[ "$out" == '{"result":"back across"}' ]] || fail "the echo back answered $out"
 }
 
-step "through the discovery server: calls both ways and jp's state in kr"
-linked
+# capture NAME: every frame on kr's end of the link into $work/NAME.frames (raw), until
+# stop_capture.
+capture() {
+  rm -f "$work/capture.ready"
+  in_kr python3 "$here/capture.py" "veth-$tag-k" "$work/$1.frames" "$work/capture.ready" 2>"$work/capture.log" &
+  capture_pid=$!
+  eventually 10 test -e "$work/capture.ready" || fail "the capture did not start: $(cat "$work/capture.log")"
+}
+stop_capture() { kill "$capture_pid"; wait "$capture_pid" 2>/dev/null; }
+# seen NAME MARKER: how many times MARKER is in the capture NAME.
+seen() { grep -a -o -F "$2" "$work/$1.frames" | wc -l; }
 
-step "bridge-kr again, with bridge-jp's host as its initial peer instead of a discovery server"
+step "through the discovery server: calls both ways and jp's state in kr"
+capture plain
+plain_marker="plain-$(head -c 6 /dev/urandom | od -An -tx1 | tr -d ' \n')"
+linked "$plain_marker"
+stop_capture
+(($(seen plain "$plain_marker") > 0)) || fail "the capture of the plain link holds no '$plain_marker': it captured nothing useful"
+say "plain link: the call's text is in the capture $(seen plain "$plain_marker") times ($(stat -c %s "$work/plain.frames") bytes captured)"
+
+step "both bridges again, each the other's initial peer, on a link secured with DDS-Security"
 kill "$kr_bridge"; wait "$kr_bridge" 2>/dev/null
 gone() { ! urs ls 'jp/*' 2>/dev/null | grep -q '^jp/'; }
 eventually 15 gone || fail "jp's services stayed in kr without bridge-kr"
+# The federation's PKI: a CA, the governance (encrypted), and one member per space, each granted
+# calls to the other. Both sites read the same folder here; two real sites exchange only what
+# docs/federation.md says.
+pki=$work/pki
+for args in "init $pki" "governance $pki" "member $pki jp --calls kr" "member $pki kr --calls jp"; do
+  # shellcheck disable=SC2086
+  "$root/deploy/pki.sh" $args >>"$work/pki.log" 2>&1 || fail "deploy/pki.sh $args: $(tail -n 3 "$work/pki.log")"
+done
 # bridge-jp is a discovery server: a unicast peer that runs the simple protocol cannot discover
 # it, so jp's bridge too goes back to the simple protocol with kr's host as its initial peer.
-sed -i 's/discovery: {listen: "10.77.0.1:11811"}/initial_peers: [10.77.0.2]/' "$work/jp-bridge.yaml"
+sed -i "s|discovery: {listen: \"10.77.0.1:11811\"}|initial_peers: [10.77.0.2]\n  security: {pki: \"$pki\"}|" \
+  "$work/jp-bridge.yaml"
 pkill -f -- "--config $work/jp-bridge.yaml"
 old_gone() { ! pgrep -f -- "--config $work/jp-bridge.yaml" >/dev/null; }
 eventually 15 old_gone || fail "bridge-jp did not stop on SIGTERM"
@@ -143,8 +173,15 @@ rm -f "$work/jp.ready"
 in_jp "$bin/bridge/urs-bridge" --space jp --naming 10.77.0.1:2809 --listen 10.77.0.1:2812 --host jp-bridge \
   --config "$work/jp-bridge.yaml" --ready-file "$work/jp.ready" >"$work/bridge-jp.log" 2>&1 &
 eventually 20 test -e "$work/jp.ready" || fail "bridge-jp did not come back"
-start_kr_bridge 'initial_peers: [10.77.0.1]'
-linked
+capture secured
+start_kr_bridge "initial_peers: [10.77.0.1]
+  security: {pki: \"$pki\"}"
+secured_marker="secured-$(head -c 6 /dev/urandom | od -An -tx1 | tr -d ' \n')"
+linked "$secured_marker"
+stop_capture
+grep -q "secured (DDS-Security" "$work/bridge-kr.log" || fail "bridge-kr does not say it joined a secured link: $(tail -n 5 "$work/bridge-kr.log")"
+(($(seen secured "$secured_marker") == 0)) || fail "the call's text '$secured_marker' crossed the secured link in clear"
+say "secured link: none of the call's text in the capture ($(stat -c %s "$work/secured.frames") bytes captured)"
 
 failed_step=""
 say "e2e_two_hosts: every step passed in $((SECONDS - t_start)) s"
