@@ -3,6 +3,7 @@
 // its SSL object under a mutex). The Link's framing, queues, heartbeats and close are the same
 // for both; only how bytes move differs. Either lets the thread that queues a frame write it
 // straight to the socket (send_now, non-blocking), so a small call costs no hop to the strand.
+// One a file: stream.cpp (TCP), tls_stream.cpp (TLS), tls_context.cpp (the TLS contexts).
 //
 // Threading: every asynchronous operation is started from the Link's strand (the socket's
 // executor); at most one read and one write are in flight at a time, and the writes (send_now,

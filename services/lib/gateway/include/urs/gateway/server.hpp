@@ -2,6 +2,9 @@
 // The gateway's one port (docs/dashboard.md): HTTP for the dashboard's static files and its login,
 // and at ws://HOST:PORT/ the Foxglove WebSocket protocol (subprotocol foxglove.websocket.v1),
 // whose messages go to the Hub. The only code of the gateway that touches sockets (Boost.Beast).
+// Its parts, one a file under src/: server.cpp (listen, accept, stop), http_session.cpp (one HTTP
+// connection: files, login, upgrade), ws_session.cpp (one WebSocket client and its bounded
+// queue), http_util.cpp (reading requests, building responses).
 //
 //   GET  /, /<file>        the dashboard (files of `web_dir`; nothing else is served)
 //   POST /api/login        {"credential": "..."} -> {"role", "session", "space"} and the session cookie

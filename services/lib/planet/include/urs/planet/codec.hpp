@@ -2,6 +2,8 @@
 // Planet framing codec: bytes in, Frames out, and Frames in, bytes out. No sockets here: the
 // transport feeds whatever slices it read and writes whatever the Outbox hands it, so every piece
 // is unit-testable (and fuzzable) on plain byte strings. Specification: docs/planet.md.
+// One part a file under src/: codec.cpp (errors, limits), frame_decoder.cpp, reassembler.cpp,
+// message_decoder.cpp, frame_encoder.cpp, outbox.cpp.
 //
 // Wire format: every frame is a 4-byte big-endian length N followed by N bytes of one serialized
 // `urs.planet.Frame`. A Frame that serializes to more than `chunk_bytes` travels as a run of
@@ -251,7 +253,7 @@ class FrameEncoder {
 };
 
 namespace detail {
-struct SerializedMessage;  // a large Frame serialized as byte ranges (codec.cpp)
+struct SerializedMessage;  // a large Frame serialized as byte ranges (outbox.cpp)
 }  // namespace detail
 
 // Outgoing queue of one connection with fair interleaving. Scheduling, per pop():
