@@ -7,8 +7,10 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <condition_variable>
 #include <cstdio>
+#include <filesystem>
 #include <functional>
 #include <future>
 #include <mutex>
@@ -139,6 +141,40 @@ TEST(DdsCatalog, AWithdrawnEntryLeavesTheOtherSpaces) {
   EXPECT_TRUE(wait_until([&] { return names() == std::set<std::string>{"a/second"}; }, 10s))
       << "seen: " << ::testing::PrintToString(names());
   offering.withdraw("never announced");  // refused by DDS, harmlessly
+}
+
+// The same between processes, as between two bridges (two participants of one process hand their
+// samples over in memory). Space "a" offers "kept" and "gone", then withdraws "gone" and offers
+// "new" at once (a dead RT provider replaced by a new one), then announces both again. A withdrawal
+// reaches another process as a dispose and an unregistration without payload, which the catalog
+// reader's dynamic payload pool refused: Fast DDS 2.9's reliable reader then waited for that sample
+// forever and showed nothing "a" wrote after it ("new" never came), and "kept" went as soon as "a"
+// announced it again.
+TEST(DdsCatalog, AWithdrawalAndANewEntryReachAnotherProcessAndWhatFollowsThem) {
+  const DdsDomains domains;
+  const std::string dir = make_temp_dir("catalog-peer");
+  Process peer({URS_CATALOG_PEER_BIN, std::to_string(domains[0]), "a", "+kept,+gone", "-gone,+new", "+kept,+new"},
+               dir + "/peer.log");
+  std::atomic<int> arrivals{0};  // catalog samples arrived
+  bridge::DdsLink seeing(link_options(domains[0], "b"), [&] { ++arrivals; }, [](call::Request, call::Responder) {});
+  auto names = [&] {
+    std::set<std::string> found;
+    for (const auto& entry : seeing.catalog()) found.insert(entry.space + "/" + entry.name);
+    return found;
+  };
+  ASSERT_TRUE(wait_until([&] { return names() == std::set<std::string>{"a/gone", "a/kept"}; }, 20s))
+      << "seen: " << ::testing::PrintToString(names()) << "\n" << peer.log();
+  peer.signal(SIGHUP);  // withdraws "gone", offers "new"
+  const std::set<std::string> after{"a/kept", "a/new"};
+  EXPECT_TRUE(wait_until([&] { return names() == after; }, 20s))
+      << "seen: " << ::testing::PrintToString(names()) << "\n" << peer.log();
+  const int before = arrivals;
+  peer.signal(SIGHUP);  // announces both again
+  EXPECT_TRUE(wait_until([&] { return arrivals > before; }, 20s)) << "the second announcement never arrived";
+  EXPECT_TRUE(wait_until([&] { return peer.log().find("+new\n+kept\n+new") != std::string::npos; }, 20s))
+      << peer.log();
+  EXPECT_EQ(names(), after);
+  std::filesystem::remove_all(dir);
 }
 
 // A call to a space whose bridge is not matched yet waits for it, woken by the request writer's

@@ -714,10 +714,11 @@ DdsLink::DdsLink(DdsOptions options, CatalogHandler on_catalog, CallHandler on_c
     d.interface_writer =
         d.publisher->create_datawriter(d.topic(kInterfaceTopic, d.interface_type), catalog_writer);
 
-    const fdds::DataReaderQos catalog_reader = link_qos::keyed_state_reader(options_.lease);
-    d.catalog_reader = d.subscriber->create_datareader(d.catalog_topic, catalog_reader, &d);
-    d.interface_reader =
-        d.subscriber->create_datareader(d.topic(kInterfaceTopic, d.interface_type), catalog_reader, &d);
+    // Entries end by a dispose and an unregistration (withdraw()); descriptions never do.
+    d.catalog_reader =
+        d.subscriber->create_datareader(d.catalog_topic, link_qos::ending_state_reader(options_.lease), &d);
+    d.interface_reader = d.subscriber->create_datareader(d.topic(kInterfaceTopic, d.interface_type),
+                                                         link_qos::keyed_state_reader(options_.lease), &d);
 
     d.request_reader = d.subscriber->create_datareader(d.topic(request_topic(options_.space), d.request_type),
                                                        d.rpc_reader_qos(), &d);

@@ -17,7 +17,7 @@ inline eprosima::fastrtps::Duration_t duration(std::chrono::milliseconds ms) {
 // entry), manual-by-topic liveliness with the link's lease (a silent bridge's entries end within
 // it), room for every entry of every space (Fast DDS's default of 10 instances would silently refuse the
 // eleventh), and samples sized as they come: a preallocated pool would give every sample the
-// type's maximum size, tens of kB for an unbounded sequence.
+// type's maximum size, tens of kB for an unbounded sequence (but see ending_state_reader).
 template <class Qos>
 Qos keyed_state(Qos qos, std::chrono::milliseconds lease) {
   namespace fdds = eprosima::fastdds::dds;
@@ -49,6 +49,17 @@ inline eprosima::fastdds::dds::DataWriterQos keyed_state_writer(std::chrono::mil
 }
 inline eprosima::fastdds::dds::DataReaderQos keyed_state_reader(std::chrono::milliseconds lease) {
   return keyed_state(eprosima::fastdds::dds::DATAREADER_QOS_DEFAULT, lease);
+}
+// A reader of keyed state whose instances its writers end (dispose, unregister): the catalog.
+// The default memory policy (PREALLOCATED_WITH_REALLOC, every sample room for the type's maximum
+// size, a few kB for an entry) instead of a dynamic payload pool: from another process, a dispose or
+// an unregistration is a message with an empty payload, which Fast DDS 2.9's dynamic pools refuse;
+// the reliable reader then waits for that sample forever and shows nothing its writer writes after
+// it (what it had of that writer goes too, each instance as its writer writes it again).
+inline eprosima::fastdds::dds::DataReaderQos ending_state_reader(std::chrono::milliseconds lease) {
+  auto qos = keyed_state_reader(lease);
+  qos.endpoint().history_memory_policy = eprosima::fastrtps::rtps::PREALLOCATED_WITH_REALLOC_MEMORY_MODE;
+  return qos;
 }
 
 }  // namespace urs::bridge::link_qos
