@@ -9,7 +9,7 @@
 // number, and the calls served arrive as a call::Request and a call::Responder.
 //
 // Threads: handlers run on DDS listener threads and must not block; call() and oneway() block (a
-// first match, then the reply): never from a DDS listener or Planet I/O thread (see dds_link.cpp).
+// first match, then the reply): never from a DDS listener or Planet I/O thread (see src/dds_calls.cpp).
 
 #include <chrono>
 #include <cstdint>
@@ -24,7 +24,6 @@
 namespace eprosima::fastdds::dds {
 class DataWriter;
 class DomainParticipant;
-class DomainParticipantQos;
 }
 
 namespace urs::bridge {
@@ -119,8 +118,6 @@ class DdsLink {
               std::string payload);
 
  private:
-  void use_discovery_server(eprosima::fastdds::dds::DomainParticipantQos& qos) const;
-
   struct Impl;
   const DdsOptions options_;
   std::shared_ptr<Impl> impl_;  // shared with the responders of the calls served (weakly)

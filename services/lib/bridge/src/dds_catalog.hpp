@@ -1,0 +1,82 @@
+#pragma once
+// DdsCatalog (internal to urs::bridge): the DdsLink's catalog. Announces and withdraws this
+// space's services on urs/catalog, each naming its interface's description, written once per
+// digest (and again once a lease) on urs/interface; reads the other spaces' entries from its
+// readers' caches, joined with the descriptions by digest; follows the catalog writers' matches and
+// liveliness, so that a space whose bridges are all lost is known (space_lost) and its entries
+// left out.
+//
+// Threads: announce(), withdraw(), entries() and space_lost() from any thread; subscription_matched()
+// and liveliness_changed() on DDS listener threads (they call the handlers there, which must not
+// block). Its locks are never held while a handler or Fast DDS runs, but for the writes of
+// announce().
+
+#include <chrono>
+#include <functional>
+#include <map>
+#include <mutex>
+#include <set>
+#include <string>
+#include <vector>
+
+#include <fastdds/dds/core/status/LivelinessChangedStatus.hpp>
+#include <fastdds/dds/core/status/SubscriptionMatchedStatus.hpp>
+#include <fastdds/dds/common/InstanceHandle.hpp>
+
+#include "dds_participant.hpp"
+#include "urs/bridge/dds_link.hpp"
+
+namespace urs::bridge {
+
+class DdsCatalog {
+ public:
+  static constexpr const char* kCatalogTopic = "urs/catalog";
+  static constexpr const char* kInterfaceTopic = "urs/interface";
+
+  // `on_catalog`: the other spaces' catalog changed (DdsLink::CatalogHandler). `on_space_lost`:
+  // every catalog writer of that space lost its liveliness (its calls in flight fail now).
+  DdsCatalog(const DdsOptions& options, LinkParticipant& participant, DdsLink::CatalogHandler on_catalog,
+             std::function<void(const std::string& space)> on_space_lost);
+  DdsCatalog(const DdsCatalog&) = delete;
+  DdsCatalog& operator=(const DdsCatalog&) = delete;
+
+  // Creates the writers and readers (the readers with `listener`, which hands their events back
+  // here); throws std::runtime_error if DDS refuses.
+  void open(eprosima::fastdds::dds::DataReaderListener* listener);
+  // The writers whose liveliness the link asserts.
+  std::vector<eprosima::fastdds::dds::DataWriter*> writers() const { return {catalog_writer_, interface_writer_}; }
+
+  void announce(const ServiceEntry& entry);
+  void withdraw(const std::string& name);
+  // DdsLink::catalog().
+  std::vector<ServiceEntry> entries() const;
+  // True if catalog writers of `space` were seen and every one has lost its liveliness.
+  bool space_lost(const std::string& space) const;
+
+  // From the readers' listener (urs/catalog only).
+  void subscription_matched(const eprosima::fastdds::dds::SubscriptionMatchedStatus& status);
+  void liveliness_changed(const eprosima::fastdds::dds::LivelinessChangedStatus& status);
+  void changed() const { on_catalog_(); }  // data arrived on urs/catalog or urs/interface
+
+ private:
+  void writer_state(const eprosima::fastdds::dds::InstanceHandle_t& writer, bool alive);
+
+  const DdsOptions& options_;
+  LinkParticipant& participant_;
+  const DdsLink::CatalogHandler on_catalog_;
+  const std::function<void(const std::string&)> on_space_lost_;
+  eprosima::fastdds::dds::DataWriter* catalog_writer_ = nullptr;
+  eprosima::fastdds::dds::DataReader* catalog_reader_ = nullptr;
+  eprosima::fastdds::dds::DataWriter* interface_writer_ = nullptr;
+  eprosima::fastdds::dds::DataReader* interface_reader_ = nullptr;
+
+  std::mutex interfaces_mutex_;
+  std::map<std::string, std::chrono::steady_clock::time_point> interfaces_written_;  // digest -> when last written
+
+  mutable std::mutex catalog_mutex_;                     // guards dead_writers_ and writer_spaces_
+  std::set<eprosima::fastdds::dds::InstanceHandle_t> dead_writers_;  // catalog writers whose liveliness is lost
+  // Catalog writers seen, by space written (filled by entries()).
+  mutable std::map<eprosima::fastdds::dds::InstanceHandle_t, std::string> writer_spaces_;
+};
+
+}  // namespace urs::bridge

@@ -1,0 +1,183 @@
+#include "dds_participant.hpp"
+
+#include <netdb.h>
+
+#include <algorithm>
+#include <fastdds/dds/domain/DomainParticipant.hpp>
+#include <fastdds/dds/domain/DomainParticipantFactory.hpp>
+#include <fastdds/dds/publisher/Publisher.hpp>
+#include <fastdds/dds/subscriber/Subscriber.hpp>
+#include <fastdds/dds/topic/Topic.hpp>
+#include <fastdds/rtps/attributes/ServerAttributes.h>
+#include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
+#include <fastdds/rtps/transport/shared_mem/SharedMemTransportDescriptor.h>
+#include <fastrtps/utils/IPLocator.h>
+#include <stdexcept>
+#include <vector>
+
+#include "FederationPubSubTypes.h"
+#include "dds_qos.hpp"
+
+namespace urs::bridge {
+
+namespace fdds = eprosima::fastdds::dds;
+namespace rtps = eprosima::fastrtps::rtps;
+
+namespace {
+
+// "HOST" or "HOST:PORT" -> the IPv4 address and port(s) of an initial peer.
+std::vector<rtps::Locator_t> peer_locators(const std::string& peer, uint32_t domain) {
+  std::string host = peer;
+  std::vector<uint16_t> ports;
+  const auto colon = peer.rfind(':');
+  if (colon != std::string::npos) {
+    host = peer.substr(0, colon);
+    ports.push_back(static_cast<uint16_t>(std::stoi(peer.substr(colon + 1))));
+  } else {
+    // The metatraffic unicast ports of participants 0..4 of the domain (RTPS port mapping).
+    for (uint32_t id = 0; id < 5; ++id) ports.push_back(static_cast<uint16_t>(7400 + 250 * domain + 10 + 2 * id));
+  }
+  addrinfo hints{};
+  hints.ai_family = AF_INET;
+  addrinfo* found = nullptr;
+  if (getaddrinfo(host.c_str(), nullptr, &hints, &found) != 0 || found == nullptr) {
+    throw std::runtime_error("DDS initial peer '" + peer + "': cannot resolve " + host);
+  }
+  char address[64] = {};
+  getnameinfo(found->ai_addr, found->ai_addrlen, address, sizeof address, nullptr, 0, NI_NUMERICHOST);
+  freeaddrinfo(found);
+  std::vector<rtps::Locator_t> locators;
+  for (uint16_t port : ports) {
+    rtps::Locator_t locator;
+    rtps::IPLocator::setIPv4(locator, address);
+    locator.port = port;
+    locators.push_back(locator);
+  }
+  return locators;
+}
+
+// Discovery through a Fast DDS discovery server: this participant is the server, or a client of
+// the servers given (their GUID prefixes are Fast DDS's defaults for their ids).
+void use_discovery_server(const DdsOptions& options, fdds::DomainParticipantQos& qos) {
+  auto& discovery = qos.wire_protocol().builtin.discovery_config;
+  auto one_locator = [](const std::string& address) {
+    if (address.rfind(':') == std::string::npos) {
+      throw std::runtime_error("DDS discovery server '" + address + "': HOST:PORT expected");
+    }
+    return peer_locators(address, 0).front();
+  };
+  if (!options.discovery_listen.empty()) {
+    discovery.discoveryProtocol = rtps::DiscoveryProtocol_t::SERVER;
+    if (!rtps::get_server_client_default_guidPrefix(static_cast<int>(options.discovery_server_id),
+                                                    qos.wire_protocol().prefix)) {
+      throw std::runtime_error("DDS discovery server id " + std::to_string(options.discovery_server_id) +
+                               " is out of range");
+    }
+    qos.wire_protocol().builtin.metatrafficUnicastLocatorList.push_back(one_locator(options.discovery_listen));
+  }
+  if (!options.discovery_servers.empty() && options.discovery_listen.empty()) {
+    discovery.discoveryProtocol = rtps::DiscoveryProtocol_t::CLIENT;
+  }
+  for (std::size_t id = 0; id < options.discovery_servers.size(); ++id) {
+    eprosima::fastdds::rtps::RemoteServerAttributes server;
+    if (!rtps::get_server_client_default_guidPrefix(static_cast<int>(id), server.guidPrefix)) {
+      throw std::runtime_error("DDS: at most " + std::to_string(id) + " discovery servers");
+    }
+    server.metatrafficUnicastLocatorList.push_back(one_locator(options.discovery_servers[id]));
+    discovery.m_DiscoveryServers.push_back(server);
+  }
+}
+
+}  // namespace
+
+LinkParticipant::LinkParticipant()
+    : entry_type(new dds::ServiceEntryPubSubType()),
+      interface_type(new dds::InterfaceDescriptionPubSubType()),
+      request_type(new dds::CallRequestPubSubType()),
+      reply_type(new dds::CallReplyPubSubType()) {}
+
+void LinkParticipant::join(const DdsOptions& options) {
+  auto* factory = fdds::DomainParticipantFactory::get_instance();
+  factory->load_profiles();  // an XML default profile's settings, but for the transports set below
+  fdds::DomainParticipantQos qos = factory->get_default_participant_qos();
+  qos.name("urs-bridge/" + options.space + "/" + options.bridge);
+  // A participant that stops announcing itself (dead process, cut network) is dropped after its
+  // lease; its entries end earlier, with its writers' liveliness (`lease`). Announced four times
+  // a `lease`, so that a peer that dropped it finds it again quickly.
+  qos.wire_protocol().builtin.discovery_config.leaseDuration =
+      link_qos::duration(std::max(options.participant_lease, options.lease));
+  qos.wire_protocol().builtin.discovery_config.leaseDuration_announcementperiod =
+      link_qos::duration(options.lease / 4);
+  qos.transport().use_builtin_transports = false;
+  auto udp = std::make_shared<eprosima::fastdds::rtps::UDPv4TransportDescriptor>();
+  udp->sendBufferSize = options.socket_buffer_bytes;
+  udp->receiveBufferSize = options.socket_buffer_bytes;
+  qos.transport().user_transports.push_back(udp);
+  if (!options.udp_only) {
+    auto shm = std::make_shared<eprosima::fastdds::rtps::SharedMemTransportDescriptor>();
+    shm->segment_size(options.shm_segment_bytes);
+    qos.transport().user_transports.push_back(shm);
+  }
+  qos.transport().send_socket_buffer_size = options.socket_buffer_bytes;
+  qos.transport().listen_socket_buffer_size = options.socket_buffer_bytes;
+  for (const auto& peer : options.initial_peers) {
+    for (const auto& locator : peer_locators(peer, options.domain)) {
+      qos.wire_protocol().builtin.initialPeersList.push_back(locator);
+    }
+  }
+  use_discovery_server(options, qos);
+  if (options.security.enabled()) {
+    // Checked here: Fast DDS would say only "initialization error" for any bad file.
+    const std::vector<std::string> problems = check_dds_security(options.security, options.space);
+    if (!problems.empty()) {
+      std::string text;
+      for (const auto& problem : problems) text += "\n  " + problem;
+      throw std::runtime_error("DDS security: cannot join domain " + std::to_string(options.domain) + ":" + text);
+    }
+    for (const auto& [name, value] : dds_security_properties(options.security)) {
+      qos.properties().properties().emplace_back(name, value);
+    }
+  }
+  participant_ = factory->create_participant(options.domain, qos);
+  if (participant_ == nullptr) {
+    throw std::runtime_error("DDS: cannot join domain " + std::to_string(options.domain) +
+                             (options.security.enabled() ? " with DDS security (see Fast DDS's log above)" : ""));
+  }
+  try {
+    publisher_ = participant_->create_publisher(fdds::PUBLISHER_QOS_DEFAULT);
+    subscriber_ = participant_->create_subscriber(fdds::SUBSCRIBER_QOS_DEFAULT);
+    if (publisher_ == nullptr || subscriber_ == nullptr) throw std::runtime_error("DDS: cannot create a publisher");
+    for (auto* type : {&entry_type, &interface_type, &request_type, &reply_type}) {
+      if (type->register_type(participant_) != ReturnCode_t::RETCODE_OK) {
+        throw std::runtime_error("DDS: cannot register type " + type->get_type_name());
+      }
+    }
+  } catch (...) {
+    leave();
+    throw;
+  }
+}
+
+void LinkParticipant::leave() {
+  if (participant_ == nullptr) return;
+  participant_->set_listener(nullptr);
+  participant_->delete_contained_entities();
+  fdds::DomainParticipantFactory::get_instance()->delete_participant(participant_);
+  participant_ = nullptr;
+  publisher_ = nullptr;
+  subscriber_ = nullptr;
+  std::lock_guard lock(mutex_);
+  topics_.clear();
+}
+
+fdds::Topic* LinkParticipant::topic(const std::string& name, fdds::TypeSupport& type) {
+  std::lock_guard lock(mutex_);
+  auto it = topics_.find(name);
+  if (it != topics_.end()) return it->second;
+  fdds::Topic* made = participant_->create_topic(name, type.get_type_name(), fdds::TOPIC_QOS_DEFAULT);
+  if (made == nullptr) throw std::runtime_error("DDS: cannot create topic " + name);
+  topics_[name] = made;
+  return made;
+}
+
+}  // namespace urs::bridge
