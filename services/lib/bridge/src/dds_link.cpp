@@ -32,6 +32,7 @@
 
 #include "Federation.h"
 #include "FederationPubSubTypes.h"
+#include "dds_identity.hpp"
 #include "dds_qos.hpp"
 #include "liveliness_asserter.hpp"
 #include "urs/agent/agent.hpp"
@@ -177,6 +178,8 @@ struct DdsLink::Impl : public fdds::DataReaderListener, public std::enable_share
   const DdsOptions& options;
   CatalogHandler on_catalog;
   CallHandler on_call;
+  // The space each remote participant proved (the participant's listener): the callers of requests.
+  DdsIdentities identities{options.security.enabled()};
   // Writes the replies given on the link's listener threads (responder_for).
   agent::WorkerPool replier{1};
   const std::string request_name = request_topic(options.space);  // this space's requests
@@ -528,12 +531,12 @@ struct DdsLink::Impl : public fdds::DataReaderListener, public std::enable_share
       request.operation = sample.operation();
       request.payload = text_of(sample.payload());
       if (sample.deadline_ms() != 0) request.deadline = arrived + std::chrono::milliseconds(sample.deadline_ms());
-      request.caller = {sample.caller_space(), "dds:" + sample.caller_space(), "bridge"};
+      request.caller = identities.caller(info.publication_handle, sample.caller_space());
       request.oneway = sample.no_reply();
       call::Responder responder;
       if (!request.oneway) {
         serve(info.instance_handle, id, until);
-        responder = responder_for(sample.caller_space(), id, until);
+        responder = responder_for(request.caller.space, id, until);
       }
       on_call(std::move(request), std::move(responder));
     }
@@ -691,7 +694,7 @@ DdsLink::DdsLink(DdsOptions options, CatalogHandler on_catalog, CallHandler on_c
     }
   }
   Impl& d = *impl_;
-  d.participant = factory->create_participant(options_.domain, qos);
+  d.participant = factory->create_participant(options_.domain, qos, &d.identities, fdds::StatusMask::none());
   if (d.participant == nullptr) {
     throw std::runtime_error("DDS: cannot join domain " + std::to_string(options_.domain) +
                              (options_.security.enabled() ? " with DDS security (see Fast DDS's log above)" : ""));
