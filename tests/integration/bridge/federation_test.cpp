@@ -357,10 +357,12 @@ class AuthorizedFederation : public Federation {
   std::string jp_export() override {
     std::filesystem::create_directories(dir_ + "/audit");
     return "  export:\n"
-           "    callers: {\"rt.Secret*\": [], \"rt.Diagnostic*\": [kr]}\n"
+           "    callers: {\"rt.Secret*\": [], \"rt.Diagnostic*\": [kr]}\n" +
+           std::string(trust_declared_space() ? "    trust_declared_space: true\n" : "") +
            "  audit: {file: \"" + audit_file() + "\", max_bytes: 2048, files: 2}\n";
   }
   std::string audit_file() const { return dir_ + "/audit/calls.jsonl"; }
+  virtual bool trust_declared_space() const { return false; }
 
   // The audit log's lines, the rotated files' first (oldest first).
   std::vector<std::string> audited() const {
@@ -472,6 +474,47 @@ TEST_F(AuthorizedFederation, AMemberIsJudgedByTheSpaceItsCertificateNamesNotTheO
   EXPECT_NE(jp_->log().find("certificate is space spy declares space kr"), std::string::npos) << jp_->log();
   publisher->delete_datawriter(writer);
   participant->delete_publisher(publisher);
+}
+
+// The same rules on a plain link, where nothing proves a caller's space: calls are refused unless
+// jp's operator trusts the declared space, and then judged by it, audited as not verified.
+class DeclaredSpaceFederation : public AuthorizedFederation {
+ protected:
+  bool secured() const override { return false; }
+};
+class TrustingDeclaredSpaceFederation : public DeclaredSpaceFederation {
+ protected:
+  bool trust_declared_space() const override { return true; }
+};
+
+TEST_F(DeclaredSpaceFederation, ADeclaredSpaceIsRefusedUnlessTrusted) {
+  ASSERT_TRUE(wait_for_service("jp/rt.Diagnostic0", 20s)) << kr_->log() << jp_->log();
+  URS::Diagnostic_echo_Request echo;
+  echo.set_text("declared");
+  const Observed refused = call("jp/rt.Diagnostic0", "echo", echo);
+  EXPECT_EQ(refused.status, planet::PERMISSION_DENIED) << refused.message;
+  EXPECT_NE(refused.message.find("space kr may not call jp/rt.Diagnostic0: its space is only declared"),
+            std::string::npos)
+      << refused.message;
+  EXPECT_EQ(audited_with({"\"caller_space\":\"kr\",\"caller\":\"dds:kr\",\"space_verified\":false",
+                          "\"status\":\"PERMISSION_DENIED\""}),
+            1u)
+      << ::testing::PrintToString(audited());
+}
+
+TEST_F(TrustingDeclaredSpaceFederation, ADeclaredSpaceIsJudgedByWhatItDeclaresWhereTrusted) {
+  ASSERT_TRUE(wait_for_service("jp/rt.Diagnostic0", 20s)) << kr_->log() << jp_->log();
+  ASSERT_TRUE(wait_for_service("jp/rt.Secret0", 20s)) << kr_->log() << jp_->log();
+  ASSERT_NO_FATAL_FAILURE(expect_echo("jp/rt.Diagnostic0", "declared and trusted"));
+  URS::Diagnostic_echo_Request echo;
+  echo.set_text("not granted");
+  const Observed refused = call("jp/rt.Secret0", "echo", echo);
+  EXPECT_EQ(refused.status, planet::PERMISSION_DENIED) << refused.message;
+  EXPECT_NE(refused.message.find("space kr may not call jp/rt.Secret0"), std::string::npos) << refused.message;
+  EXPECT_EQ(audited_with({"\"caller_space\":\"kr\",\"caller\":\"dds:kr\",\"space_verified\":false",
+                          "\"service\":\"rt.Diagnostic0\"", "\"status\":\"OK\""}),
+            1u)
+      << ::testing::PrintToString(audited());
 }
 
 // What a third space sees of the others' state over DDS: a participant of the link (a member "obs"
