@@ -77,7 +77,8 @@ class SecuredLink : public ::testing::Test {
       bridge::DdsLink link(options(domain, "kr", member("fed", "kr")), [] {},
                            [](call::Request request, call::Responder responder) {
                              responder.reply(call::Reply::success("kr heard " + request.payload + " from " +
-                                                                  request.caller.space));
+                                                                  request.caller.space + " (" +
+                                                                  request.caller.role + ")"));
                            });
       bridge::ServiceEntry entry;
       entry.name = "svc";
@@ -118,7 +119,8 @@ TEST_F(SecuredLink, MembersSeeAndCallEachOther) {
   ASSERT_TRUE(wait_until([&] { return seen(jp).count("kr/svc") == 1; }, 30s)) << "jp never saw kr's service";
   const auto reply = jp.call("kr", "svc", "echo", "marker-7f3a", 10s);
   ASSERT_TRUE(reply.ok()) << call::status_name(reply.status) << ": " << reply.message;
-  EXPECT_EQ(reply.payload, "kr heard marker-7f3a from jp");
+  // The caller's space as jp's certificate proves it (role "member"), not only as declared.
+  EXPECT_EQ(reply.payload, "kr heard marker-7f3a from jp (member)");
 }
 
 // While member jp sees kr and calls it, a participant without security and one whose certificate

@@ -21,7 +21,11 @@
 #include <fastdds/dds/subscriber/DataReader.hpp>
 #include <fastdds/dds/subscriber/SampleInfo.hpp>
 #include <fastdds/dds/subscriber/Subscriber.hpp>
+#include <fastdds/dds/publisher/DataWriter.hpp>
+#include <fastdds/dds/publisher/Publisher.hpp>
+#include <fastdds/dds/topic/Topic.hpp>
 #include <fastdds/dds/topic/TypeSupport.hpp>
+#include <fstream>
 #include <filesystem>
 #include <future>
 #include <iostream>
@@ -38,6 +42,7 @@
 #include "certificates.hpp"
 #include "dds_domain.hpp"
 #include "camus.pb.h"
+#include "Federation.h"
 #include "SpaceState.h"
 #include "SpaceStatePubSubTypes.h"
 #include "urs/bridge/state_link.hpp"
@@ -54,8 +59,8 @@ namespace gp = google::protobuf;
 constexpr auto kLease = 1500ms;
 
 // Run twice: on a plain link, and on a link secured with DDS-Security (a federation PKI made by
-// deploy/pki.sh once for the program: kr and jp, each granted calls to the other, and "obs", the
-// tests' own observer, granted none).
+// deploy/pki.sh once for the program: kr and jp, each granted calls to the other, "obs", the
+// tests' own observer, granted none, and "spy", the tests' own caller, granted calls to jp).
 class Federation : public BridgeSpaceTest, public ::testing::WithParamInterface<bool> {
  protected:
   static void SetUpTestSuite() {
@@ -64,7 +69,8 @@ class Federation : public BridgeSpaceTest, public ::testing::WithParamInterface<
                              {"governance", *pki_},
                              {"member", *pki_, "kr", "--calls", "jp"},
                              {"member", *pki_, "jp", "--calls", "kr"},
-                             {"member", *pki_, "obs"}}));
+                             {"member", *pki_, "obs"},
+                             {"member", *pki_, "spy", "--calls", "jp"}}));
   }
   static void TearDownTestSuite() {
     std::filesystem::remove_all(*pki_);
@@ -119,11 +125,14 @@ class Federation : public BridgeSpaceTest, public ::testing::WithParamInterface<
                         "  poll_ms: 100\n"
                         "  providers:\n"
                         "    - {match: \"*\", name: \"rt.{instance}\", deadline_ms: 5000}\n" +
-                            dds(discovery) + "  export: {deny: [\"rt.Secret*\"]}\n" +
+                            dds(discovery) + jp_export() +
                             "  state: {period_ms: 100, poses: {domain: " + std::to_string(devices_domain()) +
                             ", source: ground_truth, robots: [robot1], period_ms: 20}}\n",
                         {"--naming", naming_->address(), "--host", "jphost"}, "jp");
   }
+
+  // What jp's bridge exports, and to whom (dds.export, dds.audit).
+  virtual std::string jp_export() { return "  export: {deny: [\"rt.Secret*\"]}\n"; }
 
   // `text` echoed by `service` from kr's Planet client.
   void expect_echo(const std::string& service, const std::string& text) {
@@ -337,6 +346,175 @@ TEST_F(PlainFederation, ABridgeJoinsTheLinkOnceItsPeersNameResolves) {
   ASSERT_TRUE(wait_for_service("jp/rt.Diagnostic0", 20s)) << kr_->log();
   ASSERT_NO_FATAL_FAILURE(expect_echo("jp/rt.Diagnostic0", "linked once the name resolved"));
   EXPECT_NE(kr_->log().find("joined the link to other spaces"), std::string::npos) << kr_->log();
+}
+
+// Calls authorized per service on a secured link: jp's bridge exports every service, lets kr
+// call rt.Diagnostic* and nobody rt.Secret*, and writes each call it serves to its audit log,
+// rotated at 2 KiB.
+class AuthorizedFederation : public Federation {
+ protected:
+  bool secured() const override { return true; }
+  std::string jp_export() override {
+    std::filesystem::create_directories(dir_ + "/audit");
+    return "  export:\n"
+           "    callers: {\"rt.Secret*\": [], \"rt.Diagnostic*\": [kr]}\n" +
+           std::string(trust_declared_space() ? "    trust_declared_space: true\n" : "") +
+           "  audit: {file: \"" + audit_file() + "\", max_bytes: 2048, files: 2}\n";
+  }
+  std::string audit_file() const { return dir_ + "/audit/calls.jsonl"; }
+  virtual bool trust_declared_space() const { return false; }
+
+  // The audit log's lines, the rotated files' first (oldest first).
+  std::vector<std::string> audited() const {
+    std::vector<std::string> lines;
+    for (const char* name : {"calls.2.jsonl", "calls.1.jsonl", "calls.jsonl"}) {
+      std::ifstream in(dir_ + "/audit/" + name);
+      for (std::string line; std::getline(in, line);) lines.push_back(line);
+    }
+    return lines;
+  }
+  // The audited lines holding every one of `parts`.
+  std::size_t audited_with(const std::vector<std::string>& parts) const {
+    std::size_t count = 0;
+    for (const auto& line : audited()) {
+      bool all = true;
+      for (const auto& part : parts) all = all && line.find(part) != std::string::npos;
+      count += all ? 1 : 0;
+    }
+    return count;
+  }
+};
+
+TEST_F(AuthorizedFederation, AGrantedSpaceIsServedOthersAreRefusedWithTheReasonAndEveryCallIsAudited) {
+  ASSERT_TRUE(wait_for_service("jp/rt.Diagnostic0", 20s)) << kr_->log() << jp_->log();
+  ASSERT_TRUE(wait_for_service("jp/rt.Secret0", 20s)) << kr_->log() << jp_->log();
+  ASSERT_NO_FATAL_FAILURE(expect_echo("jp/rt.Diagnostic0", "granted"));
+
+  URS::Diagnostic_echo_Request echo;
+  echo.set_text("not granted");
+  const Observed refused = call("jp/rt.Secret0", "echo", echo);
+  EXPECT_EQ(refused.status, planet::PERMISSION_DENIED) << refused.message;
+  EXPECT_NE(refused.message.find("space kr may not call jp/rt.Secret0"), std::string::npos) << refused.message;
+
+  // Each line is written before the reply leaves: both are there now.
+  EXPECT_EQ(audited_with({"\"caller_space\":\"kr\",\"caller\":\"dds:kr\",\"space_verified\":true",
+                          "\"service\":\"rt.Diagnostic0\",\"operation\":\"echo\"", "\"status\":\"OK\"",
+                          "\"duration_us\":"}),
+            1u)
+      << ::testing::PrintToString(audited());
+  EXPECT_EQ(audited_with({"\"caller_space\":\"kr\"", "\"service\":\"rt.Secret0\"",
+                          "\"status\":\"PERMISSION_DENIED\",\"reason\":\"space kr may not call jp/rt.Secret0\""}),
+            1u)
+      << ::testing::PrintToString(audited());
+  for (const auto& line : audited()) EXPECT_EQ(line.find("granted"), std::string::npos) << "a payload: " << line;
+
+  // The log rotates at 2 KiB and keeps two rotated files besides the current one.
+  for (int i = 0; i < 40 && !std::filesystem::exists(dir_ + "/audit/calls.2.jsonl"); ++i) {
+    ASSERT_NO_FATAL_FAILURE(expect_echo("jp/rt.Diagnostic0", "again"));
+  }
+  ASSERT_TRUE(std::filesystem::exists(dir_ + "/audit/calls.2.jsonl"));
+  ASSERT_NO_FATAL_FAILURE(expect_echo("jp/rt.Diagnostic0", "once more"));
+  for (const char* name : {"calls.jsonl", "calls.1.jsonl", "calls.2.jsonl"}) {
+    EXPECT_LE(std::filesystem::file_size(dir_ + "/audit/" + name), 2048u) << name;
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir_ + "/audit/calls.3.jsonl"));
+}
+
+// Member "spy", whose certificate names space spy and whose permissions let it call jp, is
+// served as spy, whatever its requests declare: refused with spy's reason (no rule lists spy),
+// its reply sent to spy, and audited as spy, verified.
+TEST_F(AuthorizedFederation, AMemberIsJudgedByTheSpaceItsCertificateNamesNotTheOneItDeclares) {
+  ASSERT_TRUE(wait_for_service("jp/rt.Diagnostic0", 20s)) << kr_->log() << jp_->log();
+  bridge::DdsOptions options;
+  options.domain = static_cast<uint32_t>(domain_);
+  options.space = "spy";
+  options.bridge = "spy";
+  options.lease = kLease;
+  options.udp_only = true;
+  options.security = bridge::security_from_folder(*pki_, "spy");
+  bridge::DdsLink spy(options, [] {}, [](call::Request, call::Responder) {});
+
+  URS::Diagnostic_echo_Request echo;
+  echo.set_text("from spy");
+  const call::Reply honest = spy.call("jp", "rt.Diagnostic0", "echo", echo.SerializeAsString(), 10s);
+  EXPECT_EQ(honest.status, call::Status::PERMISSION_DENIED) << honest.message;
+  EXPECT_EQ(honest.message, "space spy may not call jp/rt.Diagnostic0");
+
+  // The same participant writes a request of its own declaring space kr, which may call it.
+  namespace fdds = eprosima::fastdds::dds;
+  fdds::DomainParticipant* participant = spy.participant();
+  auto* topic = dynamic_cast<fdds::Topic*>(participant->lookup_topicdescription("urs/rpc/jp/request"));
+  ASSERT_NE(topic, nullptr);  // made by the call above
+  fdds::Publisher* publisher = participant->create_publisher(fdds::PUBLISHER_QOS_DEFAULT);
+  fdds::DataWriterQos qos = fdds::DATAWRITER_QOS_DEFAULT;
+  qos.reliability().kind = fdds::RELIABLE_RELIABILITY_QOS;
+  qos.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
+  qos.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
+  qos.history().depth = 1;
+  fdds::DataWriter* writer = publisher->create_datawriter(topic, qos);
+  ASSERT_NE(writer, nullptr);
+  dds::CallRequest forged;
+  forged.request_id("kr/bridge-kr/forged/1");
+  forged.caller_space("kr");
+  forged.service("rt.Diagnostic0");
+  forged.operation("blob");
+  forged.deadline_ms(10000);
+  forged.no_reply(false);
+  ASSERT_TRUE(writer->write(&forged));
+
+  EXPECT_TRUE(wait_until(
+      [&] {
+        return audited_with({"\"caller_space\":\"spy\",\"caller\":\"dds:spy\",\"space_verified\":true",
+                             "\"operation\":\"blob\"",
+                             "\"reason\":\"space spy may not call jp/rt.Diagnostic0\""}) == 1;
+      },
+      10s))
+      << ::testing::PrintToString(audited()) << jp_->log();
+  EXPECT_EQ(audited_with({"\"caller_space\":\"kr\"", "\"operation\":\"blob\""}), 0u);
+  EXPECT_NE(jp_->log().find("certificate is space spy declares space kr"), std::string::npos) << jp_->log();
+  publisher->delete_datawriter(writer);
+  participant->delete_publisher(publisher);
+}
+
+// The same rules on a plain link, where nothing proves a caller's space: calls are refused unless
+// jp's operator trusts the declared space, and then judged by it, audited as not verified.
+class DeclaredSpaceFederation : public AuthorizedFederation {
+ protected:
+  bool secured() const override { return false; }
+};
+class TrustingDeclaredSpaceFederation : public DeclaredSpaceFederation {
+ protected:
+  bool trust_declared_space() const override { return true; }
+};
+
+TEST_F(DeclaredSpaceFederation, ADeclaredSpaceIsRefusedUnlessTrusted) {
+  ASSERT_TRUE(wait_for_service("jp/rt.Diagnostic0", 20s)) << kr_->log() << jp_->log();
+  URS::Diagnostic_echo_Request echo;
+  echo.set_text("declared");
+  const Observed refused = call("jp/rt.Diagnostic0", "echo", echo);
+  EXPECT_EQ(refused.status, planet::PERMISSION_DENIED) << refused.message;
+  EXPECT_NE(refused.message.find("space kr may not call jp/rt.Diagnostic0: its space is only declared"),
+            std::string::npos)
+      << refused.message;
+  EXPECT_EQ(audited_with({"\"caller_space\":\"kr\",\"caller\":\"dds:kr\",\"space_verified\":false",
+                          "\"status\":\"PERMISSION_DENIED\""}),
+            1u)
+      << ::testing::PrintToString(audited());
+}
+
+TEST_F(TrustingDeclaredSpaceFederation, ADeclaredSpaceIsJudgedByWhatItDeclaresWhereTrusted) {
+  ASSERT_TRUE(wait_for_service("jp/rt.Diagnostic0", 20s)) << kr_->log() << jp_->log();
+  ASSERT_TRUE(wait_for_service("jp/rt.Secret0", 20s)) << kr_->log() << jp_->log();
+  ASSERT_NO_FATAL_FAILURE(expect_echo("jp/rt.Diagnostic0", "declared and trusted"));
+  URS::Diagnostic_echo_Request echo;
+  echo.set_text("not granted");
+  const Observed refused = call("jp/rt.Secret0", "echo", echo);
+  EXPECT_EQ(refused.status, planet::PERMISSION_DENIED) << refused.message;
+  EXPECT_NE(refused.message.find("space kr may not call jp/rt.Secret0"), std::string::npos) << refused.message;
+  EXPECT_EQ(audited_with({"\"caller_space\":\"kr\",\"caller\":\"dds:kr\",\"space_verified\":false",
+                          "\"service\":\"rt.Diagnostic0\"", "\"status\":\"OK\""}),
+            1u)
+      << ::testing::PrintToString(audited());
 }
 
 // What a third space sees of the others' state over DDS: a participant of the link (a member "obs"

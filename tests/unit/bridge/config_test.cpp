@@ -126,6 +126,70 @@ TEST_F(BridgeConfigTest, SecurityTakesThePkiFolderOrTheFiles) {
             std::string::npos);
 }
 
+// dds.export.callers: service globs in the order written, each with its callers (SPACE or
+// SPACE/NAME); trust_declared_space only with callers and never on a secured link; dds.audit's
+// file is taken from the configuration's folder, which must exist.
+TEST_F(BridgeConfigTest, CallersAndAuditAreReadInOrderWithEveryErrorNamed) {
+  const DdsConfig dds = load("dds:\n"
+                             "  export:\n"
+                             "    callers:\n"
+                             "      \"rt.Secret*\": []\n"
+                             "      \"rt.Diagnostic*\": [kr, \"jp/dds:jp\"]\n"
+                             "      \"*\": [\"*\"]\n"
+                             "    trust_declared_space: true\n"
+                             "  audit: {file: calls.jsonl, max_bytes: 4096, files: 2}\n")
+                            .dds;
+  EXPECT_TRUE(dds.callers.enabled);
+  EXPECT_TRUE(dds.callers.trust_declared_space);
+  ASSERT_EQ(dds.callers.rules.size(), 3u);
+  EXPECT_EQ(dds.callers.rules[0].services, "rt.Secret*");
+  EXPECT_TRUE(dds.callers.rules[0].callers.empty());
+  EXPECT_EQ(dds.callers.rules[1].services, "rt.Diagnostic*");
+  EXPECT_EQ(dds.callers.rules[1].callers, (std::vector<std::string>{"kr", "jp/dds:jp"}));
+  EXPECT_EQ(dds.callers.rules[2].services, "*");
+  EXPECT_EQ(dds.audit.file, (std::filesystem::path(path_).parent_path() / "calls.jsonl").lexically_normal().string());
+  EXPECT_EQ(dds.audit.max_bytes, 4096u);
+  EXPECT_EQ(dds.audit.files, 2u);
+
+  const DdsConfig defaults = load("dds: {domain: 3}\n").dds;
+  EXPECT_FALSE(defaults.callers.enabled);
+  EXPECT_FALSE(defaults.callers.trust_declared_space);
+  EXPECT_TRUE(defaults.audit.file.empty());
+
+  const std::string message = refused(
+      "dds:\n"
+      "  export:\n"
+      "    callers:\n"
+      "      \"rt.A*\": [\"\", \"a/b/c\", \"/x\", \"kr/\", \"k r\"]\n"
+      "      \"rt.B*\": kr\n"
+      "    colour: blue\n"
+      "  audit: {file: /no/such/folder/calls.jsonl, max_bytes: 10, files: 0, rotate: daily}\n");
+  for (const char* expected : {
+           "dds.export.callers['rt.A*'][0]: is empty",
+           "dds.export.callers['rt.A*'][1]: 'a/b/c' has more than one '/'",
+           "dds.export.callers['rt.A*'][2]: '/x' names no space before '/'",
+           "dds.export.callers['rt.A*'][3]: 'kr/' names no caller after '/'",
+           "dds.export.callers['rt.A*'][4]: 'k r' contains white space",
+           "dds.export.callers['rt.B*']: a list of callers (SPACE or SPACE/NAME) is expected",
+           "dds.export.colour",
+           "dds.audit.file: the folder /no/such/folder does not exist",
+           "dds.audit.max_bytes: 10 is outside 1024..2^40",
+           "dds.audit.files: 0 is outside 1..1000",
+           "dds.audit.rotate",
+       }) {
+    EXPECT_NE(message.find(expected), std::string::npos) << "missing \"" << expected << "\" in:\n" << message;
+  }
+  EXPECT_NE(refused("dds: {export: {callers: [kr]}}\n").find("dds.export.callers: a map of service globs"),
+            std::string::npos);
+  EXPECT_NE(refused("dds: {audit: {}}\n").find("dds.audit.file: missing"), std::string::npos);
+  EXPECT_NE(refused("dds: {export: {trust_declared_space: true}}\n")
+                .find("dds.export.trust_declared_space: has no effect without dds.export.callers"),
+            std::string::npos);
+  EXPECT_NE(refused("dds: {security: {pki: x}, export: {callers: {\"*\": [kr]}, trust_declared_space: true}}\n")
+                .find("dds.export.trust_declared_space: a secured link proves each caller's space"),
+            std::string::npos);
+}
+
 // The participant lease: 20 s by default (no shorter than other vendors' own leases, so that a
 // pause shorter than it drops nobody), never below the liveliness lease, within 100..600000 ms.
 TEST_F(BridgeConfigTest, ParticipantLeaseDefaultsLongAndIsNeverBelowTheLease) {

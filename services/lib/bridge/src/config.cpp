@@ -136,14 +136,67 @@ void read_state(const YAML::Node& node, uint32_t link_domain, StateConfig& state
   if (node["import"]) util::read_scalar(node["import"], "dds.state.import", state.import, errors);
 }
 
-void read_dds(const YAML::Node& node, DdsConfig& dds, std::vector<std::string>& errors) {
+// dds.export.callers: {SERVICE_GLOB: [CALLER, ...], ...} in the order written.
+void read_callers(const YAML::Node& node, CallerPolicy& policy, std::vector<std::string>& errors) {
+  const std::string where = "dds.export.callers";
+  if (!node.IsMap()) {
+    errors.push_back(where + ": a map of service globs to lists of callers is expected");
+    return;
+  }
+  policy.enabled = true;
+  for (const auto& item : node) {
+    CallerRule rule;
+    if (!util::read_scalar(item.first, where, rule.services, errors)) continue;
+    const std::string at = where + "['" + rule.services + "']";
+    if (rule.services.empty()) errors.push_back(where + ": a service glob is empty");
+    if (!item.second.IsSequence()) {
+      errors.push_back(at + ": a list of callers (SPACE or SPACE/NAME) is expected");
+      continue;
+    }
+    rule.callers = read_strings(item.second, at, errors);
+    for (std::size_t i = 0; i < rule.callers.size(); ++i) {
+      const std::string problem = caller_pattern_problem(rule.callers[i]);
+      if (!problem.empty()) errors.push_back(at + "[" + std::to_string(i) + "]: " + problem);
+    }
+    policy.rules.push_back(std::move(rule));
+  }
+}
+
+// dds.audit: {file, max_bytes, files}; a relative file is taken from `base`.
+void read_audit(const YAML::Node& node, const std::string& base, AuditConfig& audit, std::vector<std::string>& errors) {
+  if (!node.IsMap()) {
+    errors.push_back("dds.audit: a map with 'file' is expected");
+    return;
+  }
+  util::check_keys(node, "dds.audit", {"file", "max_bytes", "files"}, errors);
+  read_string(node, "file", "dds.audit", true, audit.file, errors);
+  if (!audit.file.empty()) {
+    std::filesystem::path file(audit.file);
+    if (file.is_relative()) file = std::filesystem::path(base) / file;
+    file = file.lexically_normal();
+    audit.file = file.string();
+    if (!std::filesystem::is_directory(file.parent_path())) {
+      errors.push_back("dds.audit.file: the folder " + file.parent_path().string() + " does not exist");
+    }
+  }
+  if (node["max_bytes"] && util::read_scalar(node["max_bytes"], "dds.audit.max_bytes", audit.max_bytes, errors) &&
+      (audit.max_bytes < 1024 || audit.max_bytes > (std::size_t{1} << 40))) {
+    errors.push_back("dds.audit.max_bytes: " + std::to_string(audit.max_bytes) + " is outside 1024..2^40");
+  }
+  if (node["files"] && util::read_scalar(node["files"], "dds.audit.files", audit.files, errors) &&
+      (audit.files < 1 || audit.files > 1000)) {
+    errors.push_back("dds.audit.files: " + std::to_string(audit.files) + " is outside 1..1000");
+  }
+}
+
+void read_dds(const YAML::Node& node, const std::string& base, DdsConfig& dds, std::vector<std::string>& errors) {
   dds.enabled = true;
   if (!node.IsMap()) {
     errors.push_back("dds: a map is expected");
     return;
   }
   util::check_keys(node, "dds", {"domain", "lease_ms", "participant_lease_ms", "udp_only", "socket_buffer_bytes", "initial_peers", "discovery",
-                                 "security", "export", "import", "state"},
+                                 "security", "export", "import", "state", "audit"},
                    errors);
   if (node["domain"] && util::read_scalar(node["domain"], "dds.domain", dds.link.domain, errors) && dds.link.domain > 232) {
     errors.push_back("dds.domain: " + std::to_string(dds.link.domain) + " is outside 0..232");
@@ -231,9 +284,23 @@ void read_dds(const YAML::Node& node, DdsConfig& dds, std::vector<std::string>& 
     }
   }
   if (const YAML::Node out = node["export"]) {
-    util::check_keys(out, "dds.export", {"allow", "deny"}, errors);
+    util::check_keys(out, "dds.export", {"allow", "deny", "callers", "trust_declared_space"}, errors);
     read_filter(out, "dds.export", dds.export_allow, dds.export_deny, errors);
+    if (out["callers"]) read_callers(out["callers"], dds.callers, errors);
+    if (out["trust_declared_space"] &&
+        util::read_scalar(out["trust_declared_space"], "dds.export.trust_declared_space",
+                          dds.callers.trust_declared_space, errors) &&
+        dds.callers.trust_declared_space) {
+      if (!dds.callers.enabled) {
+        errors.push_back("dds.export.trust_declared_space: has no effect without dds.export.callers");
+      }
+      if (node["security"]) {
+        errors.push_back("dds.export.trust_declared_space: a secured link proves each caller's space; a caller "
+                         "it cannot prove must not be judged by what it declares");
+      }
+    }
   }
+  if (node["audit"]) read_audit(node["audit"], base, dds.audit, errors);
   if (const YAML::Node in = node["import"]) {
     util::check_keys(in, "dds.import", {"allow", "deny", "as_camus", "as_rtc", "deadline_ms"}, errors);
     read_filter(in, "dds.import", dds.import_allow, dds.import_deny, errors);
@@ -330,7 +397,7 @@ BridgeConfig load_bridge_config(const std::string& path, const std::string& host
       config.events_to_rt.push_back(std::move(entry));
     });
   }
-  if (root["dds"]) read_dds(root["dds"], config.dds, errors);
+  if (root["dds"]) read_dds(root["dds"], base, config.dds, errors);
   util::throw_if_errors(errors, "--config '" + path + "'");
   return config;
 }

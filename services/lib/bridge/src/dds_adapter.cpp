@@ -25,6 +25,7 @@ DdsAdapter::DdsAdapter(const BridgeConfig& config, planet::Client* client, DdsLi
       if ((options.security.*field).empty()) options.security.*field = folder.*field;
     }
   }
+  if (!config.dds.audit.file.empty()) audit_ = CallAudit::open(config.dds.audit);
   link_ = std::make_unique<DdsLink>(options, std::move(catalog_changed),
                                     [this](call::Request request, call::Responder responder) {
                                       serve_call(std::move(request), std::move(responder));
@@ -145,6 +146,14 @@ void DdsAdapter::withdraw(const core::Route& route) {
 void DdsAdapter::update(const core::Route& route) { offer(route); }
 
 void DdsAdapter::serve_call(call::Request request, call::Responder responder) {
+  const auto arrived = Clock::now();
+  if (const std::optional<std::string> refused = refusal(config_.dds.callers, config_.space, request)) {
+    spdlog::info("bridge: refused a call from {}: {}", request.caller.name, *refused);
+    if (audit_) audit_->record_refusal(request, *refused);
+    responder.reply(call::Reply::error(call::Status::PERMISSION_DENIED, *refused));
+    return;
+  }
+  if (audit_) responder = audit_->recording(request, arrived, std::move(responder));
   bool on_host = false;
   {
     std::lock_guard lock(served_mutex_);

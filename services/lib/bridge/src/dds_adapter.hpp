@@ -11,6 +11,10 @@
 // its origin as announced ("camus" for a CAMUS service agent, served by the CAMUS server; else a
 // forwarding agent's urslink.origin, served by the host), property deadline_ms.
 //
+// Calls from other spaces are judged by `dds.export.callers` (call_authorization.hpp) before
+// anything else, refused ones answered PERMISSION_DENIED with the reason, and every one, served
+// or refused, recorded in the audit log when `dds.audit` names a file (call_audit.hpp).
+//
 // Threads: the bridge's thread, but calls from other spaces, which arrive on DDS listener threads
 // and are handed to `serve` there (it must not block).
 
@@ -29,6 +33,7 @@
 #include "urs/bridge/config.hpp"
 #include "urs/bridge/core/route_reconciler.hpp"
 #include "urs/bridge/dds_link.hpp"
+#include "urs/bridge/call_audit.hpp"
 #include "urs/bridge/camus_forwarding_agent.hpp"
 #include "urs/bridge/space_state.hpp"
 #include "urs/schema/schema.hpp"
@@ -51,6 +56,7 @@ class DdsAdapter : public core::ServiceOffering {
 
   // Joins the link (throws std::runtime_error if DDS refuses) and shares the space's state on it
   // (logged, and none shared, if that fails). `client` (null: no CAMUS server) outlives this.
+  // Also opens the audit log (throws std::runtime_error if it cannot).
   DdsAdapter(const BridgeConfig& config, planet::Client* client, DdsLink::CatalogHandler catalog_changed,
              Describe describe, Serve serve);
   ~DdsAdapter();  // the state first, then the link: the others drop this space's services at once
@@ -93,6 +99,7 @@ class DdsAdapter : public core::ServiceOffering {
   std::vector<std::unique_ptr<schema::SchemaPool>> extra_pools_;  // descriptions that clash within a space
   std::mutex served_mutex_;                 // read by DDS threads
   std::map<std::string, bool> served_;      // announced name -> on the host (else the CAMUS server)
+  std::shared_ptr<CallAudit> audit_;        // null: no audit log; kept by the responders of calls in flight
   std::unique_ptr<DdsLink> link_;           // near last: destroyed early, so no DDS thread outlives what it uses
   std::unique_ptr<SpaceState> state_;       // on `link_`: destroyed before it
 };

@@ -29,7 +29,8 @@ struct DdsLink::Impl : public fdds::DataReaderListener {
           calls.fail_pending(space);
         }),
         calls(options, participant, gate, registrations),
-        served(options, participant, gate, registrations, std::move(on_call)) {}
+        identities(options.security.enabled()),
+        served(options, participant, gate, registrations, identities, std::move(on_call)) {}
 
   LinkParticipant participant;
   // Calls in progress (call(), oneway(), replies): the destructor closes it, wakes them and waits
@@ -38,6 +39,8 @@ struct DdsLink::Impl : public fdds::DataReaderListener {
   RpcRegistrations registrations;  // requests and replies still registered
   DdsCatalog catalog;
   DdsCalls calls;
+  // The space each remote participant proved (told by the participant): the callers of requests.
+  DdsIdentities identities;
   DdsServed served;
   // Asserts the keyed-state writers' liveliness (the link's and StateLink's); stopped first.
   std::unique_ptr<LivelinessAsserter> asserter;
@@ -68,7 +71,7 @@ struct DdsLink::Impl : public fdds::DataReaderListener {
 DdsLink::DdsLink(DdsOptions options, CatalogHandler on_catalog, CallHandler on_call)
     : options_(std::move(options)), impl_(std::make_shared<Impl>(options_, std::move(on_catalog), std::move(on_call))) {
   Impl& d = *impl_;
-  d.participant.join(options_);
+  d.participant.join(options_, &d.identities);
   try {
     d.catalog.open(&d);
     // The responders share the link's ownership, weakly.

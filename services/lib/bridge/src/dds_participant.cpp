@@ -96,7 +96,7 @@ LinkParticipant::LinkParticipant()
       request_type(new dds::CallRequestPubSubType()),
       reply_type(new dds::CallReplyPubSubType()) {}
 
-void LinkParticipant::join(const DdsOptions& options) {
+void LinkParticipant::join(const DdsOptions& options, fdds::DomainParticipantListener* listener) {
   auto* factory = fdds::DomainParticipantFactory::get_instance();
   factory->load_profiles();  // an XML default profile's settings, but for the transports set below
   fdds::DomainParticipantQos qos = factory->get_default_participant_qos();
@@ -138,7 +138,7 @@ void LinkParticipant::join(const DdsOptions& options) {
       qos.properties().properties().emplace_back(name, value);
     }
   }
-  participant_ = factory->create_participant(options.domain, qos);
+  participant_ = factory->create_participant(options.domain, qos, listener, fdds::StatusMask::none());
   if (participant_ == nullptr) {
     throw std::runtime_error("DDS: cannot join domain " + std::to_string(options.domain) +
                              (options.security.enabled() ? " with DDS security (see Fast DDS's log above)" : ""));

@@ -21,6 +21,7 @@
 namespace eprosima::fastdds::dds {
 class DataReader;
 class DataReaderListener;
+class DomainParticipantListener;
 class DataWriter;
 class Publisher;
 class Subscriber;
@@ -35,9 +36,10 @@ class LinkParticipant {
   LinkParticipant(const LinkParticipant&) = delete;
   LinkParticipant& operator=(const LinkParticipant&) = delete;
 
-  // Joins options.domain; throws std::runtime_error if DDS refuses (bad domain, bad peer or
-  // discovery server address, security files that do not check out).
-  void join(const DdsOptions& options);
+  // Joins options.domain with `listener` (if any) told of the participants discovered; throws
+  // std::runtime_error if DDS refuses (bad domain, bad peer or discovery server address, security
+  // files that do not check out). `listener` outlives the participant (until leave()).
+  void join(const DdsOptions& options, eprosima::fastdds::dds::DomainParticipantListener* listener = nullptr);
   // Leaves the domain: no listener is called any more, every entity is deleted. Idempotent.
   void leave();
 

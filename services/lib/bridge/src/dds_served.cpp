@@ -43,11 +43,12 @@ bool stale(const dds::CallRequest& request, const fdds::SampleInfo& info) {
 thread_local bool DdsServed::on_listener_thread = false;
 
 DdsServed::DdsServed(const DdsOptions& options, LinkParticipant& participant, CallGate& gate,
-                     RpcRegistrations& registrations, DdsLink::CallHandler on_call)
+                     RpcRegistrations& registrations, DdsIdentities& identities, DdsLink::CallHandler on_call)
     : options_(options),
       participant_(participant),
       gate_(gate),
       registrations_(registrations),
+      identities_(identities),
       on_call_(std::move(on_call)),
       request_name_(dds_rpc::request_topic(options.space)) {}
 
@@ -131,12 +132,13 @@ void DdsServed::read_requests(fdds::DataReader* reader) {
     request.operation = sample.operation();
     request.payload = text_of(sample.payload());
     if (sample.deadline_ms() != 0) request.deadline = arrived + std::chrono::milliseconds(sample.deadline_ms());
-    request.caller = {sample.caller_space(), "dds:" + sample.caller_space(), "bridge"};
+    // On a secured link, the space the writer's participant proved, whatever the request declares.
+    request.caller = identities_.caller(info.publication_handle, sample.caller_space());
     request.oneway = sample.no_reply();
     call::Responder responder;
     if (!request.oneway) {
       serve(info.instance_handle, id, until);
-      responder = responder_for(sample.caller_space(), id, until);
+      responder = responder_for(request.caller.space, id, until);
     }
     on_call_(std::move(request), std::move(responder));
   }

@@ -21,6 +21,7 @@
 #include <fastdds/dds/common/InstanceHandle.hpp>
 
 #include "call_gate.hpp"
+#include "dds_identity.hpp"
 #include "dds_participant.hpp"
 #include "rpc_registrations.hpp"
 #include "urs/agent/agent.hpp"
@@ -45,8 +46,9 @@ class DdsServed {
     bool outer_;
   };
 
+  // `identities` says who wrote each request (the caller of the call, and where its reply goes).
   DdsServed(const DdsOptions& options, LinkParticipant& participant, CallGate& gate, RpcRegistrations& registrations,
-            DdsLink::CallHandler on_call);
+            DdsIdentities& identities, DdsLink::CallHandler on_call);
   DdsServed(const DdsServed&) = delete;
   DdsServed& operator=(const DdsServed&) = delete;
 
@@ -77,6 +79,7 @@ class DdsServed {
   LinkParticipant& participant_;
   CallGate& gate_;
   RpcRegistrations& registrations_;
+  DdsIdentities& identities_;
   const DdsLink::CallHandler on_call_;
   const std::string request_name_;  // this space's requests
   std::weak_ptr<DdsServed> self_;

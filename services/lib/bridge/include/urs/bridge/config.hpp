@@ -42,7 +42,16 @@
 //     discovery:                    # or a Fast DDS discovery server (docs/federation.md):
 //       listen: "0.0.0.0:11811"     #   this bridge is the server (with id `id`, default 0)
 //       servers: ["site-a:11811"]   #   or a client of these servers (the N-th has id N)
-//     export: {allow: ["*"], deny: []}             # globs on this space's service names
+//     export:
+//       allow: ["*"]                # globs on this space's service names
+//       deny: []
+//       callers:                    # who may call which exported service (docs/federation.md,
+//         "rt.Diagnostic*": [kr, "jp/dds:jp"]  #   "Who may call what"); the first glob matching
+//         "*": [kr]                 #   a service decides; SPACE or SPACE/NAME, globs. Absent:
+//                                   #   any space that reaches the service
+//       trust_declared_space: false # plain link only: judge callers by the space they declare
+//     audit: {file: /var/log/urs/calls.jsonl, max_bytes: 10485760, files: 5}
+//                                   # a JSON line per call served to another space, rotated
 //     import: {allow: ["*"], deny: [],             # globs on "<space>/<service>"
 //              as_camus: "{space}/{service}",      # CAMUS name ("" = not on CAMUS)
 //              as_rtc: "{space}_{service}",        # RTC instance ("" = not in naming)
@@ -69,7 +78,9 @@
 #include <string>
 #include <vector>
 
-#include "urs/bridge/core/rules.hpp"  // glob_match, allowed, expand
+#include "urs/bridge/call_audit.hpp"          // AuditConfig
+#include "urs/bridge/call_authorization.hpp"  // CallerPolicy
+#include "urs/bridge/core/rules.hpp"          // glob_match, allowed, expand
 #include "urs/bridge/dds_link.hpp"    // DdsOptions
 
 namespace urs::bridge {
@@ -136,6 +147,8 @@ struct DdsConfig {
   std::string security_pki;
   std::vector<std::string> export_allow{"*"};
   std::vector<std::string> export_deny;
+  CallerPolicy callers;  // dds.export.callers, dds.export.trust_declared_space
+  AuditConfig audit;     // dds.audit (file "" = none)
   std::vector<std::string> import_allow{"*"};
   std::vector<std::string> import_deny;
   std::string as_camus = "{space}/{service}";

@@ -76,9 +76,10 @@ class DdsLink {
   // read catalog() for what it holds now. Runs on a DDS thread; must not block.
   using CatalogHandler = std::function<void()>;
   // A call to this space's services. Runs on a DDS listener thread. The request's deadline counts
-  // from its arrival; its caller is the calling space as the DDS domain vouches for it
-  // (Identity{space, "dds:<space>", "bridge"}: the domain is the trust boundary; no participant
-  // authentication). The responder answers from any thread, once; a oneway call's answers nowhere.
+  // from its arrival; its caller is Identity{space, "dds:<space>", role}: on a secured link the
+  // space the writer's participant proved with its certificate (role "member", dds_identity.hpp),
+  // whatever the request declares; otherwise the space the request declares (role "bridge"). The
+  // reply goes to that space. The responder answers from any thread, once; a oneway call's answers nowhere.
   // Answered on this link's listener thread (inside the handler, or by dropping the responder
   // there), the reply is written by the link's replier thread instead: writing it there may create
   // the reply writer, which can deadlock Fast DDS 2.9's in-process delivery. Replies after the

@@ -57,7 +57,8 @@ constexpr std::int32_t status_number(Status status) { return static_cast<std::in
 struct Identity {
   std::string space;  // the caller's space; empty: this space
   std::string name;   // e.g. the credential's name "sam-robot1", or "dds:<space>" for another space's bridge
-  std::string role;   // the granted role, e.g. "client", "sam", "operator" (Planet), "bridge" (DDS)
+  std::string role;   // the granted role, e.g. "client", "sam", "operator" (Planet); "member" (DDS, space proven by
+                      // its certificate) or "bridge" (DDS, space only declared)
 
   bool known() const { return !name.empty(); }
 };

@@ -1,0 +1,49 @@
+#pragma once
+// Who may call the services this space exports over DDS (`dds.export.callers`, docs/federation.md
+// "Who may call what"), decided for each call served from its caller as the link established it
+// (call::Request.caller: the space its DDS-Security certificate proves, or the space its request
+// merely declares on a plain link; docs/security.md "Calls between spaces").
+//
+// Pure functions over immutable values: any thread; nothing blocks, nothing throws.
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "urs/call/call.hpp"
+
+namespace urs::bridge {
+
+// The roles the DDS link gives the callers of other spaces (call::Identity.role).
+inline constexpr const char* kVerifiedSpaceRole = "member";  // its space proven by its certificate
+inline constexpr const char* kDeclaredSpaceRole = "bridge";  // its space only as its request declared it
+
+// "rt.Diagnostic*": [kr, "jp/operator-*"]: the services matching `services` (a glob on this
+// space's service names) may be called by the callers matching one of `callers`, each "SPACE"
+// (any caller of that space) or "SPACE/NAME" (the caller of that space named NAME), both globs.
+struct CallerRule {
+  std::string services;
+  std::vector<std::string> callers;
+};
+
+struct CallerPolicy {
+  // False (no dds.export.callers): every space that reaches the service may call it, as the link's
+  // membership and DDS permissions allow. True: only as `rules` say.
+  bool enabled = false;
+  std::vector<CallerRule> rules;  // the first whose `services` matches the service decides
+  // dds.export.trust_declared_space: a caller whose space is only declared (a plain link) is
+  // judged by that space; otherwise refused whenever the rules apply.
+  bool trust_declared_space = false;
+};
+
+// What is wrong with a caller pattern ("kr", "kr/operator-*", "*"), one sentence; "" if nothing.
+std::string caller_pattern_problem(const std::string& pattern);
+
+// True if `caller` matches the caller pattern `pattern` (caller_pattern_problem() empty).
+bool caller_matches(const std::string& pattern, const call::Identity& caller);
+
+// Why `request` (a call from another space to the service `request.service` of `space`) is
+// refused, for its PERMISSION_DENIED ("space kr may not call jp/rt.Secret0"); nullopt if allowed.
+std::optional<std::string> refusal(const CallerPolicy& policy, const std::string& space, const call::Request& request);
+
+}  // namespace urs::bridge

@@ -1,0 +1,107 @@
+#include "dds_identity.hpp"
+
+#include <openssl/evp.h>
+#include <openssl/objects.h>
+#include <openssl/x509.h>
+#include <spdlog/spdlog.h>
+
+#include <cstring>
+#include <fastdds/rtps/common/InstanceHandle.h>
+#include <fastdds/rtps/participant/ParticipantDiscoveryInfo.h>
+#include <memory>
+
+namespace urs::bridge {
+
+namespace rtps = eprosima::fastrtps::rtps;
+
+namespace {
+
+using NamePtr = std::unique_ptr<X509_NAME, decltype(&X509_NAME_free)>;
+
+// "/O=URSLink federation/CN=kr" as an X509_NAME (each value a UTF8String, as openssl req and
+// deploy/pki.sh encode them), and its CN; nullptr if it is not of that form.
+NamePtr parse_oneline(const std::string& subject, std::string& common_name) {
+  NamePtr name(X509_NAME_new(), X509_NAME_free);
+  if (subject.size() < 2 || subject[0] != '/') return NamePtr(nullptr, X509_NAME_free);
+  for (unsigned char c : subject) {
+    if (c < 0x20 || c > 0x7e || c == '\\') return NamePtr(nullptr, X509_NAME_free);  // escapes: not ours
+  }
+  std::size_t at = 1;
+  while (at <= subject.size()) {
+    std::size_t end = subject.find('/', at);
+    if (end == std::string::npos) end = subject.size();
+    const std::string part = subject.substr(at, end - at);
+    const std::size_t equals = part.find('=');
+    if (equals == std::string::npos || equals == 0) return NamePtr(nullptr, X509_NAME_free);
+    const std::string key = part.substr(0, equals);
+    const std::string value = part.substr(equals + 1);
+    if (X509_NAME_add_entry_by_txt(name.get(), key.c_str(), MBSTRING_UTF8,
+                                   reinterpret_cast<const unsigned char*>(value.c_str()), -1, -1, 0) != 1) {
+      return NamePtr(nullptr, X509_NAME_free);
+    }
+    if (key == "CN") common_name = value;
+    at = end + 1;
+  }
+  return name;
+}
+
+}  // namespace
+
+std::optional<std::string> space_of_subject(const std::string& subject, const GuidPrefix& prefix) {
+  std::string common_name;
+  NamePtr name = parse_oneline(subject, common_name);
+  if (!name || common_name.empty()) return std::nullopt;
+  unsigned char md[EVP_MAX_MD_SIZE];
+  unsigned int length = 0;
+  if (X509_NAME_digest(name.get(), EVP_sha256(), md, &length) != 1 || length < 6) return std::nullopt;
+  // PKI-DH's participant key: a 1 bit, then the first 47 bits of the hash.
+  const uint8_t expected[6] = {
+      static_cast<uint8_t>(0x80 | (md[0] >> 1)),         static_cast<uint8_t>((md[0] << 7) | (md[1] >> 1)),
+      static_cast<uint8_t>((md[1] << 7) | (md[2] >> 1)), static_cast<uint8_t>((md[2] << 7) | (md[3] >> 1)),
+      static_cast<uint8_t>((md[3] << 7) | (md[4] >> 1)), static_cast<uint8_t>((md[4] << 7) | (md[5] >> 1))};
+  if (std::memcmp(expected, prefix.data(), sizeof expected) != 0) return std::nullopt;
+  return common_name;
+}
+
+call::Identity DdsIdentities::caller(const rtps::InstanceHandle_t& writer, const std::string& declared_space) {
+  GuidPrefix prefix{};
+  std::memcpy(prefix.data(), writer.value, prefix.size());
+  std::lock_guard lock(mutex_);
+  const auto known = spaces_.find(prefix);
+  if (known == spaces_.end()) return {declared_space, "dds:" + declared_space, kDeclaredSpaceRole};
+  if (known->second != declared_space && warned_.insert(prefix).second) {
+    spdlog::warn("dds: a participant whose certificate is space {} declares space {} in its requests; its calls "
+                 "are served as space {}'s",
+                 known->second, declared_space, known->second);
+  }
+  return {known->second, "dds:" + known->second, kVerifiedSpaceRole};
+}
+
+void DdsIdentities::on_participant_discovery(eprosima::fastdds::dds::DomainParticipant*,
+                                             rtps::ParticipantDiscoveryInfo&& info) {
+  GuidPrefix prefix{};
+  std::memcpy(prefix.data(), info.info.m_guid.guidPrefix.value, prefix.size());
+  std::lock_guard lock(mutex_);
+  if (info.status == rtps::ParticipantDiscoveryInfo::REMOVED_PARTICIPANT ||
+      info.status == rtps::ParticipantDiscoveryInfo::DROPPED_PARTICIPANT) {
+    spaces_.erase(prefix);
+    warned_.erase(prefix);
+    return;
+  }
+  if (!secured_) return;
+  std::string subject;
+  for (const auto& property : info.info.identity_token_.properties()) {
+    if (property.name() == "dds.cert.sn") subject = property.value();
+  }
+  const std::optional<std::string> space = space_of_subject(subject, prefix);
+  if (space) {
+    spaces_[prefix] = *space;
+  } else {
+    spaces_.erase(prefix);
+    spdlog::warn("dds: participant {} announces subject '{}', which its GUID does not derive from: its calls are "
+                 "served as the space they declare",
+                 info.info.m_participantName.to_string(), subject);
+  }
+}
+
+}  // namespace urs::bridge

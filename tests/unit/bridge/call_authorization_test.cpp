@@ -1,0 +1,82 @@
+// Who may call which exported service (dds.export.callers): the first rule naming the service
+// decides, callers by space or space/name (globs), unproven spaces only where trusted.
+
+#include "urs/bridge/call_authorization.hpp"
+
+#include <gtest/gtest.h>
+
+namespace urs::bridge {
+namespace {
+
+call::Request request_from(const std::string& space, const std::string& service, bool verified = true) {
+  call::Request request;
+  request.service = service;
+  request.operation = "ping";
+  request.caller = {space, "dds:" + space, verified ? kVerifiedSpaceRole : kDeclaredSpaceRole};
+  return request;
+}
+
+CallerPolicy policy() {
+  CallerPolicy p;
+  p.enabled = true;
+  p.rules = {{"rt.Secret*", {}}, {"rt.Diagnostic*", {"kr", "us/dds:us"}}, {"*", {"k?", "eu-*"}}};
+  return p;
+}
+
+TEST(CallAuthorization, WithoutRulesEveryCallerPasses) {
+  EXPECT_FALSE(refusal(CallerPolicy{}, "jp", request_from("xx", "rt.Secret0", false)));
+}
+
+TEST(CallAuthorization, TheFirstRuleNamingTheServiceDecides) {
+  EXPECT_FALSE(refusal(policy(), "jp", request_from("kr", "rt.Diagnostic0")));
+  EXPECT_FALSE(refusal(policy(), "jp", request_from("us", "rt.Diagnostic0")));  // by its bridge's name
+  EXPECT_FALSE(refusal(policy(), "jp", request_from("ko", "robot1.navigation")));  // '*' rule, glob k?
+  EXPECT_FALSE(refusal(policy(), "jp", request_from("eu-west", "robot1.navigation")));
+  // rt.Secret0 matches the first rule (nobody) before '*', which would let kr in.
+  EXPECT_EQ(refusal(policy(), "jp", request_from("kr", "rt.Secret0")), "space kr may not call jp/rt.Secret0");
+  // rt.Diagnostic0 matches its own rule, which does not list ko, before '*', which would.
+  EXPECT_EQ(refusal(policy(), "jp", request_from("ko", "rt.Diagnostic0")), "space ko may not call jp/rt.Diagnostic0");
+}
+
+TEST(CallAuthorization, AServiceNoRuleNamesIsRefused) {
+  CallerPolicy p;
+  p.enabled = true;
+  p.rules = {{"rt.*", {"*"}}};
+  EXPECT_EQ(refusal(p, "jp", request_from("kr", "tts")),
+            "space kr may not call jp/tts (no dds.export.callers rule names the service)");
+}
+
+TEST(CallAuthorization, ANameInsideTheSpaceMustMatchWhenThePatternHasOne) {
+  const call::Identity bridge{"us", "dds:us", kVerifiedSpaceRole};
+  EXPECT_TRUE(caller_matches("us", bridge));
+  EXPECT_TRUE(caller_matches("us/dds:*", bridge));
+  EXPECT_TRUE(caller_matches("*/dds:us", bridge));
+  EXPECT_FALSE(caller_matches("us/operator-*", bridge));
+  EXPECT_FALSE(caller_matches("kr", bridge));
+  EXPECT_FALSE(caller_matches("u", bridge));  // whole names, not prefixes
+}
+
+TEST(CallAuthorization, ADeclaredSpaceIsJudgedOnlyWhereTrusted) {
+  CallerPolicy p = policy();
+  const auto refused = refusal(p, "jp", request_from("kr", "rt.Diagnostic0", false));
+  ASSERT_TRUE(refused);
+  EXPECT_EQ(*refused, "space kr may not call jp/rt.Diagnostic0: its space is only declared, not proven by a "
+                      "certificate of the link (dds.export.trust_declared_space is off)");
+  p.trust_declared_space = true;
+  EXPECT_FALSE(refusal(p, "jp", request_from("kr", "rt.Diagnostic0", false)));
+  EXPECT_EQ(refusal(p, "jp", request_from("kr", "rt.Secret0", false)), "space kr may not call jp/rt.Secret0");
+}
+
+TEST(CallAuthorization, PatternProblemsAreNamed) {
+  EXPECT_EQ(caller_pattern_problem("kr"), "");
+  EXPECT_EQ(caller_pattern_problem("kr/operator-*"), "");
+  EXPECT_EQ(caller_pattern_problem("*"), "");
+  EXPECT_NE(caller_pattern_problem(""), "");
+  EXPECT_NE(caller_pattern_problem("a/b/c"), "");
+  EXPECT_NE(caller_pattern_problem("/a"), "");
+  EXPECT_NE(caller_pattern_problem("a/"), "");
+  EXPECT_NE(caller_pattern_problem("a b"), "");
+}
+
+}  // namespace
+}  // namespace urs::bridge
