@@ -373,6 +373,18 @@ class AuthorizedFederation : public Federation {
     }
     return lines;
   }
+  // kr calls jp's rt.Diagnostic0 (granted: it answers `text`) and rt.Secret0 (refused with the
+  // reason).
+  void expect_granted_and_refused(const std::string& text) {
+    ASSERT_TRUE(wait_for_service("jp/rt.Diagnostic0", 20s)) << kr_->log() << jp_->log();
+    ASSERT_TRUE(wait_for_service("jp/rt.Secret0", 20s)) << kr_->log() << jp_->log();
+    ASSERT_NO_FATAL_FAILURE(expect_echo("jp/rt.Diagnostic0", text));
+    URS::Diagnostic_echo_Request echo;
+    echo.set_text("not granted");
+    const Observed refused = call("jp/rt.Secret0", "echo", echo);
+    EXPECT_EQ(refused.status, planet::PERMISSION_DENIED) << refused.message;
+    EXPECT_NE(refused.message.find("space kr may not call jp/rt.Secret0"), std::string::npos) << refused.message;
+  }
   // The audited lines holding every one of `parts`.
   std::size_t audited_with(const std::vector<std::string>& parts) const {
     std::size_t count = 0;
@@ -386,15 +398,7 @@ class AuthorizedFederation : public Federation {
 };
 
 TEST_F(AuthorizedFederation, AGrantedSpaceIsServedOthersAreRefusedWithTheReasonAndEveryCallIsAudited) {
-  ASSERT_TRUE(wait_for_service("jp/rt.Diagnostic0", 20s)) << kr_->log() << jp_->log();
-  ASSERT_TRUE(wait_for_service("jp/rt.Secret0", 20s)) << kr_->log() << jp_->log();
-  ASSERT_NO_FATAL_FAILURE(expect_echo("jp/rt.Diagnostic0", "granted"));
-
-  URS::Diagnostic_echo_Request echo;
-  echo.set_text("not granted");
-  const Observed refused = call("jp/rt.Secret0", "echo", echo);
-  EXPECT_EQ(refused.status, planet::PERMISSION_DENIED) << refused.message;
-  EXPECT_NE(refused.message.find("space kr may not call jp/rt.Secret0"), std::string::npos) << refused.message;
+  ASSERT_NO_FATAL_FAILURE(expect_granted_and_refused("granted"));
 
   // Each line is written before the reply leaves: both are there now.
   EXPECT_EQ(audited_with({"\"caller_space\":\"kr\",\"caller\":\"dds:kr\",\"space_verified\":true",
@@ -503,14 +507,7 @@ TEST_F(DeclaredSpaceFederation, ADeclaredSpaceIsRefusedUnlessTrusted) {
 }
 
 TEST_F(TrustingDeclaredSpaceFederation, ADeclaredSpaceIsJudgedByWhatItDeclaresWhereTrusted) {
-  ASSERT_TRUE(wait_for_service("jp/rt.Diagnostic0", 20s)) << kr_->log() << jp_->log();
-  ASSERT_TRUE(wait_for_service("jp/rt.Secret0", 20s)) << kr_->log() << jp_->log();
-  ASSERT_NO_FATAL_FAILURE(expect_echo("jp/rt.Diagnostic0", "declared and trusted"));
-  URS::Diagnostic_echo_Request echo;
-  echo.set_text("not granted");
-  const Observed refused = call("jp/rt.Secret0", "echo", echo);
-  EXPECT_EQ(refused.status, planet::PERMISSION_DENIED) << refused.message;
-  EXPECT_NE(refused.message.find("space kr may not call jp/rt.Secret0"), std::string::npos) << refused.message;
+  ASSERT_NO_FATAL_FAILURE(expect_granted_and_refused("declared and trusted"));
   EXPECT_EQ(audited_with({"\"caller_space\":\"kr\",\"caller\":\"dds:kr\",\"space_verified\":false",
                           "\"service\":\"rt.Diagnostic0\"", "\"status\":\"OK\""}),
             1u)

@@ -68,14 +68,8 @@ TEST(CallAuthorization, ADeclaredSpaceIsJudgedOnlyWhereTrusted) {
 }
 
 TEST(CallAuthorization, PatternProblemsAreNamed) {
-  EXPECT_EQ(caller_pattern_problem("kr"), "");
-  EXPECT_EQ(caller_pattern_problem("kr/operator-*"), "");
-  EXPECT_EQ(caller_pattern_problem("*"), "");
-  EXPECT_NE(caller_pattern_problem(""), "");
-  EXPECT_NE(caller_pattern_problem("a/b/c"), "");
-  EXPECT_NE(caller_pattern_problem("/a"), "");
-  EXPECT_NE(caller_pattern_problem("a/"), "");
-  EXPECT_NE(caller_pattern_problem("a b"), "");
+  for (const char* good : {"kr", "kr/operator-*", "*"}) EXPECT_EQ(caller_pattern_problem(good), "") << good;
+  for (const char* bad : {"", "a/b/c", "/a", "a/", "a b"}) EXPECT_NE(caller_pattern_problem(bad), "") << "'" << bad << "'";
 }
 
 }  // namespace
