@@ -3,6 +3,8 @@
 # docs/performance.md (Markdown) and build/bench.json. Takes a few minutes on 2 cores.
 # Usage: deploy/bench.sh [--quick]
 # URS_GATEWAY_BENCH_SECONDS: how long poses are timed through urs-gateway (default 600, 8 with --quick)
+# URS_BENCH_RUNS: full runs of urs-bench (default 1); with more, the report adds every goal's state
+#   across the runs (tests/bench/goals_across_runs.py) and the table is the last run's
 set -euo pipefail
 source "$(dirname "$0")/prepare.sh"
 install_and_build
@@ -10,7 +12,12 @@ pin=()
 if (($(nproc) >= 2)); then pin=(--pin); fi  # clients on CPU 0, servers on CPU 1 (tests/bench/pinning.hpp)
 table=$(mktemp)
 gateway_table=$(mktemp)
-"$build/tests/bench/urs-bench" "${pin[@]}" "$@" --json "$build/bench.json" --markdown "$table" 2>"$build/bench.log"
+runs=${URS_BENCH_RUNS:-1}
+: >"$build/bench.log"
+for ((run = 1; run <= runs; run++)); do
+  "$build/tests/bench/urs-bench" "${pin[@]}" "$@" --json "$build/bench-$run.json" --markdown "$table" 2>>"$build/bench.log"
+done
+cp "$build/bench-$runs.json" "$build/bench.json"
 "$build/tests/bench/urs-gateway-bench" "$@" --seconds "${URS_GATEWAY_BENCH_SECONDS:-600}" \
   --json "$build/gateway-bench.json" --markdown "$gateway_table" 2>>"$build/bench.log"
 {
@@ -19,6 +26,18 @@ gateway_table=$(mktemp)
   echo "Measured $(date -u +%Y-%m-%d) on $(nproc) cores, $(uname -sr), by \`deploy/bench.sh${*:+ $*}\`."
   echo
   cat "$table"
+  if ((runs > 1)); then
+    echo
+    echo "## The goals across $runs full runs"
+    echo
+    echo "Each run is a whole \`urs-bench\` run, one after the other; the table above is the last one. A latency"
+    echo "goal is the run's median ratio (the spread of its per-repetition ratios in brackets); \"runs apart\" is"
+    echo "how far the runs' ratios lie from each other (max/min - 1)."
+    echo
+    files=()
+    for ((run = 1; run <= runs; run++)); do files+=("$build/bench-$run.json"); done
+    python3 "$root/tests/bench/goals_across_runs.py" "${files[@]}"
+  fi
   echo
   echo "## Poses through urs-gateway to WebSocket clients"
   echo
