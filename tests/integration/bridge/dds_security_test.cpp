@@ -178,6 +178,11 @@ TEST_F(SecuredLink, ABadFileIsNamedWithWhatIsWrong) {
       {"another member's key", &bridge::DdsSecurity::private_key, "fed/jp/identity.key", "is not the key of"},
       {"no permissions", &bridge::DdsSecurity::permissions, "fed/nobody/permissions.p7s", "cannot be read"},
   };
+  // Another member's own files, for space kr: the others would take nothing it announces as kr's.
+  EXPECT_NE(joined(bridge::check_dds_security(member("fed", "jp"), "kr"))
+                .find("names space 'jp' (its CN), not kr: the other spaces would take nothing"),
+            std::string::npos)
+      << joined(bridge::check_dds_security(member("fed", "jp"), "kr"));
   for (const Case& c : cases) {
     bridge::DdsSecurity security = member("fed", "kr");
     security.*c.file = *dir_ + "/" + c.by;

@@ -81,6 +81,17 @@ class Federation : public BridgeSpaceTest, public ::testing::WithParamInterface<
   bridge::DdsSecurity observer_security() const {
     return secured() ? bridge::security_from_folder(*pki_, "obs") : bridge::DdsSecurity{};
   }
+  // The link options of member "spy", the tests' own caller (space spy).
+  bridge::DdsOptions spy_options() const {
+    bridge::DdsOptions options;
+    options.domain = static_cast<uint32_t>(domain_);
+    options.space = "spy";
+    options.bridge = "spy";
+    options.lease = kLease;
+    options.udp_only = true;
+    if (secured()) options.security = bridge::security_from_folder(*pki_, "spy");
+    return options;
+  }
 
   void SetUp() override {
     space_ = "kr";
@@ -429,14 +440,7 @@ TEST_F(AuthorizedFederation, AGrantedSpaceIsServedOthersAreRefusedWithTheReasonA
 // its reply sent to spy, and audited as spy, verified.
 TEST_F(AuthorizedFederation, AMemberIsJudgedByTheSpaceItsCertificateNamesNotTheOneItDeclares) {
   ASSERT_TRUE(wait_for_service("jp/rt.Diagnostic0", 20s)) << kr_->log() << jp_->log();
-  bridge::DdsOptions options;
-  options.domain = static_cast<uint32_t>(domain_);
-  options.space = "spy";
-  options.bridge = "spy";
-  options.lease = kLease;
-  options.udp_only = true;
-  options.security = bridge::security_from_folder(*pki_, "spy");
-  bridge::DdsLink spy(options, [] {}, [](call::Request, call::Responder) {});
+  bridge::DdsLink spy(spy_options(), [] {}, [](call::Request, call::Responder) {});
 
   URS::Diagnostic_echo_Request echo;
   echo.set_text("from spy");
@@ -730,6 +734,140 @@ TEST_P(Federation, ImportedStateIsNeverSharedAgainNorItsRemoval) {
     EXPECT_NE(sample.key().rfind("jp/", 0), 0u)
         << "kr shared " << sample.key() << " (value '" << sample.value_json() << "') as its own";
   }
+}
+
+// How many times `part` occurs in `text`.
+std::size_t count_of(const std::string& text, const std::string& part) {
+  std::size_t count = 0;
+  for (auto at = text.find(part); at != std::string::npos; at = text.find(part, at + 1)) ++count;
+  return count;
+}
+
+// A participant of the link writing samples of its own, in the link's keyed-state QoS, on topics
+// the link made: a forger's raw writers. Kept alive by its link, as the link's own writers.
+class RawKeyedWriters {
+ public:
+  RawKeyedWriters(bridge::DdsLink& link, std::chrono::milliseconds lease) : link_(link) {
+    namespace fdds = eprosima::fastdds::dds;
+    publisher_ = link.participant()->create_publisher(fdds::PUBLISHER_QOS_DEFAULT);
+    qos_ = fdds::DATAWRITER_QOS_DEFAULT;
+    qos_.reliability().kind = fdds::RELIABLE_RELIABILITY_QOS;
+    qos_.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
+    qos_.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
+    qos_.history().depth = 1;
+    qos_.liveliness().kind = fdds::MANUAL_BY_TOPIC_LIVELINESS_QOS;
+    qos_.liveliness().lease_duration = eprosima::fastrtps::Duration_t(static_cast<double>(lease.count()) / 1000.0);
+  }
+  ~RawKeyedWriters() {
+    for (auto* writer : writers_) {
+      link_.let_go(writer);
+      publisher_->delete_datawriter(writer);
+    }
+    link_.participant()->delete_publisher(publisher_);
+  }
+  // Writes `sample` on `topic` (which the link made), with a writer of its own for each topic.
+  template <class Sample>
+  bool write(const std::string& topic, Sample sample) {
+    namespace fdds = eprosima::fastdds::dds;
+    auto*& writer = by_topic_[topic];
+    if (writer == nullptr) {
+      auto* made = dynamic_cast<fdds::Topic*>(link_.participant()->lookup_topicdescription(topic));
+      if (made == nullptr) return false;
+      writer = publisher_->create_datawriter(made, qos_);
+      if (writer == nullptr) return false;
+      writers_.push_back(writer);
+      link_.keep_alive(writer);
+    }
+    return writer->write(&sample);
+  }
+
+ private:
+  bridge::DdsLink& link_;
+  eprosima::fastdds::dds::Publisher* publisher_ = nullptr;
+  eprosima::fastdds::dds::DataWriterQos qos_;
+  std::map<std::string, eprosima::fastdds::dds::DataWriter*> by_topic_;
+  std::vector<eprosima::fastdds::dds::DataWriter*> writers_;
+};
+
+// Each space speaks only for itself. Member "spy" (space spy: its certificate's on a secured link)
+// writes, as space jp, a catalog entry (with kr's own description of diag, so that it could be
+// served), a component state and a context entry. On a secured link kr's bridge takes none of them
+// and logs who tried, while jp's own keep arriving; on a plain link, where nothing proves a
+// writer's space, they are taken as jp's.
+TEST_P(Federation, AMemberSpeaksOnlyForTheSpaceItsCertificateNames) {
+  ASSERT_TRUE(wait_for_service("jp/rt.Diagnostic0", 20s)) << kr_->log() << jp_->log();
+  const std::string diag = "jp/component/jphost.host_cxt/Diagnostic0.rtc";
+  ASSERT_TRUE(wait_until([&] { return !context_field(diag, "state").empty(); }, 20s)) << jp_->log();
+
+  bridge::DdsLink spy(spy_options(), [] {}, [](call::Request, call::Responder) {});
+  bridge::StateLink spy_state(spy, {}, std::nullopt);  // makes the state topics on spy's participant
+  bridge::ServiceEntry described;  // kr's diag as spy reads it: its description is kr's
+  ASSERT_TRUE(wait_until(
+      [&] {
+        for (const auto& entry : spy.catalog()) {
+          if (entry.space == "kr" && entry.name == "diag") described = entry;
+        }
+        return !described.descriptor_set.empty();
+      },
+      20s));
+
+  RawKeyedWriters forger(spy, kLease);
+  dds::InterfaceDescription description;
+  description.digest("forged-description");
+  description.descriptor_set(std::vector<uint8_t>(described.descriptor_set.begin(), described.descriptor_set.end()));
+  ASSERT_TRUE(forger.write("urs/interface", description));
+  dds::ServiceEntry entry;
+  entry.space("jp");
+  entry.name("rt.Forged0");
+  entry.interface_name(described.interface_name);
+  entry.repository_id(described.repository_id);
+  entry.origin("camus");
+  entry.bridge("bridge-jp");
+  entry.interface_digest("forged-description");
+  ASSERT_TRUE(forger.write("urs/catalog", entry));
+  dds::ComponentState component;
+  component.space("jp");
+  component.name("jphost.host_cxt/Forged0.rtc");
+  component.kind("rtc");
+  component.state("Active");
+  component.type_name("Diagnostic");
+  component.host("jphost.host_cxt");
+  ASSERT_TRUE(forger.write("urs/state/component", component));
+  dds::ContextEntry context_entry;
+  context_entry.space("jp");
+  context_entry.key("room.door");
+  context_entry.value_json("\"open\"");
+  context_entry.source("forged");
+  context_entry.version(1);
+  ASSERT_TRUE(forger.write("urs/state/context", context_entry));
+
+  const std::string forged_component = "jp/component/jphost.host_cxt/Forged0.rtc";
+  if (!secured()) {
+    EXPECT_TRUE(wait_for_service("jp/rt.Forged0", 20s)) << kr_->log();
+    EXPECT_TRUE(wait_until([&] { return context_field(forged_component, "state") == "Active"; }, 20s)) << kr_->log();
+    EXPECT_TRUE(wait_until([&] { return context("jp/room.door").has_value(); }, 20s)) << kr_->log();
+    return;
+  }
+  // Each refusal is logged as kr's bridge reads the sample, before it would have imported it.
+  for (const char* refused :
+       {"a member proven as spy announced space jp's catalog entry jp/rt.Forged0: ignored",
+        "a member proven as spy announced space jp's component state jp/jphost.host_cxt/Forged0.rtc: ignored",
+        "a member proven as spy announced space jp's context entry jp/room.door: ignored"}) {
+    EXPECT_TRUE(wait_until([&] { return kr_->log().find(refused) != std::string::npos; }, 20s))
+        << refused << "\n" << kr_->log();
+  }
+  EXPECT_TRUE(listed("jp/rt.Forged0").empty());
+  EXPECT_FALSE(context(forged_component));
+  EXPECT_FALSE(context("jp/room.door"));
+  // jp's own still arrive, and spy speaks for itself: its entry is taken as spy's.
+  EXPECT_FALSE(listed("jp/rt.Diagnostic0").empty());
+  EXPECT_FALSE(context_field(diag, "state").empty());
+  entry.space("spy");
+  entry.name("probe");
+  ASSERT_TRUE(forger.write("urs/catalog", entry));
+  EXPECT_TRUE(wait_for_service("spy/probe", 20s)) << kr_->log();
+  // Each refusal once, however often the catalog and state are read.
+  EXPECT_EQ(count_of(kr_->log(), "announced space jp's catalog entry jp/rt.Forged0"), 1u) << kr_->log();
 }
 
 // What tests/integration/bridge/dynamic_reader printed: the types announced (as IDL, by type name)

@@ -41,10 +41,11 @@ std::string digest_of(const std::string& bytes) {
 
 }  // namespace
 
-DdsCatalog::DdsCatalog(const DdsOptions& options, LinkParticipant& participant, DdsLink::CatalogHandler on_catalog,
-                       std::function<void(const std::string& space)> on_space_lost)
+DdsCatalog::DdsCatalog(const DdsOptions& options, LinkParticipant& participant, DdsIdentities& identities,
+                       DdsLink::CatalogHandler on_catalog, std::function<void(const std::string& space)> on_space_lost)
     : options_(options),
       participant_(participant),
+      identities_(identities),
       on_catalog_(std::move(on_catalog)),
       on_space_lost_(std::move(on_space_lost)) {}
 
@@ -64,6 +65,7 @@ void DdsCatalog::open(fdds::DataReaderListener* listener) {
   if (!catalog_writer_ || !catalog_reader_ || !interface_writer_ || !interface_reader_) {
     throw std::runtime_error("DDS: cannot create the catalog endpoints");
   }
+  opened_ = true;
 }
 
 bool DdsCatalog::space_lost(const std::string& space) const {
@@ -141,10 +143,14 @@ std::vector<ServiceEntry> DdsCatalog::entries() const {
   }
   std::map<fdds::InstanceHandle_t, std::string> spaces;
   for (fdds::LoanableCollection::size_type i = 0; i < samples.length(); ++i) {
-    if (infos[i].valid_data) spaces[infos[i].publication_handle] = samples[i].space();
-    if (!infos[i].valid_data || dead.count(infos[i].publication_handle)) continue;
+    if (!infos[i].valid_data) continue;
     const dds::ServiceEntry& sample = samples[i];
-    if (sample.space() == options_.space) continue;  // our own entries
+    if (sample.space() == options_.space) continue;  // our own entries (or another's claiming ours)
+    // Each space speaks only for itself: a writer refused this space neither offers its services
+    // nor keeps it alive (space_lost).
+    if (!identities_.speaks_for(infos[i].publication_handle, sample.space(), "catalog entry", sample.name())) continue;
+    spaces[infos[i].publication_handle] = sample.space();
+    if (dead.count(infos[i].publication_handle)) continue;
     const auto description = descriptions.find(sample.interface_digest());
     if (description == descriptions.end()) continue;
     entries.push_back({sample.space(), sample.name(), sample.interface_name(), sample.repository_id(), sample.origin(),

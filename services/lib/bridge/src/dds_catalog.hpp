@@ -4,13 +4,15 @@
 // digest (and again once a lease) on urs/interface; reads the other spaces' entries from its
 // readers' caches, joined with the descriptions by digest; follows the catalog writers' matches and
 // liveliness, so that a space whose bridges are all lost is known (space_lost) and its entries
-// left out.
+// left out. An entry is taken only from a writer that may speak for the space it names
+// (DdsIdentities::speaks_for: on a secured link, the space its participant proved).
 //
 // Threads: announce(), withdraw(), entries() and space_lost() from any thread; subscription_matched()
 // and liveliness_changed() on DDS listener threads (they call the handlers there, which must not
 // block). Its locks are never held while a handler or Fast DDS runs, but for the writes of
 // announce().
 
+#include <atomic>
 #include <chrono>
 #include <functional>
 #include <map>
@@ -23,6 +25,7 @@
 #include <fastdds/dds/core/status/SubscriptionMatchedStatus.hpp>
 #include <fastdds/dds/common/InstanceHandle.hpp>
 
+#include "dds_identity.hpp"
 #include "dds_participant.hpp"
 #include "urs/bridge/dds_link.hpp"
 
@@ -35,7 +38,9 @@ class DdsCatalog {
 
   // `on_catalog`: the other spaces' catalog changed (DdsLink::CatalogHandler). `on_space_lost`:
   // every catalog writer of that space lost its liveliness (its calls in flight fail now).
-  DdsCatalog(const DdsOptions& options, LinkParticipant& participant, DdsLink::CatalogHandler on_catalog,
+  // `identities` outlives this.
+  DdsCatalog(const DdsOptions& options, LinkParticipant& participant, DdsIdentities& identities,
+             DdsLink::CatalogHandler on_catalog,
              std::function<void(const std::string& space)> on_space_lost);
   DdsCatalog(const DdsCatalog&) = delete;
   DdsCatalog& operator=(const DdsCatalog&) = delete;
@@ -57,25 +62,32 @@ class DdsCatalog {
   void subscription_matched(const eprosima::fastdds::dds::SubscriptionMatchedStatus& status);
   void liveliness_changed(const eprosima::fastdds::dds::LivelinessChangedStatus& status);
   void changed() const { on_catalog_(); }  // data arrived on urs/catalog or urs/interface
+  // A participant proved its space (DdsIdentities): its entries refused until now are taken at the
+  // next read. Tells the handler once the readers exist (before, nothing was read).
+  void proven() const {
+    if (opened_) on_catalog_();
+  }
 
  private:
   void writer_state(const eprosima::fastdds::dds::InstanceHandle_t& writer, bool alive);
 
   const DdsOptions& options_;
   LinkParticipant& participant_;
+  DdsIdentities& identities_;
   const DdsLink::CatalogHandler on_catalog_;
   const std::function<void(const std::string&)> on_space_lost_;
   eprosima::fastdds::dds::DataWriter* catalog_writer_ = nullptr;
   eprosima::fastdds::dds::DataReader* catalog_reader_ = nullptr;
   eprosima::fastdds::dds::DataWriter* interface_writer_ = nullptr;
   eprosima::fastdds::dds::DataReader* interface_reader_ = nullptr;
+  std::atomic<bool> opened_{false};  // open() has made the endpoints
 
   std::mutex interfaces_mutex_;
   std::map<std::string, std::chrono::steady_clock::time_point> interfaces_written_;  // digest -> when last written
 
   mutable std::mutex catalog_mutex_;                     // guards dead_writers_ and writer_spaces_
   std::set<eprosima::fastdds::dds::InstanceHandle_t> dead_writers_;  // catalog writers whose liveliness is lost
-  // Catalog writers seen, by space written (filled by entries()).
+  // Catalog writers seen, by space written (filled by entries(); a writer refused that space is not).
   mutable std::map<eprosima::fastdds::dds::InstanceHandle_t, std::string> writer_spaces_;
 };
 

@@ -47,19 +47,25 @@ NamePtr parse_oneline(const std::string& subject, std::string& common_name) {
 
 }  // namespace
 
-std::optional<std::string> space_of_subject(const std::string& subject, const GuidPrefix& prefix) {
-  std::string common_name;
-  NamePtr name = parse_oneline(subject, common_name);
-  if (!name || common_name.empty()) return std::nullopt;
+std::optional<GuidPrefix> participant_key_of(const std::string& subject, std::string* common_name) {
+  std::string cn;
+  NamePtr name = parse_oneline(subject, cn);
+  if (!name || cn.empty()) return std::nullopt;
   unsigned char md[EVP_MAX_MD_SIZE];
   unsigned int length = 0;
   if (X509_NAME_digest(name.get(), EVP_sha256(), md, &length) != 1 || length < 6) return std::nullopt;
   // PKI-DH's participant key: a 1 bit, then the first 47 bits of the hash.
-  const uint8_t expected[6] = {
-      static_cast<uint8_t>(0x80 | (md[0] >> 1)),         static_cast<uint8_t>((md[0] << 7) | (md[1] >> 1)),
-      static_cast<uint8_t>((md[1] << 7) | (md[2] >> 1)), static_cast<uint8_t>((md[2] << 7) | (md[3] >> 1)),
-      static_cast<uint8_t>((md[3] << 7) | (md[4] >> 1)), static_cast<uint8_t>((md[4] << 7) | (md[5] >> 1))};
-  if (std::memcmp(expected, prefix.data(), sizeof expected) != 0) return std::nullopt;
+  GuidPrefix key{};
+  key[0] = static_cast<uint8_t>(0x80 | (md[0] >> 1));
+  for (std::size_t i = 1; i < 6; ++i) key[i] = static_cast<uint8_t>((md[i - 1] << 7) | (md[i] >> 1));
+  if (common_name) *common_name = cn;
+  return key;
+}
+
+std::optional<std::string> space_of_subject(const std::string& subject, const GuidPrefix& prefix) {
+  std::string common_name;
+  const std::optional<GuidPrefix> key = participant_key_of(subject, &common_name);
+  if (!key || std::memcmp(key->data(), prefix.data(), 6) != 0) return std::nullopt;
   return common_name;
 }
 
@@ -77,15 +83,33 @@ call::Identity DdsIdentities::caller(const rtps::InstanceHandle_t& writer, const
   return {known->second, "dds:" + known->second, kVerifiedSpaceRole};
 }
 
+bool DdsIdentities::speaks_for(const rtps::InstanceHandle_t& writer, const std::string& space, const char* kind,
+                               const std::string& name) {
+  if (!secured_) return true;
+  GuidPrefix prefix{};
+  std::memcpy(prefix.data(), writer.value, prefix.size());
+  std::lock_guard lock(mutex_);
+  const auto known = spaces_.find(prefix);
+  if (known != spaces_.end() && known->second == space) return true;
+  if (refused_[prefix].emplace(writer, space).second) {
+    const std::string proven = known == spaces_.end() ? "nothing (its space is not proven)" : known->second;
+    spdlog::warn("dds: a member proven as {} announced space {}'s {} {}/{}: ignored (each space speaks only for "
+                 "itself)",
+                 proven, space, kind, space, name);
+  }
+  return false;
+}
+
 void DdsIdentities::on_participant_discovery(eprosima::fastdds::dds::DomainParticipant*,
                                              rtps::ParticipantDiscoveryInfo&& info) {
   GuidPrefix prefix{};
   std::memcpy(prefix.data(), info.info.m_guid.guidPrefix.value, prefix.size());
-  std::lock_guard lock(mutex_);
   if (info.status == rtps::ParticipantDiscoveryInfo::REMOVED_PARTICIPANT ||
       info.status == rtps::ParticipantDiscoveryInfo::DROPPED_PARTICIPANT) {
+    std::lock_guard lock(mutex_);
     spaces_.erase(prefix);
     warned_.erase(prefix);
+    refused_.erase(prefix);
     return;
   }
   if (!secured_) return;
@@ -94,14 +118,23 @@ void DdsIdentities::on_participant_discovery(eprosima::fastdds::dds::DomainParti
     if (property.name() == "dds.cert.sn") subject = property.value();
   }
   const std::optional<std::string> space = space_of_subject(subject, prefix);
-  if (space) {
-    spaces_[prefix] = *space;
-  } else {
-    spaces_.erase(prefix);
+  bool proven = false;
+  {
+    std::lock_guard lock(mutex_);
+    if (space) {
+      auto [known, added] = spaces_.try_emplace(prefix, *space);
+      proven = added || known->second != *space;
+      known->second = *space;
+    } else {
+      spaces_.erase(prefix);
+    }
+  }
+  if (!space) {
     spdlog::warn("dds: participant {} announces subject '{}', which its GUID does not derive from: its calls are "
-                 "served as the space they declare",
+                 "served as the space they declare, and what it announces for any space is ignored",
                  info.info.m_participantName.to_string(), subject);
   }
+  if (proven && on_proven_) on_proven_();
 }
 
 }  // namespace urs::bridge

@@ -15,12 +15,19 @@
 // On a plain link (or for a participant whose subject does not check out) the caller's space is
 // only what its request declared.
 //
-// Threads: the listener runs on Fast DDS's discovery threads; caller() from any thread. Never
-// blocks but on its own mutex.
+// It also says whether a writer may speak for the space its samples name (speaks_for()): each
+// space speaks only for itself, so on a secured link a catalog entry or a shared state sample is
+// taken only from a participant that proved the very space it names.
+//
+// Threads: the listener runs on Fast DDS's discovery threads (and calls `on_proven` there);
+// caller() and speaks_for() from any thread. Never blocks but on its own mutex, which is not held
+// while `on_proven` runs.
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <fastdds/dds/domain/DomainParticipantListener.hpp>
+#include <fastdds/rtps/common/InstanceHandle.h>
 #include <map>
 #include <mutex>
 #include <optional>
@@ -38,10 +45,16 @@ using GuidPrefix = std::array<uint8_t, 12>;
 // 48 bits of `prefix` are those PKI-DH derives from that subject; nullopt otherwise (or if the
 // subject has no CN, or a character outside printable ASCII).
 std::optional<std::string> space_of_subject(const std::string& subject, const GuidPrefix& prefix);
+// The GUID prefix PKI-DH derives from `subject` (its first 6 bytes; the rest zero), and its CN
+// into `common_name` if given; nullopt as space_of_subject().
+std::optional<GuidPrefix> participant_key_of(const std::string& subject, std::string* common_name = nullptr);
 
 class DdsIdentities : public eprosima::fastdds::dds::DomainParticipantListener {
  public:
-  explicit DdsIdentities(bool secured) : secured_(secured) {}
+  // `on_proven`: a participant has just proved its space (samples of its writers refused before,
+  // because its discovery had not been seen yet, would now be taken: read them again). Must not block.
+  explicit DdsIdentities(bool secured, std::function<void()> on_proven = {})
+      : secured_(secured), on_proven_(std::move(on_proven)) {}
 
   // The caller of a request written by `writer` (SampleInfo::publication_handle) that declared
   // `declared_space`: {verified space, "dds:<space>", kVerifiedSpaceRole} when the writer's
@@ -49,14 +62,25 @@ class DdsIdentities : public eprosima::fastdds::dds::DomainParticipantListener {
   call::Identity caller(const eprosima::fastrtps::rtps::InstanceHandle_t& writer,
                         const std::string& declared_space);
 
+  // Whether a sample naming `space` written by `writer` (SampleInfo::publication_handle) is taken
+  // as that space's: on a plain link always (nothing proves a writer's space there); on a secured
+  // link only if the writer's participant proved `space`. Each refusal is logged once per (writer,
+  // space) as a warning naming the space the writer proved and the sample, "<kind> <space>/<name>"
+  // (e.g. "catalog entry kr/diag").
+  bool speaks_for(const eprosima::fastrtps::rtps::InstanceHandle_t& writer, const std::string& space,
+                  const char* kind, const std::string& name);
+
   void on_participant_discovery(eprosima::fastdds::dds::DomainParticipant* participant,
                                 eprosima::fastrtps::rtps::ParticipantDiscoveryInfo&& info) override;
 
  private:
   const bool secured_;
+  const std::function<void()> on_proven_;
   std::mutex mutex_;
   std::map<GuidPrefix, std::string> spaces_;  // by participant GUID prefix: its verified space
   std::set<GuidPrefix> warned_;               // participants whose declared space differed, once each
+  // By participant GUID prefix: its writers refused a space, and that space (logged once each).
+  std::map<GuidPrefix, std::set<std::pair<eprosima::fastrtps::rtps::InstanceHandle_t, std::string>>> refused_;
 };
 
 }  // namespace urs::bridge

@@ -9,6 +9,7 @@
 #include <fastdds/dds/domain/DomainParticipant.hpp>
 #include <fastdds/dds/subscriber/DataReader.hpp>
 #include <fastdds/dds/subscriber/DataReaderListener.hpp>
+#include <fastdds/dds/subscriber/SampleInfo.hpp>
 #include <fastdds/dds/topic/TopicDescription.hpp>
 
 #include "call_gate.hpp"
@@ -25,11 +26,10 @@ namespace fdds = eprosima::fastdds::dds;
 
 struct DdsLink::Impl : public fdds::DataReaderListener {
   Impl(const DdsOptions& options, CatalogHandler on_catalog, CallHandler on_call)
-      : catalog(options, participant, std::move(on_catalog), [this](const std::string& space) {
-          calls.fail_pending(space);
-        }),
+      : identities(options.security.enabled(), [this] { catalog.proven(); }),
+        catalog(options, participant, identities, std::move(on_catalog),
+                [this](const std::string& space) { calls.fail_pending(space); }),
         calls(options, participant, gate, registrations),
-        identities(options.security.enabled()),
         served(options, participant, gate, registrations, identities, std::move(on_call)) {}
 
   LinkParticipant participant;
@@ -37,10 +37,11 @@ struct DdsLink::Impl : public fdds::DataReaderListener {
   // until none is left, before it deletes what they use.
   CallGate gate;
   RpcRegistrations registrations;  // requests and replies still registered
+  // The space each remote participant proved (told by the participant): the callers of requests,
+  // and whose catalog entries and state samples are taken. A space proven anew re-reads the catalog.
+  DdsIdentities identities;
   DdsCatalog catalog;
   DdsCalls calls;
-  // The space each remote participant proved (told by the participant): the callers of requests.
-  DdsIdentities identities;
   DdsServed served;
   // Asserts the keyed-state writers' liveliness (the link's and StateLink's); stopped first.
   std::unique_ptr<LivelinessAsserter> asserter;
@@ -99,6 +100,11 @@ DdsLink::~DdsLink() {
 }
 
 fdds::DomainParticipant* DdsLink::participant() const { return impl_->participant.participant(); }
+
+bool DdsLink::speaks_for(const fdds::SampleInfo& info, const std::string& space, const char* kind,
+                         const std::string& name) const {
+  return impl_->identities.speaks_for(info.publication_handle, space, kind, name);
+}
 
 void DdsLink::keep_alive(fdds::DataWriter* writer) { impl_->asserter->add(writer); }
 

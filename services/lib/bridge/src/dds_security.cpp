@@ -2,6 +2,7 @@
 
 #include <fnmatch.h>
 #include <openssl/bio.h>
+#include <openssl/objects.h>
 #include <openssl/pem.h>
 #include <openssl/pkcs7.h>
 #include <openssl/x509.h>
@@ -163,6 +164,18 @@ std::vector<std::string> check_dds_security(const DdsSecurity& s, const std::str
     const int error = X509_STORE_CTX_get_error(context.get());
     problems.push_back("the certificate " + s.certificate + " does not verify against the identity CA " +
                        s.identity_ca + ": " + X509_verify_cert_error_string(error));
+  }
+  // The space: the other bridges take what this one announces only as the space its certificate
+  // names (its CN, dds_identity.hpp).
+  {
+    char common_name[256] = {0};
+    const int length = X509_NAME_get_text_by_NID(X509_get_subject_name(certificate.get()), NID_commonName,
+                                                 common_name, sizeof common_name);
+    if (length < 0 || std::string(common_name, static_cast<std::size_t>(length)) != space) {
+      problems.push_back("the certificate " + s.certificate + " names space '" +
+                         (length < 0 ? std::string() : std::string(common_name, static_cast<std::size_t>(length))) +
+                         "' (its CN), not " + space + ": the other spaces would take nothing this bridge announces");
+    }
   }
   {
     BioPtr bio = open_file(s.private_key);

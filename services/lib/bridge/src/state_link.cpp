@@ -81,6 +81,12 @@ Qos event_qos(Qos qos) {
   return qos;
 }
 
+// What a refusal names (DdsLink::speaks_for): the kind of sample and its name within its space.
+const char* kind_of(const dds::ComponentState&) { return "component state"; }
+const char* kind_of(const dds::ContextEntry&) { return "context entry"; }
+const std::string& name_of(const dds::ComponentState& s) { return s.name(); }
+const std::string& name_of(const dds::ContextEntry& s) { return s.key(); }
+
 std::pair<std::string, std::string> key_of(const ComponentState& c) { return {c.space, c.name}; }
 std::pair<std::string, std::string> key_of(const ContextState& e) { return {e.space, e.key}; }
 bool same(const ComponentState& a, const ComponentState& b) { return a == b; }
@@ -89,8 +95,9 @@ bool same(const ContextState& a, const ContextState& b) {
 }
 
 // The other spaces' entries of one keyed topic, read from the reader's cache (keep-last 1 per
-// instance) as it is now: the live instances of writers whose liveliness holds, but tombstones.
-// Each reconcile() reports what appeared, changed or ended since the one before, so an end is
+// instance) as it is now: the live instances of writers whose liveliness holds, but tombstones and
+// the samples of writers that may not speak for the space they name (DdsLink::speaks_for). Each
+// reconcile() reports what appeared, changed or ended since the one before, so an end is
 // seen however DDS tells it (a tombstone, a writer unmatched or lost, an instance left with no
 // writer). Only StateLink's reader thread calls it: never a DDS listener, which runs holding the
 // reader's own lock (reading the cache from two threads under two locks would deadlock).
@@ -101,9 +108,10 @@ class KeyedIn {
   using Convert = std::function<std::optional<Value>(const Sample&)>;  // nullopt: a tombstone
   KeyedIn(Handler handler, Convert convert) : handler_(std::move(handler)), convert_(std::move(convert)) {}
 
-  void attach(fdds::DataReader* reader, std::string own_space) {
+  void attach(fdds::DataReader* reader, DdsLink& link) {
     reader_ = reader;
-    own_space_ = std::move(own_space);
+    link_ = &link;
+    own_space_ = link.options().space;
   }
   void writer(const fdds::InstanceHandle_t& writer, bool alive) {
     std::lock_guard lock(mutex_);
@@ -127,6 +135,7 @@ class KeyedIn {
       for (fdds::LoanableCollection::size_type i = 0; i < samples.length(); ++i) {
         if (!infos[i].valid_data || dead.count(infos[i].publication_handle)) continue;
         if (samples[i].space() == own_space_) continue;
+        if (!link_->speaks_for(infos[i], samples[i].space(), kind_of(samples[i]), name_of(samples[i]))) continue;
         if (auto value = convert_(samples[i])) now.emplace(key_of(*value), std::move(*value));
       }
       reader_->return_loan(samples, infos);
@@ -145,6 +154,7 @@ class KeyedIn {
   Handler handler_;
   Convert convert_;
   fdds::DataReader* reader_ = nullptr;
+  DdsLink* link_ = nullptr;
   std::string own_space_;
   std::mutex mutex_;                       // guards dead_
   std::set<fdds::InstanceHandle_t> dead_;  // writers whose liveliness is lost
@@ -236,8 +246,8 @@ struct StateLink::Impl : public fdds::DataReaderListener {
     }
     link.keep_alive(component_writer);
     link.keep_alive(context_writer);
-    components_in.attach(component_reader, space);
-    context_in.attach(context_reader, space);
+    components_in.attach(component_reader, link);
+    context_in.attach(context_reader, link);
     reader_thread =
         std::thread([this, lease] { read_state(std::max(std::chrono::milliseconds(50), lease / 4), lease); });
   }
@@ -296,6 +306,7 @@ struct StateLink::Impl : public fdds::DataReaderListener {
     fdds::SampleInfo info;
     while (reader->take_next_sample(&sample, &info) == ReturnCode_t::RETCODE_OK) {
       if (!info.valid_data || sample.space() == space || !handlers.pose) continue;
+      if (!link.speaks_for(info, sample.space(), "pose of robot", sample.robot())) continue;
       handlers.pose({sample.space(), sample.robot(), sample.x(), sample.y(), sample.theta(), stamp_of(sample)});
     }
   }
@@ -305,6 +316,7 @@ struct StateLink::Impl : public fdds::DataReaderListener {
     fdds::SampleInfo info;
     while (reader->take_next_sample(&sample, &info) == ReturnCode_t::RETCODE_OK) {
       if (!info.valid_data || sample.space() == space || !handlers.event) continue;
+      if (!link.speaks_for(info, sample.space(), "event on", sample.topic())) continue;
       handlers.event({sample.space(), sample.seq(), sample.topic(), sample.content_type(), sample.source(),
                       stamp_of(sample), std::string(sample.payload().begin(), sample.payload().end())});
     }

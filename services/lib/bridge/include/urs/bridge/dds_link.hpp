@@ -24,6 +24,7 @@
 namespace eprosima::fastdds::dds {
 class DataWriter;
 class DomainParticipant;
+struct SampleInfo;
 }
 
 namespace urs::bridge {
@@ -100,9 +101,17 @@ class DdsLink {
   // returns, the writer may be deleted. Not from a DDS listener.
   void keep_alive(eprosima::fastdds::dds::DataWriter* writer);
   void let_go(eprosima::fastdds::dds::DataWriter* writer);
+  // Whether a sample of the link naming `space` (a shared state sample of StateLink), read with
+  // `info`, is taken as that space's: each space speaks only for itself. On a secured link only if
+  // its writer's participant proved `space` with its certificate; on a plain link always (nothing
+  // proves a writer's space there). A refusal is logged once per writer and space, as "<kind>
+  // <space>/<name>" (dds_identity.hpp). The catalog applies the same rule to its entries.
+  bool speaks_for(const eprosima::fastdds::dds::SampleInfo& info, const std::string& space, const char* kind,
+                  const std::string& name) const;
 
   // What the other spaces offer now: every live entry of the catalog (read from the reader's
-  // cache, whose instances DDS keeps up to date), but those of bridges whose liveliness is lost.
+  // cache, whose instances DDS keeps up to date), but those of bridges whose liveliness is lost
+  // and, on a secured link, those written by a participant that did not prove the entry's space.
   std::vector<ServiceEntry> catalog() const;
 
   // This space's catalog: announce (or update) and withdraw one service.

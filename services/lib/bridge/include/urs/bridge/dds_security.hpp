@@ -29,7 +29,7 @@ DdsSecurity security_from_folder(const std::string& folder, const std::string& s
 
 // What is wrong with `security` for a participant of `space` (one sentence each, naming the file),
 // or nothing. Checks that every file is readable; the identity is signed by identity_ca, within its
-// validity and not revoked by the CRL; the key is the identity's; both documents are signed by the
+// validity and not revoked by the CRL, and names `space` (its CN); the key is the identity's; both documents are signed by the
 // documents' CA; the permissions grant the identity's subject (RFC 2253) and are valid now; and the
 // governance has a rule for every topic the link uses.
 std::vector<std::string> check_dds_security(const DdsSecurity& security, const std::string& space);

@@ -11,6 +11,10 @@
 // its handlers. Components and context are keyed state: a writer's entries end ("gone") when it
 // disposes them or when its bridge is lost (liveliness, lease), and come back with the bridge.
 //
+// Each space speaks only for itself: a sample naming a space is handed over only if its writer may
+// speak for that space (DdsLink::speaks_for: on a secured link, the space its participant proved
+// with its certificate; on a plain link whatever it names); others are dropped, logged once.
+//
 // Threads: the component and context handlers run on StateLink's own reader thread, which reads
 // the readers' caches when DDS reports a change and every quarter lease; the pose and event
 // handlers on Fast DDS's listener threads, one sample at a time. None may block. The writing
