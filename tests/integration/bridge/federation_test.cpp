@@ -441,6 +441,14 @@ TEST_F(AuthorizedFederation, AGrantedSpaceIsServedOthersAreRefusedWithTheReasonA
 TEST_F(AuthorizedFederation, AMemberIsJudgedByTheSpaceItsCertificateNamesNotTheOneItDeclares) {
   ASSERT_TRUE(wait_for_service("jp/rt.Diagnostic0", 20s)) << kr_->log() << jp_->log();
   bridge::DdsLink spy(spy_options(), [] {}, [](call::Request, call::Responder) {});
+  // Authenticated with jp's bridge (its catalog reaches spy) before the first call: a call waits
+  // for a match only so long.
+  ASSERT_TRUE(wait_until(
+      [&] {
+        const auto entries = spy.catalog();
+        return std::any_of(entries.begin(), entries.end(), [](const auto& entry) { return entry.space == "jp"; });
+      },
+      20s));
 
   URS::Diagnostic_echo_Request echo;
   echo.set_text("from spy");
