@@ -13,11 +13,13 @@ if (($(nproc) >= 2)); then pin=(--pin); fi  # clients on CPU 0, servers on CPU 1
 table=$(mktemp)
 gateway_table=$(mktemp)
 runs=${URS_BENCH_RUNS:-1}
+runs_json=()  # one file per run; the table is the last run's
 : >"$build/bench.log"
 for ((run = 1; run <= runs; run++)); do
-  "$build/tests/bench/urs-bench" "${pin[@]}" "$@" --json "$build/bench-$run.json" --markdown "$table" 2>>"$build/bench.log"
+  runs_json+=("$build/bench-$run.json")
+  "$build/tests/bench/urs-bench" "${pin[@]}" "$@" --json "${runs_json[-1]}" --markdown "$table" 2>>"$build/bench.log"
 done
-cp "$build/bench-$runs.json" "$build/bench.json"
+cp "${runs_json[-1]}" "$build/bench.json"
 "$build/tests/bench/urs-gateway-bench" "$@" --seconds "${URS_GATEWAY_BENCH_SECONDS:-600}" \
   --json "$build/gateway-bench.json" --markdown "$gateway_table" 2>>"$build/bench.log"
 {
@@ -34,9 +36,7 @@ cp "$build/bench-$runs.json" "$build/bench.json"
     echo "goal is the run's median ratio (the spread of its per-repetition ratios in brackets); \"runs apart\" is"
     echo "how far the runs' ratios lie from each other (max/min - 1)."
     echo
-    files=()
-    for ((run = 1; run <= runs; run++)); do files+=("$build/bench-$run.json"); done
-    python3 "$root/tests/bench/goals_across_runs.py" "${files[@]}"
+    python3 "$root/tests/bench/goals_across_runs.py" "${runs_json[@]}"
   fi
   echo
   echo "## Poses through urs-gateway to WebSocket clients"

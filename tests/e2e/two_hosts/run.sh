@@ -147,8 +147,9 @@ capture plain
 plain_marker="plain-$(head -c 6 /dev/urandom | od -An -tx1 | tr -d ' \n')"
 linked "$plain_marker"
 stop_capture
-(($(seen plain "$plain_marker") > 0)) || fail "the capture of the plain link holds no '$plain_marker': it captured nothing useful"
-say "plain link: the call's text is in the capture $(seen plain "$plain_marker") times ($(stat -c %s "$work/plain.frames") bytes captured)"
+in_clear=$(seen plain "$plain_marker")
+((in_clear > 0)) || fail "the capture of the plain link holds no '$plain_marker': it captured nothing useful"
+say "plain link: the call's text is in the capture $in_clear times ($(stat -c %s "$work/plain.frames") bytes captured)"
 
 step "both bridges again, each the other's initial peer, on a link secured with DDS-Security"
 kill "$kr_bridge"; wait "$kr_bridge" 2>/dev/null

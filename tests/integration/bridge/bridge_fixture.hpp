@@ -98,11 +98,8 @@ class BridgeSpaceTest : public RtSpaceTest {
     std::ofstream(config) << config_yaml;
     std::filesystem::remove(ready);
     std::vector<std::string> argv = std::move(wrapper);
-    for (const std::string& arg : {std::string(URS_BRIDGE_BIN), std::string("--space"), space.empty() ? space_ : space,
-                                   std::string("--config"), config, std::string("--ready-file"), ready,
-                                   std::string("--log-level"), std::string("debug")}) {
-      argv.push_back(arg);
-    }
+    argv.insert(argv.end(), {URS_BRIDGE_BIN, "--space", space.empty() ? space_ : space, "--config", config,
+                             "--ready-file", ready, "--log-level", "debug"});
     argv.insert(argv.end(), sides.begin(), sides.end());
     auto process = std::make_unique<Process>(argv, dir_ + "/" + name + ".log");
     const bool up = wait_until([&] { return std::filesystem::exists(ready) || !process->running(); },

@@ -45,6 +45,13 @@ NamePtr parse_oneline(const std::string& subject, std::string& common_name) {
   return name;
 }
 
+// The participant of a writer (an instance handle is its GUID: the participant's prefix first).
+GuidPrefix participant_of(const rtps::InstanceHandle_t& writer) {
+  GuidPrefix prefix{};
+  std::memcpy(prefix.data(), writer.value, prefix.size());
+  return prefix;
+}
+
 }  // namespace
 
 std::optional<GuidPrefix> participant_key_of(const std::string& subject, std::string* common_name) {
@@ -70,8 +77,7 @@ std::optional<std::string> space_of_subject(const std::string& subject, const Gu
 }
 
 call::Identity DdsIdentities::caller(const rtps::InstanceHandle_t& writer, const std::string& declared_space) {
-  GuidPrefix prefix{};
-  std::memcpy(prefix.data(), writer.value, prefix.size());
+  const GuidPrefix prefix = participant_of(writer);
   std::lock_guard lock(mutex_);
   const auto known = spaces_.find(prefix);
   if (known == spaces_.end()) return {declared_space, "dds:" + declared_space, kDeclaredSpaceRole};
@@ -86,8 +92,7 @@ call::Identity DdsIdentities::caller(const rtps::InstanceHandle_t& writer, const
 bool DdsIdentities::speaks_for(const rtps::InstanceHandle_t& writer, const std::string& space, const char* kind,
                                const std::string& name) {
   if (!secured_) return true;
-  GuidPrefix prefix{};
-  std::memcpy(prefix.data(), writer.value, prefix.size());
+  const GuidPrefix prefix = participant_of(writer);
   std::lock_guard lock(mutex_);
   const auto known = spaces_.find(prefix);
   if (known != spaces_.end() && known->second == space) return true;
