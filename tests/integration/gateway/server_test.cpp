@@ -8,7 +8,13 @@
 #include <boost/beast/core.hpp>
 #include <boost/beast/http.hpp>
 #include <boost/beast/websocket.hpp>
+#include <poll.h>
+#include <sys/mount.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <atomic>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <mutex>
@@ -341,6 +347,103 @@ TEST(DdsSource, SeesAnotherSpacesBridgeAndLosesIt) {
   jp.reset();
   EXPECT_TRUE(wait_until([&] { return sink.services("dds").empty() && sink.components("dds").empty(); }, 20s));
   source.stop();
+}
+
+// A peer whose name resolves only after the gateway started (between containers: the bridge's
+// container started later). The gateway keeps serving without the link meanwhile and joins it
+// once the name resolves. The source runs in a child process forked before any thread, in a mount
+// namespace of its own over a hosts file the test writes; the child tells what it sees through a
+// pipe. Without the right to make a mount namespace (not root), or in a process that already runs
+// threads (a forked child would inherit Fast DDS's state without them; ctest runs each test alone),
+// the test is skipped.
+TEST(DdsSource, JoinsTheLinkOnceItsPeersNameResolves) {
+  const auto threads = std::distance(std::filesystem::directory_iterator("/proc/self/task"), {});
+  if (threads > 1) GTEST_SKIP() << "run it alone: this process already runs " << threads << " threads";
+  urs::test::DdsDomains domains(1);
+  const std::string dir = urs::test::make_temp_dir("gateway-hosts");
+  const std::string hosts = dir + "/hosts";
+  std::filesystem::copy_file("/etc/hosts", hosts);
+  int pipe_fds[2];
+  ASSERT_EQ(pipe(pipe_fds), 0);
+  const pid_t child = fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    close(pipe_fds[0]);
+    const auto say = [&](const std::string& line) {
+      const std::string text = line + "\n";
+      [[maybe_unused]] const auto written = write(pipe_fds[1], text.data(), text.size());
+    };
+    if (unshare(CLONE_NEWNS) != 0 || mount(nullptr, "/", nullptr, MS_REC | MS_PRIVATE, nullptr) != 0 ||
+        mount(hosts.c_str(), "/etc/hosts", nullptr, MS_BIND, nullptr) != 0) {
+      say(std::string("skip: no private /etc/hosts here: ") + std::strerror(errno));
+      _exit(0);
+    }
+    gw::DdsSourceOptions options;
+    options.space = "kr";
+    options.link.domain = domains[0];
+    options.link.lease = 1000ms;
+    options.link.udp_only = true;
+    options.link.initial_peers = {"jp-bridge-later"};
+    RecordingSink sink;
+    gw::DdsSource source(options);
+    try {
+      source.start(sink);
+    } catch (const std::exception& e) {
+      say(std::string("start threw: ") + e.what());
+      _exit(1);
+    }
+    say("started");
+    const bool seen = wait_until([&] { return !sink.services("dds").empty(); }, 60s);
+    say(seen ? "seen " + sink.services("dds").front().space() + "/" + sink.services("dds").front().name() : "nothing");
+    source.stop();
+    _exit(0);
+  }
+  close(pipe_fds[1]);
+  std::string received;
+  // The child's next line, or "" when none came within `limit`.
+  const auto next_line = [&](std::chrono::milliseconds limit) -> std::string {
+    const auto end = std::chrono::steady_clock::now() + limit;
+    while (received.find('\n') == std::string::npos) {
+      const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(end - std::chrono::steady_clock::now());
+      if (left.count() <= 0) return "";
+      pollfd readable{pipe_fds[0], POLLIN, 0};
+      if (poll(&readable, 1, static_cast<int>(left.count())) <= 0) continue;
+      char buffer[256];
+      const ssize_t n = read(pipe_fds[0], buffer, sizeof buffer);
+      if (n <= 0) return "";
+      received.append(buffer, static_cast<size_t>(n));
+    }
+    const auto newline = received.find('\n');
+    std::string line = received.substr(0, newline);
+    received.erase(0, newline + 1);
+    return line;
+  };
+  const auto finish = [&] {
+    kill(child, SIGTERM);
+    int status = 0;
+    waitpid(child, &status, 0);
+    close(pipe_fds[0]);
+    std::filesystem::remove_all(dir);
+  };
+
+  const std::string started = next_line(20s);
+  if (started.rfind("skip", 0) == 0) {
+    finish();
+    GTEST_SKIP() << started;
+  }
+  ASSERT_EQ(started, "started") << "the source must start without its peer's name";
+  urs::bridge::DdsOptions jp_options = bridge_link_options(domains[0], "jp");
+  jp_options.lease = 1000ms;
+  jp_options.udp_only = true;
+  urs::bridge::DdsLink jp(jp_options, [] {}, [](urs::call::Request, urs::call::Responder) {});
+  const auto* diagnostic = URS::Diagnostic_echo_Request::descriptor()->file()->FindServiceByName("Diagnostic");
+  jp.announce({"jp", "robot1.navigation", diagnostic->full_name(), "IDL:URS/Diagnostic:1.0", "rtc:x", "bridge-jp", 0,
+               urs::schema::descriptor_set_for(*diagnostic->file())});
+  EXPECT_EQ(next_line(3s), "") << "no link before the peer's name resolves";
+
+  std::ofstream(hosts, std::ios::app) << "127.0.0.1 jp-bridge-later\n";  // the same file: the bind mount sees it
+  EXPECT_EQ(next_line(45s), "seen jp/robot1.navigation");
+  finish();
 }
 
 TEST(DdsSource, LeavesOutWhatTheOwnSpacesNativeSourcesShow) {

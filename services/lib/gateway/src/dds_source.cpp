@@ -2,6 +2,8 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
+#include <chrono>
 #include <set>
 
 #include "urs/gateway/gateway.hpp"
@@ -10,6 +12,7 @@ namespace urs::gateway {
 
 namespace {
 constexpr const char* kSource = "dds";
+constexpr auto kJoinRetryPeriod = std::chrono::seconds(2);  // joining the DDS link again, as the bridge does
 }
 
 DdsSource::DdsSource(DdsSourceOptions options) : options_(std::move(options)) {}
@@ -20,16 +23,48 @@ std::string DdsSource::reader_name(const std::string& space) { return "urs-gatew
 
 void DdsSource::start(ViewSink& sink) {
   sink_ = &sink;
+  join();
+  // Once joined, the catalog is read when DDS says it changed and at least twice a lease;
+  // until then each round tries to join again.
+  poller_.start(std::min<std::chrono::milliseconds>(options_.link.lease / 2, kJoinRetryPeriod), [this] {
+    if (!link_ && std::chrono::steady_clock::now() >= next_join_) join();
+    if (link_) read_catalog();
+  });
+}
+
+// Joins the link's domain. A link that cannot be joined yet (an initial peer or discovery server
+// whose name resolves only once its container has started) leaves the gateway serving what its
+// other sources show; the poller tries again every kJoinRetryPeriod.
+void DdsSource::join() {
   bridge::DdsOptions link = options_.link;
   link.space = reader_name(options_.space);
   link.bridge = "urs-gateway";
-  link_ = std::make_unique<bridge::DdsLink>(
-      link,
-      [this] { poller_.wake(); },
-      [](call::Request request, call::Responder responder) {
-        // Nobody calls a gateway over DDS (it announces nothing); refuse whatever arrives.
-        responder.reply(call::Reply::error(call::Status::UNKNOWN_SERVICE, "urs-gateway serves no " + request.service));
-      });
+  try {
+    link_ = std::make_unique<bridge::DdsLink>(
+        link,
+        [this] { poller_.wake(); },
+        [](call::Request request, call::Responder responder) {
+          // Nobody calls a gateway over DDS (it announces nothing); refuse whatever arrives.
+          responder.reply(call::Reply::error(call::Status::UNKNOWN_SERVICE, "urs-gateway serves no " + request.service));
+        });
+    state_ = std::make_unique<bridge::StateLink>(*link_, state_handlers(), std::nullopt);
+  } catch (const std::exception& e) {
+    state_.reset();
+    link_.reset();
+    if (e.what() != join_failure_) {
+      spdlog::error("gateway: no link to other spaces yet: {}; trying again every {} s", e.what(),
+                    std::chrono::duration_cast<std::chrono::seconds>(kJoinRetryPeriod).count());
+      join_failure_ = e.what();
+    }
+    next_join_ = std::chrono::steady_clock::now() + kJoinRetryPeriod;
+    return;
+  }
+  if (!join_failure_.empty()) spdlog::info("gateway: joined the link to other spaces");
+  join_failure_.clear();
+}
+
+// What the state topics report, into the sink.
+bridge::StateHandlers DdsSource::state_handlers() {
   bridge::StateHandlers handlers;
   handlers.component = [this](const bridge::ComponentState& state, bool alive) { component(state, alive); };
   handlers.pose = [this](const bridge::SpacePose& pose) {
@@ -60,8 +95,7 @@ void DdsSource::start(ViewSink& sink) {
     *out.mutable_payload() = decoder_.decode(event.content_type, event.payload);
     sink_->event(out);
   };
-  state_ = std::make_unique<bridge::StateLink>(*link_, std::move(handlers), std::nullopt);
-  poller_.start(options_.link.lease / 2, [this] { read_catalog(); });
+  return handlers;
 }
 
 void DdsSource::stop() {

@@ -11,9 +11,10 @@
 // What the gateway's own space's native sources show better (the CAMUS server, the naming
 // service, the devices' domain) is left out here, as DdsSourceOptions says.
 //
-// Threads: one of its own for the catalog (read when DDS says it changed); the state arrives on
+// Threads: one of its own for joining the link and the catalog (read when DDS says it changed); the state arrives on
 // StateLink's threads and is reported from there.
 
+#include <chrono>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -40,7 +41,8 @@ class DdsSource : public SpaceSource {
   explicit DdsSource(DdsSourceOptions options);
   ~DdsSource() override;
 
-  // Joins the domain; throws std::runtime_error if DDS refuses.
+  // Joins the domain, or, while DDS refuses (a peer's name that does not resolve yet), logs why and
+  // tries again every 2 s; never throws for that.
   void start(ViewSink& sink) override;
   void stop() override;
 
@@ -48,6 +50,8 @@ class DdsSource : public SpaceSource {
   static std::string reader_name(const std::string& space);
 
  private:
+  void join();
+  bridge::StateHandlers state_handlers();
   void read_catalog();
   void component(const bridge::ComponentState& state, bool alive);
   bool wanted(const std::string& space, bool own) const { return own || space != options_.space; }
@@ -60,7 +64,9 @@ class DdsSource : public SpaceSource {
 
   std::mutex components_mutex_;
   std::map<std::pair<std::string, std::string>, Component> components_;
-  Poller poller_;  // reads the catalog when DDS says it changed; liveliness ends at a lease's pace
+  std::string join_failure_;  // why the last try to join failed; empty: joined (or not tried)
+  std::chrono::steady_clock::time_point next_join_{};
+  Poller poller_;  // joins the link until it is joined, then reads the catalog when DDS says it changed; liveliness ends at a lease's pace
 };
 
 }  // namespace urs::gateway
