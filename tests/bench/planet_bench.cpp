@@ -3,7 +3,8 @@
 //   urs-bench [--quick] [--pin] [--only TEXT]... [--json FILE] [--markdown FILE]
 //
 // --only TEXT measures only the rows ("path | payload") and measurements whose label contains
-// TEXT (every --only given must match), to profile one path; the processes are started anyway.
+// TEXT (every --only given must match), and the baselines of those rows, to profile one path;
+// the processes are started anyway.
 // --pin runs the bench's client threads on CPU 0 and every server on CPU 1 (pinning.hpp).
 //
 // Rows, each for a 64-byte and a 921,600-byte reply:
@@ -13,8 +14,10 @@
 //   - a Planet call client → urs-camus-server → urs-sam → agent, from the C++ client (also over
 //     TLS 1.3) and from the Python SDK's (python_echo_bench.py, a process of its own);
 //   - a direct omniORB call (static stubs) and the bridged paths both ways through urs-bridge;
-//   - a direct Fast DDS request/reply (a DdsLink here, urs-dds-echo in its own process) and the
-//     cross-space paths both ways through two bridges linked by DDS over UDP.
+//   - a direct Fast DDS request/reply (a DdsLink here, urs-dds-echo in its own process), plain
+//     and with DDS-Security, and the cross-space paths both ways through two bridges linked by
+//     DDS over UDP, plain and with DDS-Security (a second pair of bridges on a link of its own,
+//     the PKI made by deploy/pki.sh at start).
 // The paths a goal compares are measured in turns (measure_interleaved) and their ratio taken
 // repetition by repetition, with its spread. Also throughput with 1 and 4 clients (Planet against
 // gRPC, bridged against direct omniORB, in turns), a sustained image stream, discovery across
@@ -246,26 +249,64 @@ int main(int argc, char** argv) {
     if (wanted(path + " | " + payload)) rows.push_back({path, payload, run(), std::move(baseline), goal});
   };
   // Paths measured in turns (measure_interleaved), each compared with its baseline repetition by
-  // repetition; the group is measured when --only wants one of its rows, and all its rows are kept.
+  // repetition. Of a group, --only measures the paths it wants and the baselines of those (a sum's
+  // parts), nothing else; without --only, every path.
   struct GroupPath {
-    std::string path;
+    std::string path;  // "" for a path measured only as a part of sums
     std::function<void()> once;
-    std::string baseline;  // "path|payload" of a row of the same group
+    std::string baseline;  // "path|payload" of a path or a sum of the same group
+    double goal = 0;
+  };
+  // A row made of the group's paths run one after the other: the native hops a bridged call adds
+  // up (sum_of), or one path compared with another baseline (one part).
+  struct GroupSum {
+    std::string path;
+    std::vector<size_t> parts;  // indices into the group's paths
+    std::string baseline;
     double goal = 0;
   };
   int groups = 0;
-  auto add_group = [&](const std::string& payload, const std::vector<GroupPath>& paths, int w, int n) {
-    if (std::none_of(paths.begin(), paths.end(), [&](const GroupPath& p) { return wanted(p.path + " | " + payload); })) {
-      return std::vector<Summary>{};
-    }
-    std::vector<std::function<void()>> calls;
-    for (const auto& p : paths) calls.push_back(p.once);
-    std::vector<Summary> summaries = urs::bench::measure_interleaved(calls, w, n, repetitions);
-    ++groups;
-    for (size_t i = 0; i < paths.size(); ++i) {
-      if (!paths[i].path.empty()) {
-        rows.push_back({paths[i].path, payload, summaries[i], paths[i].baseline, paths[i].goal, groups});
+  auto add_group = [&](const std::string& payload, const std::vector<GroupPath>& paths,
+                       const std::vector<GroupSum>& sums, int w, int n) {
+    std::vector<bool> needed(paths.size(), false);
+    auto need = [&](const std::string& name) {  // a path or a sum named "path|payload"
+      for (size_t i = 0; i < paths.size(); ++i) {
+        if (!paths[i].path.empty() && paths[i].path + "|" + payload == name) needed[i] = true;
       }
+      for (const auto& sum : sums) {
+        if (sum.path + "|" + payload != name) continue;
+        for (size_t part : sum.parts) needed[part] = true;
+      }
+    };
+    for (const auto& p : paths) {
+      if (p.path.empty() || !wanted(p.path + " | " + payload)) continue;
+      need(p.path + "|" + payload);
+      need(p.baseline);
+    }
+    for (const auto& sum : sums) {
+      if (!wanted(sum.path + " | " + payload)) continue;
+      need(sum.path + "|" + payload);
+      need(sum.baseline);
+    }
+    std::vector<Summary> summaries(paths.size());
+    if (std::none_of(needed.begin(), needed.end(), [](bool b) { return b; })) return summaries;
+    std::vector<std::function<void()>> calls;
+    for (size_t i = 0; i < paths.size(); ++i) {
+      if (needed[i]) calls.push_back(paths[i].once);
+    }
+    std::vector<Summary> measured = urs::bench::measure_interleaved(calls, w, n, repetitions);
+    ++groups;
+    for (size_t i = 0, m = 0; i < paths.size(); ++i) {
+      if (!needed[i]) continue;
+      summaries[i] = measured[m++];
+      if (!paths[i].path.empty()) rows.push_back({paths[i].path, payload, summaries[i], paths[i].baseline, paths[i].goal, groups});
+    }
+    for (const auto& sum : sums) {
+      if (!std::all_of(sum.parts.begin(), sum.parts.end(), [&](size_t part) { return needed[part]; })) continue;
+      std::vector<const Summary*> parts;
+      for (size_t part : sum.parts) parts.push_back(&summaries[part]);
+      rows.push_back({sum.path, payload, parts.size() == 1 ? *parts[0] : urs::bench::sum_of(parts), sum.baseline,
+                      sum.goal, groups});
     }
     return summaries;
   };
@@ -333,11 +374,10 @@ int main(int argc, char** argv) {
                          [&] { expect_ok(tls_client->call("diag", "echo", echo_payload, 5s), "echo"); },
                          kPlanet + "|" + size, 1.2});
       }
-      const auto summaries = add_group(size, paths, big_payload ? 3 : warmup, big_payload ? big_iterations : iterations);
-      if (!summaries.empty()) {  // the Planet call's round again, its goal against the one-hop gRPC call
-        rows.push_back({"Planet call (two hops) against gRPC unary (one hop)", size, summaries[4], kGrpcSync + "|" + size,
-                        big_payload ? 0 : 1.0, groups});
-      }
+      // The Planet call's round again, its goal against the one-hop gRPC call.
+      add_group(size, paths,
+                {{"Planet call (two hops) against gRPC unary (one hop)", {4}, kGrpcSync + "|" + size, big_payload ? 0 : 1.0}},
+                big_payload ? 3 : warmup, big_payload ? big_iterations : iterations);
     }
     add_row("Planet call, Python client (urslink)→server→SAM→SA", "64 B",
             [&] { return python_client_echo(dir, space.port(), quick); }, kPlanet + "|64 B", 0);
@@ -382,8 +422,18 @@ int main(int argc, char** argv) {
     }
 
     // ---- the RT side, a bridge in the space, and two spaces linked over DDS -------------------
-    const urs::test::DdsDomains domains(3);  // the spaces' link; the direct DDS rows', plain and secured
+    // The spaces' link, plain and secured; the direct DDS rows', plain and secured.
+    const urs::test::DdsDomains domains(4);
     const int domain = static_cast<int>(domains[0]);
+    // One federation made by deploy/pki.sh for every secured row: kr and jp call each other over
+    // the secured link, dds-a calls dds-b (the direct rows).
+    const std::string pki = dir + "/pki";
+    urs::test::run_pki({{"init", pki},
+                        {"governance", pki},
+                        {"member", pki, "kr", "--calls", "jp"},
+                        {"member", pki, "jp", "--calls", "kr"},
+                        {"member", pki, "dds-a", "--calls", "dds-b"},
+                        {"member", pki, "dds-b"}});
     urs::test::NamingService naming(dir + "/naming");
     auto manager = start_with_config(dir, "rtc", "components:\n  - type: Diagnostic\n",
                                      {URS_RTC_MANAGER_BIN, "--space", "bench", "--naming", naming.address(),
@@ -405,11 +455,32 @@ int main(int argc, char** argv) {
         {URS_BRIDGE_BIN, "--space", "jp", "--naming", naming.address(), "--host", "jphost"});
     auto bridge_kr = start_with_config(dir, "bridge-kr", "name: bridge-kr\n" + dds + "}\n",
                                        {URS_BRIDGE_BIN, "--space", "kr", "--server", space.address()});
+    // The same two bridges on a DDS-Security link of their own (domain and PKI above), the
+    // imports named apart from the plain link's: jp-secured/rt.diag in kr, the RTC kr_diag bound
+    // under host jpsecured in jp. kr offers only diag on it and takes no state from it (the plain
+    // link's bridge-kr writes jp's state into the context).
+    const std::string secured_dds = "dds: {domain: " + std::to_string(domains[3]) +
+                                    ", lease_ms: 3000, udp_only: true, security: {pki: \"" + pki + "\"}";
+    auto secured_jp = start_with_config(
+        dir, "secured-bridge-jp",
+        "name: secured-bridge-jp\n"
+        "rt_to_camus: {poll_ms: 100, providers: [{match: \"benchhost.host_cxt/Diagnostic0.rtc\", name: rt.diag}]}\n" +
+            secured_dds + ", import: {allow: [kr/diag]}}\n",
+        {URS_BRIDGE_BIN, "--space", "jp", "--naming", naming.address(), "--host", "jpsecured"});
+    auto secured_kr = start_with_config(
+        dir, "secured-bridge-kr",
+        "name: secured-bridge-kr\n" + secured_dds +
+            ", export: {allow: [diag]}, import: {as_camus: \"{space}-secured/{service}\"}, state: {import: false}}\n",
+        {URS_BRIDGE_BIN, "--space", "kr", "--server", space.address()});
     auto callable = [&](const std::string& service) {
       return urs::test::wait_until([&] { return client->call(service, "echo", echo_payload, 500ms).ok(); }, 30s);
     };
     if (!callable("rt.diag") || !callable("jp/rt.diag")) {
       throw std::runtime_error("the bridged services never became callable: " + bridge->log() + bridge_kr->log());
+    }
+    if (!callable("jp-secured/rt.diag")) {
+      throw std::runtime_error("jp-secured/rt.diag never became callable over the secured link: " + secured_kr->log() +
+                               secured_jp->log());
     }
     urs::rtc::Orb orb;
     urs::rtc::NamingClient names(orb, naming.address());
@@ -418,14 +489,18 @@ int main(int argc, char** argv) {
     if (!urs::test::wait_until([&] {
           CORBA::Object_var bound = names.try_resolve("benchhost.host_cxt/camus_diag.rtc");
           CORBA::Object_var kr_bound = names.try_resolve("jphost.host_cxt/kr_diag.rtc");
-          return !CORBA::is_nil(bound) && !CORBA::is_nil(kr_bound);
+          CORBA::Object_var secured_bound = names.try_resolve("jpsecured.host_cxt/kr_diag.rtc");
+          return !CORBA::is_nil(bound) && !CORBA::is_nil(kr_bound) && !CORBA::is_nil(secured_bound);
         }, 30s)) {
-      throw std::runtime_error("the RTCs standing for diag never appeared: " + bridge->log() + bridge_jp->log());
+      throw std::runtime_error("the RTCs standing for diag never appeared: " + bridge->log() + bridge_jp->log() +
+                               secured_jp->log());
     }
     CORBA::Object_var imported_object = provider(orb, names, "benchhost.host_cxt/camus_diag.rtc", "diagnostic");
     urs::bench::DiagnosticStub imported(imported_object);
     CORBA::Object_var remote_object = provider(orb, names, "jphost.host_cxt/kr_diag.rtc", "diagnostic");
     urs::bench::DiagnosticStub remote(remote_object);
+    CORBA::Object_var secured_remote_object = provider(orb, names, "jpsecured.host_cxt/kr_diag.rtc", "diagnostic");
+    urs::bench::DiagnosticStub secured_remote(secured_remote_object);
 
     // Direct Fast DDS request/reply: a DdsLink here and one in urs-dds-echo answering at once (UDP
     // only, between processes as the bridges are).
@@ -438,11 +513,7 @@ int main(int argc, char** argv) {
     a_options.udp_only = true;
     urs::bridge::DdsLink dds_a(a_options, [] {}, [](urs::call::Request, urs::call::Responder) {});
     expect_ok(dds_a.call("dds-b", "echo", "echo", echo_payload, 5s), "direct DDS");
-    // The same with DDS-Security (a federation made by deploy/pki.sh, data encrypted), on a domain
-    // of its own.
-    const std::string pki = dir + "/pki";
-    urs::test::run_pki({{"init", pki}, {"governance", pki}, {"member", pki, "dds-a", "--calls", "dds-b"},
-                        {"member", pki, "dds-b"}});
+    // The same with DDS-Security (the federation above, data encrypted), on a domain of its own.
     auto secured_echo = start_until_ready(
         dir, "secured-echo", {URS_DDS_ECHO_BIN, std::to_string(domains[2]), dir + "/secured-echo.ready", pki});
     urs::bridge::DdsOptions secured_options = a_options;
@@ -474,30 +545,32 @@ int main(int argc, char** argv) {
         return [&, service] { expect_ok(client->call(service, op, payload, 10s), service.c_str()); };
       };
       // In turns: the native paths, the same Planet call as above (its round is needed in this
-      // group for the sums), the bridged and the cross-space paths.
+      // group for the sums), the bridged and the cross-space paths, plain and secured.
       const std::string kOmni = "omniORB call, static stubs (direct)";
       const std::string kDds = "Fast DDS request/reply, UDP (direct)";
       const std::string kBridgeHops = "Planet call + omniORB call (the hops of a bridged call)";
       const std::string kHops = "sum of the native hops (Planet + Fast DDS + omniORB)";
+      const std::string kCrossToJp = "cross-space: kr client→server→bridge-kr→DDS→bridge-jp→RTC";
+      const std::string kCrossToKr = "cross-space: jp stub→bridge-jp→DDS→bridge-kr→server→SAM→SA";
       const std::string at = std::string("|") + size;
-      const auto summaries = add_group(
+      const double secured_goal = big_payload ? 1.5 : 1.3;
+      add_group(
           size,
           {{kOmni, stub_call(direct), "", 0},
            {kDds, [&] { expect_ok(dds_a.call("dds-b", "x", op, payload, 10s), "DDS"); }, "", 0},
            {"Fast DDS request/reply, UDP, DDS-Security encrypted (direct)",
-            [&] { expect_ok(secured_a.call("dds-b", "x", op, payload, 10s), "secured DDS"); }, kDds + at,
-            big_payload ? 1.5 : 1.3},
+            [&] { expect_ok(secured_a.call("dds-b", "x", op, payload, 10s), "secured DDS"); }, kDds + at, secured_goal},
            {"", planet_call("diag"), "", 0},  // the Planet call's round of this group (no row of its own)
            {"bridged RTC→CAMUS: client→server→bridge→RTC", planet_call("rt.diag"), kBridgeHops + at, big_payload ? 0 : 1.15},
            {"bridged SA→RT: stub→bridge→server→SAM→SA", stub_call(imported), kBridgeHops + at, 0},
-           {"cross-space: kr client→server→bridge-kr→DDS→bridge-jp→RTC", planet_call("jp/rt.diag"), kHops + at, 1.2},
-           {"cross-space: jp stub→bridge-jp→DDS→bridge-kr→server→SAM→SA", stub_call(remote), kHops + at, 1.2}},
-          w, n);
-      if (!summaries.empty()) {
-        // The native hops each bridged path traverses, added up repetition by repetition.
-        rows.push_back({kBridgeHops, size, urs::bench::sum_of({&summaries[3], &summaries[0]}), "", 0, groups});
-        rows.push_back({kHops, size, urs::bench::sum_of({&summaries[3], &summaries[1], &summaries[0]}), "", 0, groups});
-      }
+           {kCrossToJp, planet_call("jp/rt.diag"), kHops + at, 1.2},
+           {kCrossToKr, stub_call(remote), kHops + at, 1.2},
+           {"cross-space, DDS-Security encrypted: kr client→server→bridge-kr→DDS→bridge-jp→RTC",
+            planet_call("jp-secured/rt.diag"), kCrossToJp + at, secured_goal},
+           {"cross-space, DDS-Security encrypted: jp stub→bridge-jp→DDS→bridge-kr→server→SAM→SA",
+            stub_call(secured_remote), kCrossToKr + at, secured_goal}},
+          // The native hops each bridged path traverses, added up repetition by repetition.
+          {{kBridgeHops, {3, 0}, "", 0}, {kHops, {3, 1, 0}, "", 0}}, w, n);
     }
 
     // Throughput, direct omniORB and bridged RTC→CAMUS, 1 and 4 clients, in turns.
@@ -631,7 +704,7 @@ int main(int argc, char** argv) {
   json << "{\"quick\":" << (quick ? "true" : "false") << ",\"rows\":[";
   for (size_t i = 0; i < rows.size(); ++i) {
     const auto& row = rows[i];
-    std::string ratio = "baseline";
+    std::string ratio = row.baseline.empty() ? "baseline" : "– (its baseline not measured)";
     std::string goal = "";
     std::string ratio_json;
     const Row* base = nullptr;
