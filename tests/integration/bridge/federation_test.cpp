@@ -497,6 +497,11 @@ TEST_F(AuthorizedFederation, AMemberIsJudgedByTheSpaceItsCertificateNamesNotTheO
   const call::Reply honest = spy.call("jp", "rt.Diagnostic0", "echo", echo.SerializeAsString(), 10s);
   EXPECT_EQ(honest.status, call::Status::PERMISSION_DENIED) << honest.message;
   EXPECT_EQ(honest.message, "space spy may not call jp/rt.Diagnostic0");
+  // A name inside its space that is no name (here a bridge's) is refused before any rule.
+  const call::Reply misnamed = spy.call("jp", "rt.Diagnostic0", "echo", echo.SerializeAsString(), 10s, "dds:kr");
+  EXPECT_EQ(misnamed.status, call::Status::BAD_ARGUMENTS) << misnamed.message;
+  EXPECT_EQ(misnamed.message, "the caller's name (CallRequest.caller_name) 'dds:kr' begins with 'dds:' (the bridges' "
+                              "own names)");
 
   // The same participant writes a request of its own declaring space kr, which may call it.
   namespace fdds = eprosima::fastdds::dds;
