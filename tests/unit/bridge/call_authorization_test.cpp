@@ -80,7 +80,8 @@ TEST(CallAuthorization, CallerNameProblemsAreNamed) {
   EXPECT_EQ(caller_name_problem("ann smith"), "holds white space or a character outside printable ASCII");
   EXPECT_EQ(caller_name_problem("ann\\n"), "");  // a backslash is printable
   EXPECT_EQ(caller_name_problem(std::string("ann\x00", 4)), "holds white space or a character outside printable ASCII");
-  EXPECT_EQ(caller_name_problem("kr/ann"), "'kr/ann' contains '/'");
+  EXPECT_EQ(caller_name_problem("task:square-path/r3"), "");  // a CAMUS task's calls
+  EXPECT_TRUE(caller_matches("kr/task:*", {"kr", "task:square-path/r3", kVerifiedSpaceRole}));
   EXPECT_EQ(caller_name_problem("dds:kr"), "'dds:kr' begins with 'dds:' (the bridges' own names)");
 }
 

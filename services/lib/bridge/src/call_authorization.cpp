@@ -30,7 +30,6 @@ std::string caller_name_problem(const std::string& name) {
   if (std::any_of(name.begin(), name.end(), [](unsigned char c) { return c <= 0x20 || c > 0x7e; })) {
     return "holds white space or a character outside printable ASCII";
   }
-  if (name.find('/') != std::string::npos) return "'" + name + "' contains '/'";
   if (name.rfind("dds:", 0) == 0) return "'" + name + "' begins with 'dds:' (the bridges' own names)";
   return "";
 }

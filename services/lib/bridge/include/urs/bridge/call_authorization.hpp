@@ -43,8 +43,9 @@ std::string caller_pattern_problem(const std::string& pattern);
 
 // What is wrong with the name a request gives its caller inside its space (CallRequest.caller_name,
 // non-empty), one sentence; "" if nothing. A name is 1 to kMaxCallerName printable ASCII
-// characters, with no '/' (SPACE/NAME patterns could not name it) and not beginning "dds:" (the
-// names of the bridges themselves).
+// characters but white space, not beginning "dds:" (the names of the bridges themselves). It may
+// hold '/' (a CAMUS task's "task:square-path/r3"): a SPACE/NAME pattern's NAME is all after its
+// first '/', so "kr/task:*" names it.
 inline constexpr std::size_t kMaxCallerName = 128;
 std::string caller_name_problem(const std::string& name);
 
