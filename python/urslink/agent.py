@@ -17,13 +17,18 @@ _current = contextvars.ContextVar("urslink_current_call", default=None)
 
 class CallInfo:
     """What an agent knows about the call it is answering: `service`, `operation`, `deadline_ms`
-    (the effective deadline the server forwarded; 0 for a oneway) and `oneway`."""
+    (the effective deadline the server forwarded; 0 for a oneway), `oneway`, and `caller` and
+    `caller_role`: the name and role ("client", "sam", "operator") the server authenticated for
+    the calling session (Request.caller, which only the server sets; "" if it named none)."""
 
     def __init__(self, request):
         self.service = request.service
         self.operation = request.operation
         self.deadline_ms = request.deadline_ms
         self.oneway = request.oneway
+        self.caller = request.caller.name
+        roles = {1: "client", 2: "sam", 3: "operator"}
+        self.caller_role = roles.get(request.caller.role, "") if self.caller else ""
 
 
 def current_call():

@@ -133,7 +133,7 @@ class AgentTest(unittest.TestCase):
 
     def dispatch(self, agent, operation, payload=b"", oneway=False):
         request = pl.Request(call_id=1, service="thermo", operation=operation, payload=payload, oneway=oneway,
-                             deadline_ms=500)
+                             deadline_ms=500, caller=pl.Caller(name="operator-ann", role=pl.CLIENT))
         return asyncio.run(agent._dispatch(request))
 
     def test_results_and_errors(self):
@@ -162,6 +162,7 @@ class AgentTest(unittest.TestCase):
         self.assertEqual(status, pl.OK)
         self.assertEqual(interface.methods["_get_room"].reply.FromString(payload).result, "lab")
         self.assertEqual((seen["call"].operation, seen["call"].deadline_ms), ("_get_room", 500))
+        self.assertEqual((seen["call"].caller, seen["call"].caller_role), ("operator-ann", "client"))
         status, _, payload, _ = self.dispatch(agent, "read")
         self.assertEqual(interface.methods["read"].reply.FromString(payload).result.target, 21)
         request = interface.methods["setTarget"].request

@@ -46,6 +46,11 @@ void Router::route(const Caller& caller, planet::Request request, Completion don
     done(planet::CallResult::error(status, std::move(message)));
   };
 
+  if (request.has_caller()) {  // the server alone says who calls
+    refuse(planet::PERMISSION_DENIED, "Request.caller is set by the server alone: " + service + "." + operation +
+                                          " not called (a client may not name who calls)");
+    return;
+  }
   if (request.deadline_ms() > options_.max_deadline_ms) {
     refuse(planet::BAD_ARGUMENTS, "deadline_ms " + std::to_string(request.deadline_ms()) +
                                       " exceeds the server's limit of " + std::to_string(options_.max_deadline_ms) +
@@ -141,6 +146,9 @@ void Router::route(const Caller& caller, planet::Request request, Completion don
     return;
   }
 
+  // The provider learns who calls: the name and role this server authenticated.
+  request.mutable_caller()->set_name(caller.identity);
+  request.mutable_caller()->set_role(caller.role);
   planet::Frame frame;
   *frame.mutable_request() = std::move(request);
   if (!route->owner->send(std::move(frame))) {

@@ -43,6 +43,7 @@
 #include "dds_domain.hpp"
 #include "camus.pb.h"
 #include "Federation.h"
+#include "FederationPubSubTypes.h"
 #include "SpaceState.h"
 #include "SpaceStatePubSubTypes.h"
 #include "urs/bridge/state_link.hpp"
@@ -160,10 +161,11 @@ class Federation : public BridgeSpaceTest, public ::testing::WithParamInterface<
   void restart_server() {
     const std::string port = server_address_.substr(server_address_.rfind(':') + 1);
     server_->kill9();
-    server_ = std::make_unique<Process>(
-        std::vector<std::string>{URS_SERVER_BIN, "--space", space_, "--listen", "127.0.0.1:" + port, "--data-dir",
-                                 dir_ + "/data", "--heartbeat-ms", "200", "--heartbeat-timeout-ms", "1000"},
-        dir_ + "/server2.log");
+    std::vector<std::string> argv{URS_SERVER_BIN, "--space", space_, "--listen", "127.0.0.1:" + port, "--data-dir",
+                                  dir_ + "/data", "--heartbeat-ms", "200", "--heartbeat-timeout-ms", "1000"};
+    const std::vector<std::string> credentials = credentials_args();
+    argv.insert(argv.end(), credentials.begin(), credentials.end());
+    server_ = std::make_unique<Process>(argv, dir_ + "/server2.log");
   }
 
   // A UDP port nothing listens on now.
@@ -359,16 +361,21 @@ TEST_F(PlainFederation, ABridgeJoinsTheLinkOnceItsPeersNameResolves) {
   EXPECT_NE(kr_->log().find("joined the link to other spaces"), std::string::npos) << kr_->log();
 }
 
-// Calls authorized per service on a secured link: jp's bridge exports every service, lets kr
-// call rt.Diagnostic* and nobody rt.Secret*, and writes each call it serves to its audit log,
-// rotated at 2 KiB.
+// Calls authorized per service on a secured link: kr's CAMUS server admits named credentials
+// (the fixture's own "space-admin", "operator-ann" and "visitor"); jp's bridge exports every
+// service, lets kr's space-admin and operators call rt.Diagnostic* and nobody rt.Secret*, and
+// writes each call it serves to its audit log, rotated at 2 KiB.
 class AuthorizedFederation : public Federation {
  protected:
+  void SetUp() override {
+    credentials_ = {{"operator-ann", "client"}, {"visitor", "client"}};
+    Federation::SetUp();
+  }
   bool secured() const override { return true; }
   std::string jp_export() override {
     std::filesystem::create_directories(dir_ + "/audit");
     return "  export:\n"
-           "    callers: {\"rt.Secret*\": [], \"rt.Diagnostic*\": [kr]}\n" +
+           "    callers: {\"rt.Secret*\": [], \"rt.Diagnostic*\": [\"kr/operator-*\", kr/space-admin]}\n" +
            std::string(trust_declared_space() ? "    trust_declared_space: true\n" : "") +
            "  audit: {file: \"" + audit_file() + "\", max_bytes: 2048, files: 2}\n";
   }
@@ -384,8 +391,8 @@ class AuthorizedFederation : public Federation {
     }
     return lines;
   }
-  // kr calls jp's rt.Diagnostic0 (granted: it answers `text`) and rt.Secret0 (refused with the
-  // reason).
+  // kr's space-admin calls jp's rt.Diagnostic0 (granted: it answers `text`) and rt.Secret0
+  // (refused with the reason).
   void expect_granted_and_refused(const std::string& text) {
     ASSERT_TRUE(wait_for_service("jp/rt.Diagnostic0", 20s)) << kr_->log() << jp_->log();
     ASSERT_TRUE(wait_for_service("jp/rt.Secret0", 20s)) << kr_->log() << jp_->log();
@@ -394,7 +401,7 @@ class AuthorizedFederation : public Federation {
     echo.set_text("not granted");
     const Observed refused = call("jp/rt.Secret0", "echo", echo);
     EXPECT_EQ(refused.status, planet::PERMISSION_DENIED) << refused.message;
-    EXPECT_NE(refused.message.find("space kr may not call jp/rt.Secret0"), std::string::npos) << refused.message;
+    EXPECT_NE(refused.message.find("kr/space-admin may not call jp/rt.Secret0"), std::string::npos) << refused.message;
   }
   // The audited lines holding every one of `parts`.
   std::size_t audited_with(const std::vector<std::string>& parts) const {
@@ -412,13 +419,13 @@ TEST_F(AuthorizedFederation, AGrantedSpaceIsServedOthersAreRefusedWithTheReasonA
   ASSERT_NO_FATAL_FAILURE(expect_granted_and_refused("granted"));
 
   // Each line is written before the reply leaves: both are there now.
-  EXPECT_EQ(audited_with({"\"caller_space\":\"kr\",\"caller\":\"dds:kr\",\"space_verified\":true",
+  EXPECT_EQ(audited_with({"\"caller_space\":\"kr\",\"caller\":\"space-admin\",\"space_verified\":true",
                           "\"service\":\"rt.Diagnostic0\",\"operation\":\"echo\"", "\"status\":\"OK\"",
                           "\"duration_us\":"}),
             1u)
       << ::testing::PrintToString(audited());
-  EXPECT_EQ(audited_with({"\"caller_space\":\"kr\"", "\"service\":\"rt.Secret0\"",
-                          "\"status\":\"PERMISSION_DENIED\",\"reason\":\"space kr may not call jp/rt.Secret0\""}),
+  EXPECT_EQ(audited_with({"\"caller_space\":\"kr\",\"caller\":\"space-admin\"", "\"service\":\"rt.Secret0\"",
+                          "\"status\":\"PERMISSION_DENIED\",\"reason\":\"kr/space-admin may not call jp/rt.Secret0\""}),
             1u)
       << ::testing::PrintToString(audited());
   for (const auto& line : audited()) EXPECT_EQ(line.find("granted"), std::string::npos) << "a payload: " << line;
@@ -435,9 +442,44 @@ TEST_F(AuthorizedFederation, AGrantedSpaceIsServedOthersAreRefusedWithTheReasonA
   EXPECT_FALSE(std::filesystem::exists(dir_ + "/audit/calls.3.jsonl"));
 }
 
+// Inside kr, the callers are told apart by the names kr's CAMUS server authenticated: kr's
+// bridge passes the name on, jp's bridge takes it from kr's proven participant and judges it by
+// "kr/operator-*": operator-ann is served, visitor refused with the reason, both audited by name.
+TEST_F(AuthorizedFederation, ACallerInsideASpaceIsJudgedByTheNameItsServerAuthenticated) {
+  ASSERT_TRUE(wait_for_service("jp/rt.Diagnostic0", 20s)) << kr_->log() << jp_->log();
+  auto ann = connect_client("ann", "operator-ann");
+  auto visitor = connect_client("visitor", "visitor");
+  ASSERT_TRUE(ann->wait_connected(5s)) << ann->last_error();
+  ASSERT_TRUE(visitor->wait_connected(5s)) << visitor->last_error();
+  EXPECT_EQ(ann->welcome().identity(), "operator-ann");
+
+  URS::Diagnostic_echo_Request echo;
+  echo.set_text("from ann");
+  const auto served = ann->call("jp/rt.Diagnostic0", "echo", echo.SerializeAsString(), 5s);
+  ASSERT_EQ(served.status, planet::OK) << served.message;
+  URS::Diagnostic_echo_Reply reply;
+  ASSERT_TRUE(reply.ParseFromString(served.payload));
+  EXPECT_EQ(reply.result(), "from ann");
+
+  echo.set_text("from visitor");
+  const auto refused = visitor->call("jp/rt.Diagnostic0", "echo", echo.SerializeAsString(), 5s);
+  EXPECT_EQ(refused.status, planet::PERMISSION_DENIED) << refused.message;
+  EXPECT_NE(refused.message.find("kr/visitor may not call jp/rt.Diagnostic0"), std::string::npos) << refused.message;
+
+  EXPECT_EQ(audited_with({"\"caller_space\":\"kr\",\"caller\":\"operator-ann\",\"space_verified\":true",
+                          "\"service\":\"rt.Diagnostic0\",\"operation\":\"echo\"", "\"status\":\"OK\""}),
+            1u)
+      << ::testing::PrintToString(audited());
+  EXPECT_EQ(audited_with({"\"caller_space\":\"kr\",\"caller\":\"visitor\",\"space_verified\":true",
+                          "\"status\":\"PERMISSION_DENIED\",\"reason\":\"kr/visitor may not call jp/rt.Diagnostic0\""}),
+            1u)
+      << ::testing::PrintToString(audited());
+}
+
 // Member "spy", whose certificate names space spy and whose permissions let it call jp, is
 // served as spy, whatever its requests declare: refused with spy's reason (no rule lists spy),
-// its reply sent to spy, and audited as spy, verified.
+// its reply sent to spy, and audited as spy, verified. The name inside its space it gives is
+// spy's to give: judged as spy's, never kr's.
 TEST_F(AuthorizedFederation, AMemberIsJudgedByTheSpaceItsCertificateNamesNotTheOneItDeclares) {
   ASSERT_TRUE(wait_for_service("jp/rt.Diagnostic0", 20s)) << kr_->log() << jp_->log();
   bridge::DdsLink spy(spy_options(), [] {}, [](call::Request, call::Responder) {});
@@ -455,6 +497,11 @@ TEST_F(AuthorizedFederation, AMemberIsJudgedByTheSpaceItsCertificateNamesNotTheO
   const call::Reply honest = spy.call("jp", "rt.Diagnostic0", "echo", echo.SerializeAsString(), 10s);
   EXPECT_EQ(honest.status, call::Status::PERMISSION_DENIED) << honest.message;
   EXPECT_EQ(honest.message, "space spy may not call jp/rt.Diagnostic0");
+  // A name inside its space that is no name (here a bridge's) is refused before any rule.
+  const call::Reply misnamed = spy.call("jp", "rt.Diagnostic0", "echo", echo.SerializeAsString(), 10s, "dds:kr");
+  EXPECT_EQ(misnamed.status, call::Status::BAD_ARGUMENTS) << misnamed.message;
+  EXPECT_EQ(misnamed.message, "the caller's name (CallRequest.caller_name) 'dds:kr' begins with 'dds:' (the bridges' "
+                              "own names)");
 
   // The same participant writes a request of its own declaring space kr, which may call it.
   namespace fdds = eprosima::fastdds::dds;
@@ -476,13 +523,14 @@ TEST_F(AuthorizedFederation, AMemberIsJudgedByTheSpaceItsCertificateNamesNotTheO
   forged.operation("blob");
   forged.deadline_ms(10000);
   forged.no_reply(false);
+  forged.caller_name("operator-ann");
   ASSERT_TRUE(writer->write(&forged));
 
   EXPECT_TRUE(wait_until(
       [&] {
-        return audited_with({"\"caller_space\":\"spy\",\"caller\":\"dds:spy\",\"space_verified\":true",
+        return audited_with({"\"caller_space\":\"spy\",\"caller\":\"operator-ann\",\"space_verified\":true",
                              "\"operation\":\"blob\"",
-                             "\"reason\":\"space spy may not call jp/rt.Diagnostic0\""}) == 1;
+                             "\"reason\":\"spy/operator-ann may not call jp/rt.Diagnostic0\""}) == 1;
       },
       10s))
       << ::testing::PrintToString(audited()) << jp_->log();
@@ -509,10 +557,10 @@ TEST_F(DeclaredSpaceFederation, ADeclaredSpaceIsRefusedUnlessTrusted) {
   echo.set_text("declared");
   const Observed refused = call("jp/rt.Diagnostic0", "echo", echo);
   EXPECT_EQ(refused.status, planet::PERMISSION_DENIED) << refused.message;
-  EXPECT_NE(refused.message.find("space kr may not call jp/rt.Diagnostic0: its space is only declared"),
+  EXPECT_NE(refused.message.find("kr/space-admin may not call jp/rt.Diagnostic0: its space is only declared"),
             std::string::npos)
       << refused.message;
-  EXPECT_EQ(audited_with({"\"caller_space\":\"kr\",\"caller\":\"dds:kr\",\"space_verified\":false",
+  EXPECT_EQ(audited_with({"\"caller_space\":\"kr\",\"caller\":\"space-admin\",\"space_verified\":false",
                           "\"status\":\"PERMISSION_DENIED\""}),
             1u)
       << ::testing::PrintToString(audited());
@@ -520,7 +568,7 @@ TEST_F(DeclaredSpaceFederation, ADeclaredSpaceIsRefusedUnlessTrusted) {
 
 TEST_F(TrustingDeclaredSpaceFederation, ADeclaredSpaceIsJudgedByWhatItDeclaresWhereTrusted) {
   ASSERT_NO_FATAL_FAILURE(expect_granted_and_refused("declared and trusted"));
-  EXPECT_EQ(audited_with({"\"caller_space\":\"kr\",\"caller\":\"dds:kr\",\"space_verified\":false",
+  EXPECT_EQ(audited_with({"\"caller_space\":\"kr\",\"caller\":\"space-admin\",\"space_verified\":false",
                           "\"service\":\"rt.Diagnostic0\"", "\"status\":\"OK\""}),
             1u)
       << ::testing::PrintToString(audited());
@@ -669,20 +717,27 @@ TEST_P(Federation, SpacesShareStateOverDds) {
   EXPECT_TRUE(wait_until([&] { return context_field("jp/component/" + diag, "state") == "Inactive"; }, 20s));
 }
 
+// A participant of the link of the test's own: a member on a secured link (with the files of
+// `security`), else plain.
+eprosima::fastdds::dds::DomainParticipant* join_link(uint32_t domain, const bridge::DdsSecurity& security) {
+  namespace fdds = eprosima::fastdds::dds;
+  auto* factory = fdds::DomainParticipantFactory::get_instance();
+  fdds::DomainParticipantQos participant_qos = factory->get_default_participant_qos();
+  if (security.enabled()) {
+    for (const auto& [name, value] : bridge::dds_security_properties(security)) {
+      participant_qos.properties().properties().emplace_back(name, value);
+    }
+  }
+  return factory->create_participant(domain, participant_qos);
+}
+
 // Every sample written on urs/state/context, as a plain DDS reader of the link sees it (keep-all:
 // tombstones included, which StateLink's own reader folds away); a member on a secured link.
 class ContextTap {
  public:
   ContextTap(uint32_t domain, const bridge::DdsSecurity& security) {
     namespace fdds = eprosima::fastdds::dds;
-    auto* factory = fdds::DomainParticipantFactory::get_instance();
-    fdds::DomainParticipantQos participant_qos = factory->get_default_participant_qos();
-    if (security.enabled()) {
-      for (const auto& [name, value] : bridge::dds_security_properties(security)) {
-        participant_qos.properties().properties().emplace_back(name, value);
-      }
-    }
-    participant_ = factory->create_participant(domain, participant_qos);
+    participant_ = join_link(domain, security);
     type_.register_type(participant_);
     topic_ = participant_->create_topic("urs/state/context", type_.get_type_name(), fdds::TOPIC_QOS_DEFAULT);
     fdds::DataReaderQos qos = fdds::DATAREADER_QOS_DEFAULT;
@@ -1001,7 +1056,7 @@ TEST_F(PlainFederation, EveryTopicOfTheLinkReadsWithTypesAnnouncedAtRunTime) {
        "struct urs::dds::InterfaceDescription { @key string digest; sequence<octet> descriptor_set; }"},
       {"urs::dds::CallRequest",
        "struct urs::dds::CallRequest { @key string request_id; string caller_space; string service; "
-       "string operation; unsigned long deadline_ms; boolean no_reply; sequence<octet> payload; }"},
+       "string operation; unsigned long deadline_ms; boolean no_reply; sequence<octet> payload; string caller_name; }"},
       {"urs::dds::CallReply",
        "struct urs::dds::CallReply { @key string request_id; long status; string message; string exception_type; "
        "sequence<octet> payload; }"},
@@ -1055,6 +1110,120 @@ TEST_F(PlainFederation, EveryTopicOfTheLinkReadsWithTypesAnnouncedAtRunTime) {
   EXPECT_EQ(DynamicReading::field(request, "caller_space").string_value(), "kr");
   const auto replies = seen.with("urs/rpc/kr/reply", "request_id", request_id);
   EXPECT_EQ(DynamicReading::field(replies[0], "status").number_value(), 0);
+}
+
+// A raw participant of the link (a member on a secured link, with the files of `security`)
+// reading requests and writing replies on call topics of its choosing: an eavesdropper, a forger.
+class RpcPeer {
+ public:
+  RpcPeer(uint32_t domain, const bridge::DdsSecurity& security) {
+    namespace fdds = eprosima::fastdds::dds;
+    participant_ = join_link(domain, security);
+    request_type_.register_type(participant_);
+    reply_type_.register_type(participant_);
+    qos_.reliability().kind = fdds::RELIABLE_RELIABILITY_QOS;
+    qos_.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
+    qos_.history().kind = fdds::KEEP_ALL_HISTORY_QOS;
+  }
+  ~RpcPeer() {
+    participant_->delete_contained_entities();
+    eprosima::fastdds::dds::DomainParticipantFactory::get_instance()->delete_participant(participant_);
+  }
+  // Reads the requests written on `topic` from now on.
+  bool read_requests(const std::string& topic) {
+    namespace fdds = eprosima::fastdds::dds;
+    auto* made = participant_->create_topic(topic, request_type_.get_type_name(), fdds::TOPIC_QOS_DEFAULT);
+    fdds::DataReaderQos qos = fdds::DATAREADER_QOS_DEFAULT;
+    qos.reliability().kind = fdds::RELIABLE_RELIABILITY_QOS;
+    qos.history().kind = fdds::KEEP_ALL_HISTORY_QOS;
+    reader_ = made ? participant_->create_subscriber(fdds::SUBSCRIBER_QOS_DEFAULT)->create_datareader(made, qos)
+                   : nullptr;
+    return reader_ != nullptr;
+  }
+  // The requests read so far.
+  const std::vector<dds::CallRequest>& requests() {
+    dds::CallRequest sample;
+    eprosima::fastdds::dds::SampleInfo info;
+    while (reader_->take_next_sample(&sample, &info) == ReturnCode_t::RETCODE_OK) {
+      if (info.valid_data) requests_.push_back(sample);
+    }
+    return requests_;
+  }
+  // Writes replies on `topic` from now on.
+  bool write_replies(const std::string& topic) {
+    namespace fdds = eprosima::fastdds::dds;
+    auto* made = participant_->create_topic(topic, reply_type_.get_type_name(), fdds::TOPIC_QOS_DEFAULT);
+    writer_ = made ? participant_->create_publisher(fdds::PUBLISHER_QOS_DEFAULT)->create_datawriter(made, qos_)
+                   : nullptr;
+    return writer_ != nullptr;
+  }
+  // True once the reply writer matches a reader (the caller's bridge).
+  bool replies_matched() const {
+    eprosima::fastdds::dds::PublicationMatchedStatus status;
+    writer_->get_publication_matched_status(status);
+    return status.current_count > 0;
+  }
+  bool reply(dds::CallReply reply) { return writer_->write(&reply); }
+  // True once the request reader matches a writer (a caller's bridge).
+  bool requests_matched() const {
+    eprosima::fastdds::dds::SubscriptionMatchedStatus status;
+    reader_->get_subscription_matched_status(status);
+    return status.current_count > 0;
+  }
+
+ private:
+  eprosima::fastdds::dds::DomainParticipant* participant_ = nullptr;
+  eprosima::fastdds::dds::TypeSupport request_type_{new dds::CallRequestPubSubType()};
+  eprosima::fastdds::dds::TypeSupport reply_type_{new dds::CallReplyPubSubType()};
+  eprosima::fastdds::dds::DataWriterQos qos_ = eprosima::fastdds::dds::DATAWRITER_QOS_DEFAULT;
+  eprosima::fastdds::dds::DataReader* reader_ = nullptr;
+  eprosima::fastdds::dds::DataWriter* writer_ = nullptr;
+  std::vector<dds::CallRequest> requests_;
+};
+
+// Only the called space answers a call. Member "spy" learns the id of a call kr makes to jp (from
+// a participant of jp's, which reads jp's requests) and answers it on kr's reply topic before jp
+// does: kr's bridge ignores the forged reply (logged once) and its caller gets jp's.
+TEST_F(AuthorizedFederation, AReplyFromAnotherMemberThanTheCalledSpaceIsIgnored) {
+  ASSERT_TRUE(wait_for_service("jp/rt.Diagnostic0", 20s)) << kr_->log() << jp_->log();
+  RpcPeer jp_reader(static_cast<uint32_t>(domain_), bridge::security_from_folder(*pki_, "jp"));
+  ASSERT_TRUE(jp_reader.read_requests("urs/rpc/jp/request"));
+  RpcPeer spy(static_cast<uint32_t>(domain_), bridge::security_from_folder(*pki_, "spy"));
+  ASSERT_TRUE(spy.write_replies("urs/rpc/kr/reply"));
+  ASSERT_TRUE(wait_until([&] { return spy.replies_matched(); }, 20s)) << kr_->log();
+  // kr's request writer to jp exists once kr has called jp.
+  ASSERT_NO_FATAL_FAILURE(expect_echo("jp/rt.Diagnostic0", "first"));
+  ASSERT_TRUE(wait_until([&] { return jp_reader.requests_matched(); }, 20s)) << kr_->log();
+
+  auto outcome = std::make_shared<std::promise<planet::CallResult>>();
+  URS::Diagnostic_sleep_Request sleep;
+  sleep.set_ms(3000);
+  planet_->call_async("jp/rt.Diagnostic0", "sleep", sleep.SerializeAsString(), 15s,
+                      [outcome](planet::CallResult result) { outcome->set_value(std::move(result)); });
+  std::string id;
+  ASSERT_TRUE(wait_until(
+      [&] {
+        for (const auto& request : jp_reader.requests()) {
+          if (request.operation() == "sleep") id = request.request_id();
+        }
+        return !id.empty();
+      },
+      2s))
+      << kr_->log();
+  for (int i = 0; i < 2; ++i) {
+    dds::CallReply forged;
+    forged.request_id(id);
+    forged.status(call::status_number(call::Status::INTERNAL));
+    forged.message("answered by spy");
+    ASSERT_TRUE(spy.reply(forged));
+  }
+
+  auto answer = outcome->get_future();
+  ASSERT_EQ(answer.wait_for(15s), std::future_status::ready);
+  const planet::CallResult result = answer.get();
+  EXPECT_EQ(result.status, planet::OK) << result.message;
+  EXPECT_EQ(count_of(kr_->log(), "a member proven as spy announced space jp's reply to jp/" + id + ": ignored"), 1u)
+      << kr_->log();
 }
 
 }  // namespace

@@ -625,6 +625,47 @@ TEST_F(TrustTest, NobodySpeaksAsTheServer) {
   end_attack("impersonate_server");
 }
 
+// A provider learns who calls from the server (Request.caller: the name and role the server
+// authenticated); a client that names a caller itself, to pass for another, is refused.
+TEST_F(TrustTest, TheServerAloneNamesTheCaller) {
+  start_space();
+  ASSERT_FALSE(HasFatalFailure());
+  RawPeer provider(port_);
+  raw_hello(provider, "sam", planet::SAM);
+  auto reply = ask(provider, 1, "camus.registry", "Register", registration("probe.svc", "URS.Diagnostic"));
+  ASSERT_TRUE(reply);
+  ASSERT_EQ(reply->status(), planet::OK) << reply->message();
+
+  RawPeer viewer(port_);
+  raw_hello(viewer, "viewer");
+  URS::Diagnostic_echo_Request echo;
+  echo.set_text("who am I");
+  planet::Frame forged = request(1, "probe.svc", "echo", echo.SerializeAsString());
+  forged.mutable_request()->mutable_caller()->set_name("ops");
+  forged.mutable_request()->mutable_caller()->set_role(planet::OPERATOR);
+  viewer.send_frame(forged);
+  auto refused = next(viewer, planet::Frame::kReply);
+  ASSERT_TRUE(refused);
+  EXPECT_EQ(refused->reply().status(), planet::PERMISSION_DENIED);
+  EXPECT_EQ(refused->reply().message(),
+            "Request.caller is set by the server alone: probe.svc.echo not called (a client may not name who calls)");
+
+  // The honest call reaches the provider naming its real caller; the forged one never did.
+  viewer.send_frame(request(2, "probe.svc", "echo", echo.SerializeAsString()));
+  auto routed = next(provider, planet::Frame::kRequest);
+  ASSERT_TRUE(routed);
+  EXPECT_EQ(routed->request().caller().name(), "viewer");
+  EXPECT_EQ(routed->request().caller().role(), planet::CLIENT);
+  planet::Frame answer;
+  answer.mutable_reply()->set_call_id(routed->request().call_id());
+  answer.mutable_reply()->set_status(planet::OK);
+  provider.send_frame(answer);
+  auto answered = next(viewer, planet::Frame::kReply);
+  ASSERT_TRUE(answered);
+  EXPECT_EQ(answered->reply().call_id(), 2u);
+  EXPECT_EQ(answered->reply().status(), planet::OK) << answered->reply().message();
+}
+
 // Each role may do what it is given and gets PERMISSION_DENIED with the reason beyond.
 TEST_F(TrustTest, WrongRolesArePermissionDenied) {
   start_space();

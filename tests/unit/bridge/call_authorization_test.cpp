@@ -56,6 +56,35 @@ TEST(CallAuthorization, ANameInsideTheSpaceMustMatchWhenThePatternHasOne) {
   EXPECT_FALSE(caller_matches("u", bridge));  // whole names, not prefixes
 }
 
+TEST(CallAuthorization, ACallerNamedInsideItsSpaceIsJudgedAndRefusedByItsName) {
+  CallerPolicy p;
+  p.enabled = true;
+  p.rules = {{"rt.Diagnostic*", {"kr/operator-*"}}};
+  call::Request request = request_from("kr", "rt.Diagnostic0");
+  EXPECT_EQ(refusal(p, "jp", request), "space kr may not call jp/rt.Diagnostic0");  // the bridge itself
+  request.caller.name = "operator-ann";
+  EXPECT_FALSE(refusal(p, "jp", request));
+  request.caller.name = "visitor";
+  EXPECT_EQ(refusal(p, "jp", request), "kr/visitor may not call jp/rt.Diagnostic0");
+  request.caller.role = kDeclaredSpaceRole;
+  EXPECT_EQ(refusal(p, "jp", request), "kr/visitor may not call jp/rt.Diagnostic0: its space is only declared, not "
+                                       "proven by a certificate of the link (dds.export.trust_declared_space is off)");
+}
+
+TEST(CallAuthorization, CallerNameProblemsAreNamed) {
+  for (const char* good : {"operator-ann", "sam-robot1", "anonymous", "a"}) {
+    EXPECT_EQ(caller_name_problem(good), "") << good;
+  }
+  EXPECT_EQ(caller_name_problem(""), "is empty");
+  EXPECT_EQ(caller_name_problem(std::string(kMaxCallerName + 1, 'a')), "is 129 bytes long (at most 128)");
+  EXPECT_EQ(caller_name_problem("ann smith"), "holds white space or a character outside printable ASCII");
+  EXPECT_EQ(caller_name_problem("ann\\n"), "");  // a backslash is printable
+  EXPECT_EQ(caller_name_problem(std::string("ann\x00", 4)), "holds white space or a character outside printable ASCII");
+  EXPECT_EQ(caller_name_problem("task:square-path/r3"), "");  // a CAMUS task's calls
+  EXPECT_TRUE(caller_matches("kr/task:*", {"kr", "task:square-path/r3", kVerifiedSpaceRole}));
+  EXPECT_EQ(caller_name_problem("dds:kr"), "'dds:kr' begins with 'dds:' (the bridges' own names)");
+}
+
 TEST(CallAuthorization, ADeclaredSpaceIsJudgedOnlyWhereTrusted) {
   CallerPolicy p = policy();
   const auto refused = refusal(p, "jp", request_from("kr", "rt.Diagnostic0", false));

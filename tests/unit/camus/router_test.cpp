@@ -72,6 +72,8 @@ TEST_F(RouterTest, ForwardsWithServerCallIdAndMapsTheReplyBack) {
   EXPECT_EQ(first.operation(), "moveTo");
   EXPECT_EQ(first.payload(), "args");
   EXPECT_EQ(first.deadline_ms(), 1000u);  // the server default, passed on to the provider
+  EXPECT_EQ(first.caller().name(), "cli@host");  // who calls, as the server authenticated it
+  EXPECT_EQ(first.caller().role(), planet::CLIENT);
   EXPECT_EQ(router.pending(), 2u);
 
   router.on_reply(*provider, reply_from_provider(second.call_id(), "second"));
@@ -85,6 +87,22 @@ TEST_F(RouterTest, ForwardsWithServerCallIdAndMapsTheReplyBack) {
   EXPECT_EQ(r1.payload(), "first");
   EXPECT_EQ(router.pending(), 0u);
   EXPECT_EQ(timers.pending(), 0u);  // deadline timers cancelled
+}
+
+TEST_F(RouterTest, ARequestNamingItsOwnCallerIsRefused) {
+  planet::Request forged = request(4, "robot1.navigation", "moveTo");
+  forged.mutable_caller()->set_name("ops");
+  forged.mutable_caller()->set_role(planet::OPERATOR);
+  router.on_request(caller, forged);
+  EXPECT_EQ(provider->count(planet::Frame::kRequest), 0u);
+  auto got = caller->wait_frame(planet::Frame::kReply);
+  ASSERT_TRUE(got);
+  EXPECT_EQ(got->reply().call_id(), 4u);
+  EXPECT_EQ(got->reply().status(), planet::PERMISSION_DENIED);
+  EXPECT_EQ(got->reply().message(),
+            "Request.caller is set by the server alone: robot1.navigation.moveTo not called (a client may not name "
+            "who calls)");
+  EXPECT_EQ(router.pending(), 0u);
 }
 
 TEST_F(RouterTest, ProviderStatusAndExceptionArePassedThrough) {

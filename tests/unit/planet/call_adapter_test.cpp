@@ -63,6 +63,17 @@ TEST(PlanetCallAdapter, RequestsCarryTheDeadlineFromTheirArrival) {
   EXPECT_FALSE(to_call_request(wire, {}, received).has_deadline());
 }
 
+TEST(PlanetCallAdapter, TheCallerIsTheOneTheServerNamed) {
+  Request wire;
+  EXPECT_FALSE(routed_caller(wire, "kr").known());  // the server named none
+  wire.mutable_caller()->set_name("operator-ann");
+  wire.mutable_caller()->set_role(CLIENT);
+  const call::Identity caller = routed_caller(wire, "kr");
+  EXPECT_EQ(caller.space, "kr");
+  EXPECT_EQ(caller.name, "operator-ann");
+  EXPECT_EQ(caller.role, "client");
+}
+
 TEST(PlanetCallAdapter, ResponderAnswersThePlanetResponder) {
   std::optional<CallResult> result;
   call::Responder responder = to_call_responder(Responder::from_callback([&](CallResult r) { result = r; }));

@@ -20,8 +20,12 @@ camus::RegisterRequest registration(const HostedService& service) {
 }
 
 void serve_requests(planet::Client& client, AgentHost& host) {
-  client.set_request_handler([&host](const planet::Request& request, planet::Responder responder) {
-    host.dispatch(planet::to_call_request(request, {}), planet::to_call_responder(std::move(responder)));
+  // The client's request handler gets only the Requests of its own session with the server, once
+  // its handshake is done (the server authenticated by TLS when the client requires it): their
+  // Request.caller is that server's word.
+  client.set_request_handler([&host, &client](const planet::Request& request, planet::Responder responder) {
+    host.dispatch(planet::to_call_request(request, planet::routed_caller(request, client.welcome().space())),
+                  planet::to_call_responder(std::move(responder)));
   });
 }
 

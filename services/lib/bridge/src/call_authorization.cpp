@@ -22,6 +22,23 @@ std::string caller_pattern_problem(const std::string& pattern) {
   return "";
 }
 
+std::string caller_name_problem(const std::string& name) {
+  if (name.empty()) return "is empty";
+  if (name.size() > kMaxCallerName) {
+    return "is " + std::to_string(name.size()) + " bytes long (at most " + std::to_string(kMaxCallerName) + ")";
+  }
+  if (std::any_of(name.begin(), name.end(), [](unsigned char c) { return c <= 0x20 || c > 0x7e; })) {
+    return "holds white space or a character outside printable ASCII";
+  }
+  if (name.rfind("dds:", 0) == 0) return "'" + name + "' begins with 'dds:' (the bridges' own names)";
+  return "";
+}
+
+std::string caller_text(const call::Identity& caller) {
+  if (caller.name == "dds:" + caller.space) return "space " + caller.space;
+  return caller.space + "/" + caller.name;
+}
+
 bool caller_matches(const std::string& pattern, const call::Identity& caller) {
   const std::size_t slash = pattern.find('/');
   if (slash == std::string::npos) return glob_match(pattern, caller.space);
@@ -34,7 +51,7 @@ std::optional<std::string> refusal(const CallerPolicy& policy, const std::string
   const call::Identity& caller = request.caller;
   const std::string target = space + "/" + request.service;
   if (caller.role != kVerifiedSpaceRole && !policy.trust_declared_space) {
-    return "space " + caller.space + " may not call " + target + ": its space is only declared, not proven by a " +
+    return caller_text(caller) + " may not call " + target + ": its space is only declared, not proven by a " +
            "certificate of the link (dds.export.trust_declared_space is off)";
   }
   for (const CallerRule& rule : policy.rules) {
@@ -42,9 +59,9 @@ std::optional<std::string> refusal(const CallerPolicy& policy, const std::string
     for (const std::string& pattern : rule.callers) {
       if (caller_matches(pattern, caller)) return std::nullopt;
     }
-    return "space " + caller.space + " may not call " + target;
+    return caller_text(caller) + " may not call " + target;
   }
-  return "space " + caller.space + " may not call " + target + " (no dds.export.callers rule names the service)";
+  return caller_text(caller) + " may not call " + target + " (no dds.export.callers rule names the service)";
 }
 
 }  // namespace urs::bridge

@@ -39,10 +39,11 @@ const gp::ServiceDescriptor* describe_service(planet::Client& client, const std:
 
 CamusForwardingAgent::CamusForwardingAgent(planet::Client& client, std::string service, const gp::ServiceDescriptor& interface)
     : CamusForwardingAgent(
-          Route{[&client, service](const std::string& operation, std::string payload, std::chrono::milliseconds deadline) {
+          Route{[&client, service](const std::string& operation, std::string payload, std::chrono::milliseconds deadline,
+                                   const call::Identity&) {
                   return planet::to_reply(client.call(service, operation, std::move(payload), deadline));
                 },
-                [&client, service](const std::string& operation, std::string payload) {
+                [&client, service](const std::string& operation, std::string payload, const call::Identity&) {
                   return client.oneway(service, operation, std::move(payload));
                 },
                 "the CAMUS server"},
@@ -62,7 +63,7 @@ Outcome CamusForwardingAgent::invoke(const gp::MethodDescriptor& method, const g
     return Outcome::error(call::Status::BAD_ARGUMENTS, "request of " + method.full_name() + " cannot be serialized");
   }
   if (schema::is_oneway(method)) {
-    if (!route_.oneway(method.name(), std::move(payload))) {
+    if (!route_.oneway(method.name(), std::move(payload), ctx.caller)) {
       return Outcome::error(call::Status::UNAVAILABLE, service_ + "." + method.name() + " could not be sent to " + route_.to);
     }
     return Outcome::ok();
@@ -72,7 +73,7 @@ Outcome CamusForwardingAgent::invoke(const gp::MethodDescriptor& method, const g
     return Outcome::error(call::Status::DEADLINE_EXCEEDED, "the caller's deadline passed before " + service_ + "." +
                                                          method.name() + " was sent");
   }
-  const auto result = route_.call(method.name(), std::move(payload), remaining);
+  const auto result = route_.call(method.name(), std::move(payload), remaining, ctx.caller);
   switch (result.status) {
     case call::Status::OK:
       if (!reply.ParseFromString(result.payload)) {

@@ -92,13 +92,19 @@ std::shared_ptr<agent::ServiceAgent> DdsAdapter::forwarder(const core::Route& ro
   const google::protobuf::ServiceDescriptor* interface = in->find_service(entry.interface_name);
   if (interface == nullptr) throw std::runtime_error("its description lacks " + entry.interface_name);
   DdsLink* link = link_.get();
+  // Who calls inside this space goes with the call: the name its CAMUS server authenticated.
+  auto caller_name = [here = config_.space](const call::Identity& caller) {
+    return caller.space.empty() || caller.space == here ? caller.name : std::string();
+  };
   CamusForwardingAgent::Route to_space{
-      [link, space = entry.space, name = entry.name](const std::string& operation, std::string payload,
-                                                       std::chrono::milliseconds deadline) {
-        return link->call(space, name, operation, std::move(payload), deadline);
+      [link, caller_name, space = entry.space, name = entry.name](
+          const std::string& operation, std::string payload, std::chrono::milliseconds deadline,
+          const call::Identity& caller) {
+        return link->call(space, name, operation, std::move(payload), deadline, caller_name(caller));
       },
-      [link, space = entry.space, name = entry.name](const std::string& operation, std::string payload) {
-        return link->oneway(space, name, operation, std::move(payload));
+      [link, caller_name, space = entry.space, name = entry.name](const std::string& operation, std::string payload,
+                                                                  const call::Identity& caller) {
+        return link->oneway(space, name, operation, std::move(payload), caller_name(caller));
       },
       "space " + entry.space};
   auto agent = std::make_shared<CamusForwardingAgent>(to_space, entry.name, *interface);

@@ -1,5 +1,7 @@
 #include "dds_calls.hpp"
 
+#include <spdlog/spdlog.h>
+
 #include <cstdio>
 #include <fastdds/dds/publisher/DataWriter.hpp>
 #include <fastdds/dds/publisher/Publisher.hpp>
@@ -55,11 +57,12 @@ void DdsCalls::RequestWriterListener::wake() {
 }
 
 DdsCalls::DdsCalls(const DdsOptions& options, LinkParticipant& participant, CallGate& gate,
-                   RpcRegistrations& registrations)
+                   RpcRegistrations& registrations, DdsIdentities& identities)
     : options_(options),
       participant_(participant),
       gate_(gate),
       registrations_(registrations),
+      identities_(identities),
       reply_name_(dds_rpc::reply_topic(options.space)),
       run_([] {
         std::random_device random;
@@ -124,7 +127,7 @@ void DdsCalls::close() {
 }
 
 call::Reply DdsCalls::call(const std::string& space, const std::string& service, const std::string& operation,
-                           std::string payload, std::chrono::milliseconds deadline) {
+                           std::string payload, std::chrono::milliseconds deadline, const std::string& caller) {
   const auto until = Clock::now() + deadline;
   const std::string id = next_request_id();
   auto pending = std::make_shared<Pending>();
@@ -163,6 +166,8 @@ call::Reply DdsCalls::call(const std::string& space, const std::string& service,
       std::max<int64_t>(1, std::chrono::duration_cast<std::chrono::milliseconds>(until - Clock::now()).count())));
   request.no_reply(false);
   request.payload(bytes_of(payload));
+  request.caller_name(caller);
+  spdlog::debug("dds: request {} to space {}: {}.{}", id, space, service, operation);
   if (!writer->write(&request)) {
     forget();
     return call::Reply::error(call::Status::UNAVAILABLE, "the request to space " + space + " could not be written");
@@ -181,7 +186,7 @@ call::Reply DdsCalls::call(const std::string& space, const std::string& service,
 }
 
 bool DdsCalls::oneway(const std::string& space, const std::string& service, const std::string& operation,
-                      std::string payload) {
+                      std::string payload, const std::string& caller) {
   RequestRoute route;
   try {
     std::lock_guard lock(mutex_);
@@ -199,6 +204,7 @@ bool DdsCalls::oneway(const std::string& space, const std::string& service, cons
   request.operation(operation);
   request.no_reply(true);
   request.payload(bytes_of(payload));
+  request.caller_name(caller);
   if (!writer->write(&request)) return false;
   // No reply tells when it was served: it stays available to a replier matching late for as long
   // as a replier would take it (kDefaultDeadline), then is retired.
@@ -217,6 +223,9 @@ void DdsCalls::read_replies(fdds::DataReader* reader) {
       auto it = pending_.find(sample.request_id());
       if (it == pending_.end()) continue;  // its caller gave up
       call = it->second;
+      // On a secured link only the called space answers: another member's reply is ignored
+      // (logged once per writer), the call still waits for the real one.
+      if (!identities_.speaks_for(info.publication_handle, call->space, "reply to", sample.request_id())) continue;
       pending_.erase(it);
     }
     call::Reply result;

@@ -22,6 +22,7 @@
 #include <fastdds/dds/publisher/DataWriterListener.hpp>
 
 #include "call_gate.hpp"
+#include "dds_identity.hpp"
 #include "dds_participant.hpp"
 #include "rpc_registrations.hpp"
 #include "urs/bridge/dds_link.hpp"
@@ -32,7 +33,9 @@ class DdsCalls {
  public:
   using Clock = std::chrono::steady_clock;
 
-  DdsCalls(const DdsOptions& options, LinkParticipant& participant, CallGate& gate, RpcRegistrations& registrations);
+  // `identities` says which space wrote each reply: on a secured link only the called space's are taken.
+  DdsCalls(const DdsOptions& options, LinkParticipant& participant, CallGate& gate, RpcRegistrations& registrations,
+           DdsIdentities& identities);
   DdsCalls(const DdsCalls&) = delete;
   DdsCalls& operator=(const DdsCalls&) = delete;
 
@@ -43,9 +46,9 @@ class DdsCalls {
 
   // DdsLink::call() and oneway(), once admitted and the space not known lost.
   call::Reply call(const std::string& space, const std::string& service, const std::string& operation,
-                   std::string payload, std::chrono::milliseconds deadline);
+                   std::string payload, std::chrono::milliseconds deadline, const std::string& caller);
   bool oneway(const std::string& space, const std::string& service, const std::string& operation,
-              std::string payload);
+              std::string payload, const std::string& caller);
 
   void read_replies(eprosima::fastdds::dds::DataReader* reader);
   // The calls waiting for a reply from `space` fail (PROVIDER_GONE): its bridge left or was lost.
@@ -92,6 +95,7 @@ class DdsCalls {
   LinkParticipant& participant_;
   CallGate& gate_;
   RpcRegistrations& registrations_;
+  DdsIdentities& identities_;
   const std::string reply_name_;  // replies to this space's calls
   // Part of every request id: ids stay unique across restarts of this bridge, so a replier that
   // remembers an earlier run's id never takes a new call for a duplicate.

@@ -29,7 +29,7 @@ struct DdsLink::Impl : public fdds::DataReaderListener {
       : identities(options.security.enabled(), [this] { catalog.proven(); }),
         catalog(options, participant, identities, std::move(on_catalog),
                 [this](const std::string& space) { calls.fail_pending(space); }),
-        calls(options, participant, gate, registrations),
+        calls(options, participant, gate, registrations, identities),
         served(options, participant, gate, registrations, identities, std::move(on_call)) {}
 
   LinkParticipant participant;
@@ -117,22 +117,22 @@ void DdsLink::announce(const ServiceEntry& entry) { impl_->catalog.announce(entr
 void DdsLink::withdraw(const std::string& name) { impl_->catalog.withdraw(name); }
 
 call::Reply DdsLink::call(const std::string& space, const std::string& service, const std::string& operation,
-                          std::string payload, std::chrono::milliseconds deadline) {
+                          std::string payload, std::chrono::milliseconds deadline, const std::string& caller) {
   Impl& d = *impl_;
   const CallGate::InProgress in_progress(d.gate);  // first: the last to end
   if (!in_progress.admitted()) return call::Reply::error(call::Status::UNAVAILABLE, "bridge stopping");
   if (d.catalog.space_lost(space)) {
     return call::Reply::error(call::Status::UNAVAILABLE, "the bridge of space " + space + " lost its liveliness");
   }
-  return d.calls.call(space, service, operation, std::move(payload), deadline);
+  return d.calls.call(space, service, operation, std::move(payload), deadline, caller);
 }
 
 bool DdsLink::oneway(const std::string& space, const std::string& service, const std::string& operation,
-                     std::string payload) {
+                     std::string payload, const std::string& caller) {
   Impl& d = *impl_;
   const CallGate::InProgress in_progress(d.gate);  // first: the last to end
   if (!in_progress.admitted() || d.catalog.space_lost(space)) return false;
-  return d.calls.oneway(space, service, operation, std::move(payload));
+  return d.calls.oneway(space, service, operation, std::move(payload), caller);
 }
 
 }  // namespace urs::bridge

@@ -132,13 +132,25 @@ void DdsServed::read_requests(fdds::DataReader* reader) {
     request.operation = sample.operation();
     request.payload = text_of(sample.payload());
     if (sample.deadline_ms() != 0) request.deadline = arrived + std::chrono::milliseconds(sample.deadline_ms());
-    // On a secured link, the space the writer's participant proved, whatever the request declares.
+    // On a secured link, the space the writer's participant proved, whatever the request declares;
+    // the name inside it is the one the request carries: that space speaks for its own callers.
     request.caller = identities_.caller(info.publication_handle, sample.caller_space());
     request.oneway = sample.no_reply();
     call::Responder responder;
     if (!request.oneway) {
       serve(info.instance_handle, id, until);
       responder = responder_for(request.caller.space, id, until);
+    }
+    if (!sample.caller_name().empty()) {
+      const std::string problem = caller_name_problem(sample.caller_name());
+      if (!problem.empty()) {
+        spdlog::warn("dds: request {} from space {}: its caller's name {}; not executed", id, request.caller.space,
+                     problem);
+        responder.reply(call::Reply::error(call::Status::BAD_ARGUMENTS,
+                                           "the caller's name (CallRequest.caller_name) " + problem));
+        continue;
+      }
+      request.caller.name = sample.caller_name();
     }
     on_call_(std::move(request), std::move(responder));
   }

@@ -55,6 +55,11 @@ call::Identity caller_identity(const std::string& space, const Identity& identit
   return caller_identity(space, identity.name, identity.role);
 }
 
+call::Identity routed_caller(const Request& request, const std::string& space) {
+  if (!request.has_caller() || request.caller().name().empty()) return {};
+  return caller_identity(space, request.caller().name(), request.caller().role());
+}
+
 call::Request to_call_request(const Request& request, call::Identity caller,
                               std::chrono::steady_clock::time_point received) {
   call::Request out;

@@ -62,6 +62,7 @@ class CallRequest(IdlStruct, typename="urs::dds::CallRequest"):
     deadline_ms: uint32
     no_reply: bool
     payload: sequence[uint8]
+    caller_name: str
 
 
 @dataclass

@@ -1,7 +1,8 @@
 #pragma once
 // Invocation routing: a Request goes to a built-in service or to the session that provides the
 // service, with a fresh server-side call id and a deadline; the Reply goes back to the caller
-// under the caller's call id.
+// under the caller's call id. A Request forwarded to a provider carries its caller
+// (Request.caller: the name and role this server authenticated), which only the server sets.
 //
 // Guarantees: every accepted non-oneway call is answered exactly once (the provider's reply,
 // DEADLINE_EXCEEDED, PROVIDER_GONE, or UNAVAILABLE at shutdown); a reply that comes too late is
@@ -11,7 +12,7 @@
 //  - BAD_ARGUMENTS: deadline_ms over max_deadline_ms; a call_id already pending on the same
 //    connection (the first call goes on; its own Reply comes later under the same id);
 //  - PERMISSION_DENIED: the caller's role is below what the service and operation need
-//    (LocalServices::required_role);
+//    (LocalServices::required_role); the Request names its caller (Request.caller is the server's);
 //  - RESOURCE_EXHAUSTED: the connection already has max_pending_calls_per_session calls
 //    pending, or the server max_pending_calls.
 //

@@ -12,8 +12,9 @@ namespace urs::agent {
 camus::RegisterRequest registration(const HostedService& service);
 
 // Makes `host` answer the requests the server routes to `client` (Client::set_request_handler:
-// call it before client.start()). The server does not tell a provider who calls: the agents see
-// an empty CallContext::caller. `host` outlives the client's I/O thread.
+// call it before client.start()). The agents see the caller the server names (Request.caller:
+// the calling session's authenticated name and role, in the server's space) as
+// CallContext::caller. `host` and `client` outlive the client's I/O thread.
 void serve_requests(planet::Client& client, AgentHost& host);
 
 }  // namespace urs::agent

@@ -2,10 +2,12 @@
 // Who may call the services this space exports over DDS (`dds.export.callers`, docs/federation.md
 // "Who may call what"), decided for each call served from its caller as the link established it
 // (call::Request.caller: the space its DDS-Security certificate proves, or the space its request
-// merely declares on a plain link; docs/security.md "Calls between spaces").
+// merely declares on a plain link, and the name inside that space its request carries, which that
+// space's bridge vouches for; docs/security.md "Calls between spaces").
 //
 // Pure functions over immutable values: any thread; nothing blocks, nothing throws.
 
+#include <cstddef>
 #include <optional>
 #include <string>
 #include <vector>
@@ -39,11 +41,23 @@ struct CallerPolicy {
 // What is wrong with a caller pattern ("kr", "kr/operator-*", "*"), one sentence; "" if nothing.
 std::string caller_pattern_problem(const std::string& pattern);
 
+// What is wrong with the name a request gives its caller inside its space (CallRequest.caller_name,
+// non-empty), one sentence; "" if nothing. A name is 1 to kMaxCallerName printable ASCII
+// characters but white space, not beginning "dds:" (the names of the bridges themselves). It may
+// hold '/' (a CAMUS task's "task:square-path/r3"): a SPACE/NAME pattern's NAME is all after its
+// first '/', so "kr/task:*" names it.
+inline constexpr std::size_t kMaxCallerName = 128;
+std::string caller_name_problem(const std::string& name);
+
+// The caller as refusals name it: "space kr" for a space's bridge ("dds:kr"), else "kr/operator-ann".
+std::string caller_text(const call::Identity& caller);
+
 // True if `caller` matches the caller pattern `pattern` (caller_pattern_problem() empty).
 bool caller_matches(const std::string& pattern, const call::Identity& caller);
 
 // Why `request` (a call from another space to the service `request.service` of `space`) is
-// refused, for its PERMISSION_DENIED ("space kr may not call jp/rt.Secret0"); nullopt if allowed.
+// refused, for its PERMISSION_DENIED ("space kr may not call jp/rt.Secret0", "kr/visitor may not
+// call jp/rt.Diagnostic0"); nullopt if allowed.
 std::optional<std::string> refusal(const CallerPolicy& policy, const std::string& space, const call::Request& request);
 
 }  // namespace urs::bridge

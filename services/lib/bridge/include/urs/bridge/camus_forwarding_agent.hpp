@@ -38,11 +38,14 @@ const google::protobuf::ServiceDescriptor* describe_service(planet::Client& clie
 class CamusForwardingAgent : public agent::ServiceAgent {
  public:
   // How calls reach the service: a Planet client, or another space over DDS (DdsLink carries the
-  // same requests, statuses and exceptions).
+  // same requests, statuses and exceptions). `caller` is the call's CallContext::caller, which a
+  // route may pass on (DDS: the name inside this space) or not (Planet: the client calls as itself).
   struct Route {
-    std::function<call::Reply(const std::string& operation, std::string payload, std::chrono::milliseconds deadline)>
+    std::function<call::Reply(const std::string& operation, std::string payload, std::chrono::milliseconds deadline,
+                              const call::Identity& caller)>
         call;
-    std::function<bool(const std::string& operation, std::string payload)> oneway;  // false: not sent
+    std::function<bool(const std::string& operation, std::string payload, const call::Identity& caller)>
+        oneway;  // false: not sent
     std::string to;  // for messages, e.g. "the CAMUS server", "space jp"
   };
 

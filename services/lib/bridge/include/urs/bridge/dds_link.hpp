@@ -77,10 +77,11 @@ class DdsLink {
   // read catalog() for what it holds now. Runs on a DDS thread; must not block.
   using CatalogHandler = std::function<void()>;
   // A call to this space's services. Runs on a DDS listener thread. The request's deadline counts
-  // from its arrival; its caller is Identity{space, "dds:<space>", role}: on a secured link the
-  // space the writer's participant proved with its certificate (role "member", dds_identity.hpp),
-  // whatever the request declares; otherwise the space the request declares (role "bridge"). The
-  // reply goes to that space. The responder answers from any thread, once; a oneway call's answers nowhere.
+  // from its arrival; its caller is Identity{space, name, role}: on a secured link the space the
+  // writer's participant proved with its certificate (role "member", dds_identity.hpp), whatever
+  // the request declares; otherwise the space the request declares (role "bridge"). The name is
+  // the request's caller_name (who calls inside that space, which the space speaks for), or
+  // "dds:<space>" when it names none. The reply goes to that space. The responder answers from any thread, once; a oneway call's answers nowhere.
   // Answered on this link's listener thread (inside the handler, or by dropping the responder
   // there), the reply is written by the link's replier thread instead: writing it there may create
   // the reply writer, which can deadlock Fast DDS 2.9's in-process delivery. Replies after the
@@ -121,11 +122,14 @@ class DdsLink {
   // Calls a service of another space. UNAVAILABLE at once if no bridge of that space is matched
   // (unknown, dead or unreachable space) or every one of them lost its liveliness; PROVIDER_GONE
   // if it leaves or loses it during the call;
-  // DEADLINE_EXCEEDED when the deadline passes; otherwise the remote outcome.
+  // DEADLINE_EXCEEDED when the deadline passes; otherwise the remote outcome. `caller` names who
+  // calls inside this space (CallRequest.caller_name: the name this space's CAMUS server
+  // authenticated); empty: this bridge itself. On a secured link a reply is taken only from a
+  // participant that proved `space` (another member's is ignored, logged once).
   call::Reply call(const std::string& space, const std::string& service, const std::string& operation,
-                   std::string payload, std::chrono::milliseconds deadline);
+                   std::string payload, std::chrono::milliseconds deadline, const std::string& caller = {});
   bool oneway(const std::string& space, const std::string& service, const std::string& operation,
-              std::string payload);
+              std::string payload, const std::string& caller = {});
 
  private:
   struct Impl;

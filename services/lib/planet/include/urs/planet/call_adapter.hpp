@@ -30,8 +30,13 @@ CallResult to_call_result(call::Reply reply);
 call::Identity caller_identity(const std::string& space, const Identity& identity);
 call::Identity caller_identity(const std::string& space, const std::string& name, Role role);
 
+// The caller a Request routed by the server of space `space` names (Request.caller, which only
+// the server sets): {space, name, role}; empty if it names none. Only for a Request that came on
+// a Planet client's session with its server (Client's request handler), never one a peer sent.
+call::Identity routed_caller(const Request& request, const std::string& space);
+
 // The neutral request for a Planet request received at `received`: deadline_ms 0 gives no
-// deadline. A provider behind a Planet client does not learn its caller: `caller` is then empty.
+// deadline. A provider behind a Planet client learns its caller from routed_caller().
 call::Request to_call_request(const Request& request, call::Identity caller,
                               std::chrono::steady_clock::time_point received = std::chrono::steady_clock::now());
 
