@@ -53,15 +53,16 @@ void DdsCatalog::open(fdds::DataReaderListener* listener) {
   fdds::Topic* catalog_topic = participant_.topic(kCatalogTopic, participant_.entry_type);
   fdds::Topic* interface_topic = participant_.topic(kInterfaceTopic, participant_.interface_type);
   const fdds::DataWriterQos writer_qos = link_qos::keyed_state_writer(options_.lease);
-  catalog_writer_ = participant_.publisher()->create_datawriter(catalog_topic, writer_qos);
+  // In the shared topics' partitions (shared_partitions()): DDS refuses what the permissions do not grant.
+  catalog_writer_ = create_shared_writer(participant_.shared_publisher(), catalog_topic, writer_qos, options_);
   // Descriptions: the same QoS, one instance per description. Fast DDS keeps two copies of each
   // sample a writer holds, so a description per service cost ~30 KiB per service.
-  interface_writer_ = participant_.publisher()->create_datawriter(interface_topic, writer_qos);
+  interface_writer_ = create_shared_writer(participant_.shared_publisher(), interface_topic, writer_qos, options_);
   // Entries end by a dispose and an unregistration (withdraw()); descriptions never do.
-  catalog_reader_ = participant_.subscriber()->create_datareader(
-      catalog_topic, link_qos::ending_state_reader(options_.lease), listener);
-  interface_reader_ = participant_.subscriber()->create_datareader(
-      interface_topic, link_qos::keyed_state_reader(options_.lease), listener);
+  catalog_reader_ = create_shared_reader(participant_.shared_subscriber(), catalog_topic,
+                                         link_qos::ending_state_reader(options_.lease), listener, options_);
+  interface_reader_ = create_shared_reader(participant_.shared_subscriber(), interface_topic,
+                                           link_qos::keyed_state_reader(options_.lease), listener, options_);
   if (!catalog_writer_ || !catalog_reader_ || !interface_writer_ || !interface_reader_) {
     throw std::runtime_error("DDS: cannot create the catalog endpoints");
   }
@@ -135,28 +136,36 @@ std::vector<ServiceEntry> DdsCatalog::entries() const {
     }
     interface_reader_->return_loan(described, described_infos);
   }
+  // Every instance, ended or not: each space speaks only for itself (StandingInstances), and a
+  // writer refused a space neither offers its services nor keeps it alive (space_lost).
   fdds::LoanableSequence<dds::ServiceEntry> samples;
   fdds::SampleInfoSeq infos;
   if (catalog_reader_->read(samples, infos, fdds::LENGTH_UNLIMITED, fdds::ANY_SAMPLE_STATE, fdds::ANY_VIEW_STATE,
-                            fdds::ALIVE_INSTANCE_STATE) != ReturnCode_t::RETCODE_OK) {
+                            fdds::ANY_INSTANCE_STATE) != ReturnCode_t::RETCODE_OK) {
     return entries;
   }
+  std::map<fdds::InstanceHandle_t, StandingInstances<dds::ServiceEntry>::Taken> now;
+  {
+    std::lock_guard lock(catalog_mutex_);
+    now = held_.read(samples, infos, options_.space,
+                     [this](const fdds::SampleInfo& info, const dds::ServiceEntry& sample, bool ending) {
+                       return identities_.speaks_for(info.publication_handle, sample.space(),
+                                                     ending ? "end of catalog entry" : "catalog entry", sample.name());
+                     });
+  }
+  catalog_reader_->return_loan(samples, infos);
   std::map<fdds::InstanceHandle_t, std::string> spaces;
-  for (fdds::LoanableCollection::size_type i = 0; i < samples.length(); ++i) {
-    if (!infos[i].valid_data) continue;
-    const dds::ServiceEntry& sample = samples[i];
+  for (const auto& [instance, held] : now) {
+    const dds::ServiceEntry& sample = held.sample;
+    if (!held.alive) continue;
     if (sample.space() == options_.space) continue;  // our own entries (or another's claiming ours)
-    // Each space speaks only for itself: a writer refused this space neither offers its services
-    // nor keeps it alive (space_lost).
-    if (!identities_.speaks_for(infos[i].publication_handle, sample.space(), "catalog entry", sample.name())) continue;
-    spaces[infos[i].publication_handle] = sample.space();
-    if (dead.count(infos[i].publication_handle)) continue;
+    spaces[held.info.publication_handle] = sample.space();
+    if (dead.count(held.info.publication_handle)) continue;
     const auto description = descriptions.find(sample.interface_digest());
     if (description == descriptions.end()) continue;
     entries.push_back({sample.space(), sample.name(), sample.interface_name(), sample.repository_id(), sample.origin(),
                        sample.bridge(), sample.deadline_ms(), description->second});
   }
-  catalog_reader_->return_loan(samples, infos);
   {
     std::lock_guard lock(catalog_mutex_);
     for (auto& [writer, space] : spaces) writer_spaces_[writer] = std::move(space);
