@@ -4,8 +4,8 @@
 // sees nothing and reaches no one; a member calls only the spaces its permissions grant; DDS itself
 // keeps each member to its own space's partition of the shared topics (writing) and to the
 // partitions it was granted (reading), locally and at the other members; no member ends another
-// space's entries; and a bad file is refused before Fast DDS is asked, naming the file and what is
-// wrong.
+// space's entries nor swaps their descriptions; and a bad file is refused before Fast DDS is
+// asked, naming the file and what is wrong.
 
 #include <gtest/gtest.h>
 #include <signal.h>
@@ -273,6 +273,31 @@ TEST_F(SecuredLink, TheOtherMembersRefuseAWriterTheGrantDoesNotAllow) {
   EXPECT_EQ(matched(in_jp), 1) << "jp's reader in partition jp matched spy's writer moved there";
 }
 
+// Member spy's raw writer of `topic` in its own partition, once jp sees kr's service and the
+// writer reaches spy's own reader, jp's and kr's; nullptr (and a failure) if it does not.
+fdds::DataWriter* spy_writer(bridge::DdsLink& jp, bridge::DdsLink& spy, const char* topic) {
+  auto sees_kr = [&] {
+    for (const auto& entry : jp.catalog()) {
+      if (entry.space == "kr" && entry.name == "svc") return true;
+    }
+    return false;
+  };
+  if (!wait_until(sees_kr, 30s)) {
+    ADD_FAILURE() << "jp never saw kr's service";
+    return nullptr;
+  }
+  fdds::DataWriter* writer = writer_in(spy, "spy", topic, catalog_writer_qos());
+  const bool matched = writer && wait_until(
+                                     [&] {
+                                       fdds::PublicationMatchedStatus status;
+                                       writer->get_publication_matched_status(status);
+                                       return status.current_count >= 3;
+                                     },
+                                     30s);
+  if (!matched) ADD_FAILURE() << "spy's writer of " << topic << " never reached jp and kr";
+  return matched ? writer : nullptr;
+}
+
 // Member spy overwrites, disposes and unregisters kr's entry (its writer may write in its own
 // partition): jp ignores all three, which only kr may do, and still offers kr's service as kr's.
 TEST_F(SecuredLink, NoMemberEndsAnotherSpacesEntry) {
@@ -280,19 +305,11 @@ TEST_F(SecuredLink, NoMemberEndsAnotherSpacesEntry) {
   serve_kr(domains[0]);
   bridge::DdsLink jp(options(domains[0], "jp", member("fed", "jp")), [] {}, no_calls);
   bridge::DdsLink spy(options(domains[0], "spy", member("fed", "spy")), [] {}, no_calls);
-  ASSERT_TRUE(wait_until([&] { return seen(jp).count("kr/svc") == 1; }, 30s)) << "jp never saw kr's service";
-  fdds::DataWriter* ender = writer_in(spy, "spy", "urs/catalog", catalog_writer_qos());
+  fdds::DataWriter* ender = spy_writer(jp, spy, "urs/catalog");
   ASSERT_NE(ender, nullptr);
   dds::ServiceEntry krs;
   krs.space("kr");
   krs.name("svc");
-  ASSERT_TRUE(wait_until(
-      [&] {
-        fdds::PublicationMatchedStatus status;
-        ender->get_publication_matched_status(status);
-        return status.current_count >= 3;  // spy's own reader, jp's and kr's
-      },
-      30s));
   ender->assert_liveliness();
   krs.bridge("spy");
   krs.interface_digest("another");
@@ -306,6 +323,32 @@ TEST_F(SecuredLink, NoMemberEndsAnotherSpacesEntry) {
       EXPECT_EQ(entry.bridge, "bridge-kr");
     }
   }
+}
+
+// Member spy writes another schema under the digest of kr's description (its writer may write
+// in its own partition): jp takes a description only under its own digest (SHA-256), so kr's entry
+// keeps kr's description.
+TEST_F(SecuredLink, NoMemberSwapsTheDescriptionAnEntryNames) {
+  const DdsDomains domains;
+  serve_kr(domains[0]);
+  bridge::DdsLink jp(options(domains[0], "jp", member("fed", "jp")), [] {}, no_calls);
+  bridge::DdsLink spy(options(domains[0], "spy", member("fed", "spy")), [] {}, no_calls);
+  fdds::DataWriter* swapper = spy_writer(jp, spy, "urs/interface");
+  ASSERT_NE(swapper, nullptr);
+  swapper->assert_liveliness();
+  dds::InterfaceDescription swapped;
+  swapped.digest(bridge::description_digest("a description"));
+  const std::string other = "another description";
+  swapped.descriptor_set(std::vector<uint8_t>(other.begin(), other.end()));
+  EXPECT_TRUE(swapper->write(&swapped));
+  EXPECT_EQ(swapper->wait_for_acknowledgments(eprosima::fastrtps::Duration_t(10.0)), ReturnCode_t::RETCODE_OK);
+  bool described = false;
+  for (const auto& entry : jp.catalog()) {
+    if (entry.space != "kr" || entry.name != "svc") continue;
+    described = true;
+    EXPECT_EQ(entry.descriptor_set, "a description");
+  }
+  EXPECT_TRUE(described) << ::testing::PrintToString(seen(jp));
 }
 
 std::string joined(const std::vector<std::string>& problems) {

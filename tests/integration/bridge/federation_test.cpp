@@ -827,7 +827,7 @@ TEST_P(Federation, AMemberSpeaksOnlyForTheSpaceItsCertificateNames) {
 
   RawKeyedWriters forger(spy, kLease);
   dds::InterfaceDescription description;
-  description.digest("forged-description");
+  description.digest(bridge::description_digest(described.descriptor_set));
   description.descriptor_set(std::vector<uint8_t>(described.descriptor_set.begin(), described.descriptor_set.end()));
   ASSERT_TRUE(forger.write("urs/interface", description));
   dds::ServiceEntry entry;
@@ -837,7 +837,7 @@ TEST_P(Federation, AMemberSpeaksOnlyForTheSpaceItsCertificateNames) {
   entry.repository_id(described.repository_id);
   entry.origin("camus");
   entry.bridge("bridge-jp");
-  entry.interface_digest("forged-description");
+  entry.interface_digest(description.digest());
   ASSERT_TRUE(forger.write("urs/catalog", entry));
   dds::ComponentState component;
   component.space("jp");

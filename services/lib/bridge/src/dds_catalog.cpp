@@ -2,7 +2,6 @@
 
 #include <spdlog/spdlog.h>
 
-#include <cstdio>
 #include <fastdds/dds/core/LoanableSequence.hpp>
 #include <fastdds/dds/publisher/DataWriter.hpp>
 #include <fastdds/dds/publisher/Publisher.hpp>
@@ -24,22 +23,6 @@ using Clock = std::chrono::steady_clock;
 using dds_rpc::bytes_of;
 using dds_rpc::text_of;
 
-namespace {
-
-// The key of a description on urs/interface: FNV-1a 64 of its bytes and their size, the same in
-// every process (std::hash is not).
-std::string digest_of(const std::string& bytes) {
-  uint64_t hash = 14695981039346656037ull;
-  for (unsigned char c : bytes) {
-    hash ^= c;
-    hash *= 1099511628211ull;
-  }
-  char text[40];
-  std::snprintf(text, sizeof text, "%016llx-%zu", static_cast<unsigned long long>(hash), bytes.size());
-  return text;
-}
-
-}  // namespace
 
 DdsCatalog::DdsCatalog(const DdsOptions& options, LinkParticipant& participant, DdsIdentities& identities,
                        DdsLink::CatalogHandler on_catalog, std::function<void(const std::string& space)> on_space_lost)
@@ -123,8 +106,15 @@ std::vector<ServiceEntry> DdsCatalog::entries() const {
   }
   std::vector<ServiceEntry> entries;
   // The descriptions known now (an entry whose description has not arrived yet is left out until
-  // it has: its arrival wakes the bridge again).
+  // it has: its arrival wakes the bridge again). Content-addressed: a description is taken only
+  // under its own digest; a sample under another's replaces nothing (the last taken is kept).
   std::map<std::string, std::string> descriptions;
+  std::map<std::string, std::string> before;
+  {
+    std::lock_guard lock(catalog_mutex_);
+    before = descriptions_;
+  }
+  std::vector<std::string> refused;
   fdds::LoanableSequence<dds::InterfaceDescription> described;
   fdds::SampleInfoSeq described_infos;
   // Any instance state: a description is its digest's content whoever wrote it and whether or
@@ -132,9 +122,29 @@ std::vector<ServiceEntry> DdsCatalog::entries() const {
   if (interface_reader_->read(described, described_infos, fdds::LENGTH_UNLIMITED, fdds::ANY_SAMPLE_STATE,
                               fdds::ANY_VIEW_STATE, fdds::ANY_INSTANCE_STATE) == ReturnCode_t::RETCODE_OK) {
     for (fdds::LoanableCollection::size_type i = 0; i < described.length(); ++i) {
-      if (described_infos[i].valid_data) descriptions[described[i].digest()] = text_of(described[i].descriptor_set());
+      if (!described_infos[i].valid_data) continue;
+      const std::string& digest = described[i].digest();
+      std::string text = text_of(described[i].descriptor_set());
+      if (description_digest(text) == digest) {
+        descriptions[digest] = std::move(text);
+      } else {
+        refused.push_back(digest);
+        const auto kept = before.find(digest);
+        if (kept != before.end()) descriptions.insert(*kept);
+      }
     }
     interface_reader_->return_loan(described, described_infos);
+  }
+  {
+    std::lock_guard lock(catalog_mutex_);
+    descriptions_ = descriptions;
+    for (const std::string& digest : refused) {
+      if (refused_digests_.insert(digest).second) {
+        spdlog::warn("dds: a description written under digest {} is not the description of that digest (SHA-256 of "
+                     "its bytes): ignored",
+                     digest);
+      }
+    }
   }
   // Every instance, ended or not: each space speaks only for itself (StandingInstances), and a
   // writer refused a space neither offers its services nor keeps it alive (space_lost).
@@ -182,7 +192,7 @@ void DdsCatalog::announce(const ServiceEntry& entry) {
   sample.origin(entry.origin);
   sample.bridge(options_.bridge);
   sample.deadline_ms(entry.deadline_ms);
-  sample.interface_digest(digest_of(entry.descriptor_set));
+  sample.interface_digest(description_digest(entry.descriptor_set));
   {
     // Each description before the first entry naming it (readers skip entries whose description
     // they lack, so the order only saves a wake-up), and again once a lease with the entries'

@@ -2,6 +2,7 @@
 
 #include <fnmatch.h>
 #include <openssl/bio.h>
+#include <openssl/evp.h>
 #include <openssl/objects.h>
 #include <openssl/pem.h>
 #include <openssl/pkcs7.h>
@@ -329,6 +330,21 @@ std::string partition_refusal(const DdsSecurity& security, const std::string& sp
   const std::string where = refused ? listed({*refused}) : listed(partitions);
   return "dds: the permissions of member " + space + " do not let it " + (write ? "write " : "read ") + topic +
          " in " + (where == "the default partition" ? where : "partition " + where) + " (" + grants + ")";
+}
+
+std::string description_digest(const std::string& descriptor_set) {
+  unsigned char hash[EVP_MAX_MD_SIZE];
+  unsigned int length = 0;
+  if (EVP_Digest(descriptor_set.data(), descriptor_set.size(), hash, &length, EVP_sha256(), nullptr) != 1) {
+    throw std::runtime_error("OpenSSL cannot compute SHA-256");
+  }
+  static const char* const hex = "0123456789abcdef";
+  std::string text;
+  for (unsigned int i = 0; i < length; ++i) {
+    text += hex[hash[i] >> 4];
+    text += hex[hash[i] & 0xf];
+  }
+  return text;
 }
 
 std::vector<std::pair<std::string, std::string>> dds_security_properties(const DdsSecurity& s) {

@@ -60,6 +60,11 @@ std::vector<std::string> read_partitions(const TopicGrant& grant);
 std::string partition_refusal(const DdsSecurity& security, const std::string& space, const std::string& topic,
                               const std::vector<std::string>& partitions, bool write);
 
+// The key of an interface description on urs/interface: SHA-256 of its bytes, 64 lower-case hex
+// digits. Descriptions are content-addressed: a bridge takes one only under its own digest, so no
+// member can put another schema under the digest another space's entry names.
+std::string description_digest(const std::string& descriptor_set);
+
 // The participant properties that enable the builtin plugins with these files (file:// URIs of
 // absolute paths).
 std::vector<std::pair<std::string, std::string>> dds_security_properties(const DdsSecurity& security);
