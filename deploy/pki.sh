@@ -27,7 +27,8 @@
 #   deploy/pki.sh check DIR SPACE
 #       checks SPACE's files as its bridge will use them: the identity signed by the CA, in its
 #       validity and not revoked, the key matching it, the documents signed by the CA, and the
-#       permissions naming the identity's subject; prints each problem and exits 1 on any
+#       permissions naming the identity's subject and granting the shared topics in partition
+#       SPACE; prints each problem and exits 1 on any
 #
 # The CA key signs everything: keep DIR/ca.key off the hosts that run bridges. A site joining the
 # federation sends nothing secret: the federation's operator runs `member` and hands over
@@ -317,6 +318,10 @@ cmd_check() {
     sed -n 's:.*<subject_name>\(.*\)</subject_name>.*:\1:p')
   [[ "$named" == "$subject" ]] ||
     problem "permissions name '$named', but identity.pem's subject is '$subject' (RFC 2253 order)"
+  openssl smime -verify -in "$out/permissions.p7s" -CAfile "$dir/ca.pem" 2>/dev/null |
+    grep -qF "<partitions><partition>$space</partition></partitions></publish>" ||
+    problem "permissions do not let $space write the catalog and state in its partition $space" \
+      "(made before partitions?): run 'pki.sh member' again"
   ((problems == 0)) || exit 1
   echo "pki: $space: ok ($subject)"
 }
