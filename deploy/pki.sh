@@ -10,11 +10,16 @@
 #       DIR/governance.xml and its signed form DIR/governance.p7s: unauthenticated participants
 #       refused, join access control on, discovery, liveliness and data protected (encrypted, or
 #       only signed where a site must inspect its traffic)
-#   deploy/pki.sh member DIR SPACE [--calls SPACES] [--callers SPACES] [--days N] [--domains MIN-MAX]
+#   deploy/pki.sh member DIR SPACE [--calls SPACES] [--callers SPACES] [--reads SPACES] [--days N]
+#                                  [--domains MIN-MAX]
 #       SPACE's identity (CN=SPACE) in DIR/SPACE/identity.{pem,key} and its permissions in
-#       DIR/SPACE/permissions.{xml,p7s}: SPACE may share the catalog, interfaces and state, read the
-#       requests addressed to it and the replies to its own calls, call the spaces of --calls
-#       (comma-separated, '*' for all; default none) and answer those of --callers (default '*')
+#       DIR/SPACE/permissions.{xml,p7s}: SPACE may write the catalog, interfaces and state
+#       (urs/catalog, urs/interface, urs/state/*) only in the DDS partition SPACE, read them in the
+#       partitions of --reads (comma-separated spaces, '*' for all, the default; its own always),
+#       read the requests addressed to it and the replies to its own calls, call the spaces of
+#       --calls (comma-separated, '*' for all; default none) and answer those of --callers
+#       (default '*'). DDS itself then refuses a member writing another space's partition or
+#       reading one it was not granted (docs/security.md)
 #   deploy/pki.sh tls DIR NAME [--san SAN]
 #       a Planet TLS certificate from the same CA: DIR/tls/NAME.{pem,key} (SAN e.g. "DNS:camus-server,IP:127.0.0.1")
 #   deploy/pki.sh revoke DIR SPACE
@@ -22,7 +27,8 @@
 #   deploy/pki.sh check DIR SPACE
 #       checks SPACE's files as its bridge will use them: the identity signed by the CA, in its
 #       validity and not revoked, the key matching it, the documents signed by the CA, and the
-#       permissions naming the identity's subject; prints each problem and exits 1 on any
+#       permissions naming the identity's subject and granting the shared topics in partition
+#       SPACE; prints each problem and exits 1 on any
 #
 # The CA key signs everything: keep DIR/ca.key off the hosts that run bridges. A site joining the
 # federation sends nothing secret: the federation's operator runs `member` and hands over
@@ -79,6 +85,11 @@ domains_xml() {  # MIN-MAX
 topics_xml() {  # topic expressions, one <topic> each
   local t
   for t in "$@"; do printf '<topic>%s</topic>' "$t"; done
+}
+
+partitions_xml() {  # partition names, one <partition> each
+  local p
+  for p in "$@"; do printf '<partition>%s</partition>' "$p"; done
 }
 
 space_list() {  # "a,b" or "*" -> the spaces, one per line; checks each name
@@ -167,11 +178,12 @@ EOF
 }
 
 cmd_member() {
-  local dir=$1 space=$2 calls="" callers="*" days=825 domains=0-232
+  local dir=$1 space=$2 calls="" callers="*" reads="*" days=825 domains=0-232
   shift 2
   while (($#)); do
     case $1 in
       --calls) calls=$2; shift 2 ;;
+      --reads) reads=$2; shift 2 ;;
       --callers) callers=$2; shift 2 ;;
       --days) days=$2; shift 2 ;;
       --domains) domains=$2; shift 2 ;;
@@ -197,14 +209,22 @@ cmd_member() {
   not_after=$(dds_date "$(openssl x509 -in "$out/identity.pem" -noout -enddate | cut -d= -f2)")
 
   # What SPACE may write and read. Requests go to urs/rpc/<callee>/request, replies to
-  # urs/rpc/<caller>/reply (docs/federation.md).
-  # A space always reads its own request and reply topics (its link opens them at start); what it
-  # may write decides whom it calls and whom it answers.
-  local publish=(urs/catalog urs/interface "urs/state/*")
-  local subscribe=(urs/catalog urs/interface "urs/state/*" "urs/rpc/$space/request" "urs/rpc/$space/reply")
-  local s
-  while read -r s; do [[ -n "$s" ]] && publish+=("urs/rpc/$s/request"); done < <(space_list "$calls")
-  while read -r s; do [[ -n "$s" ]] && publish+=("urs/rpc/$s/reply"); done < <(space_list "$callers")
+  # urs/rpc/<caller>/reply (docs/federation.md), in the default partition. A space always reads
+  # its own request and reply topics (its link opens them at start); what it may write decides
+  # whom it calls and whom it answers. The shared topics have a rule of their own: Fast DDS checks
+  # an endpoint's partitions against every partition of the first rule naming its topic.
+  local shared=(urs/catalog urs/interface "urs/state/*")
+  local rpc_publish=() rpc_subscribe=("urs/rpc/$space/request" "urs/rpc/$space/reply")
+  local read_partitions=() s
+  while read -r s; do [[ -n "$s" ]] && rpc_publish+=("urs/rpc/$s/request"); done < <(space_list "$calls")
+  while read -r s; do [[ -n "$s" ]] && rpc_publish+=("urs/rpc/$s/reply"); done < <(space_list "$callers")
+  while read -r s; do [[ -n "$s" ]] && read_partitions+=("$s"); done < <(space_list "$reads")
+  ((${#read_partitions[@]})) || die "--reads takes at least one space (or '*')"
+  [[ " ${read_partitions[*]} " == *" * "* ]] && read_partitions=("*")
+  [[ "${read_partitions[*]}" == "*" || " ${read_partitions[*]} " == *" $space "* ]] || read_partitions+=("$space")
+  local rpc_rule
+  rpc_rule="<subscribe><topics>$(topics_xml "${rpc_subscribe[@]}")</topics></subscribe>"
+  ((${#rpc_publish[@]})) && rpc_rule="<publish><topics>$(topics_xml "${rpc_publish[@]}")</topics></publish>$rpc_rule"
   cat >"$out/permissions.xml" <<EOF
 <?xml version="1.0" encoding="UTF-8"?>
 <dds xmlns:xsi="http://www.w3.org/2001/XMLSchema-instance"
@@ -215,8 +235,12 @@ cmd_member() {
       <validity><not_before>$not_before</not_before><not_after>$not_after</not_after></validity>
       <allow_rule>
         $(domains_xml "$domains")
-        <publish><topics>$(topics_xml "${publish[@]}")</topics></publish>
-        <subscribe><topics>$(topics_xml "${subscribe[@]}")</topics></subscribe>
+        $rpc_rule
+      </allow_rule>
+      <allow_rule>
+        $(domains_xml "$domains")
+        <publish><topics>$(topics_xml "${shared[@]}")</topics><partitions>$(partitions_xml "$space")</partitions></publish>
+        <subscribe><topics>$(topics_xml "${shared[@]}")</topics><partitions>$(partitions_xml "${read_partitions[@]}")</partitions></subscribe>
       </allow_rule>
       <default>DENY</default>
     </grant>
@@ -224,7 +248,8 @@ cmd_member() {
 </dds>
 EOF
   sign "$dir" "$out/permissions.xml"
-  echo "pki: $space: identity $subject until $not_after; calls [${calls:-none}], answers [${callers:-none}] in $out"
+  echo "pki: $space: identity $subject until $not_after; calls [${calls:-none}], answers [${callers:-none}]," \
+    "reads [$(IFS=,; echo "${read_partitions[*]}")] in $out"
 }
 
 cmd_tls() {
@@ -293,6 +318,10 @@ cmd_check() {
     sed -n 's:.*<subject_name>\(.*\)</subject_name>.*:\1:p')
   [[ "$named" == "$subject" ]] ||
     problem "permissions name '$named', but identity.pem's subject is '$subject' (RFC 2253 order)"
+  openssl smime -verify -in "$out/permissions.p7s" -CAfile "$dir/ca.pem" 2>/dev/null |
+    grep -qF "<partitions><partition>$space</partition></partitions></publish>" ||
+    problem "permissions do not let $space write the catalog and state in its partition $space" \
+      "(made before partitions?): run 'pki.sh member' again"
   ((problems == 0)) || exit 1
   echo "pki: $space: ok ($subject)"
 }

@@ -1,8 +1,11 @@
 // The secured DDS link (DDS-Security with Fast DDS's builtin plugins) on real participants, UDP
 // only, with a PKI made by deploy/pki.sh: members of the federation see and call each other; a
 // participant without security, or with a certificate of another CA claiming a member's name,
-// sees nothing and reaches no one; a member calls only the spaces its permissions grant; and a
-// bad file is refused before Fast DDS is asked, naming the file and what is wrong.
+// sees nothing and reaches no one; a member calls only the spaces its permissions grant; DDS itself
+// keeps each member to its own space's partition of the shared topics (writing) and to the
+// partitions it was granted (reading), locally and at the other members; no member ends another
+// space's entries nor swaps their descriptions; and a bad file is refused before Fast DDS is
+// asked, naming the file and what is wrong.
 
 #include <gtest/gtest.h>
 #include <signal.h>
@@ -12,13 +15,23 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <algorithm>
 #include <future>
+#include <iterator>
 #include <set>
 #include <thread>
 
 #include "certificates.hpp"
 #include "dds_domain.hpp"
 #include "process.hpp"
+#include <fastdds/dds/domain/DomainParticipant.hpp>
+#include <fastdds/dds/publisher/DataWriter.hpp>
+#include <fastdds/dds/publisher/Publisher.hpp>
+#include <fastdds/dds/subscriber/DataReader.hpp>
+#include <fastdds/dds/subscriber/Subscriber.hpp>
+#include <fastdds/dds/topic/Topic.hpp>
+
+#include "Federation.h"
 #include "urs/bridge/dds_link.hpp"
 #include "urs/bridge/dds_security.hpp"
 
@@ -26,9 +39,11 @@ namespace urs::test {
 namespace {
 
 using namespace std::chrono_literals;
+namespace fdds = eprosima::fastdds::dds;
 
-// The federation "fed" (kr calls jp and jp calls kr; member xx may call no one) and a rogue CA
-// that issued its own "jp"; made once for the whole test program.
+// The federation "fed" (kr calls jp and jp calls kr; member xx may call no one; member spy only
+// shares; member watcher may read only jp's partition) and a rogue CA that issued its own "jp";
+// made once for the whole test program.
 class SecuredLink : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
@@ -40,6 +55,8 @@ class SecuredLink : public ::testing::Test {
                              {"member", fed, "kr", "--calls", "jp"},
                              {"member", fed, "jp", "--calls", "kr"},
                              {"member", fed, "xx"},
+                             {"member", fed, "spy"},
+                             {"member", fed, "watcher", "--reads", "jp"},
                              {"init", rogue},
                              {"governance", rogue},
                              {"member", rogue, "jp", "--calls", "kr"}}));
@@ -153,6 +170,187 @@ TEST_F(SecuredLink, AMemberCallsOnlyTheSpacesItsPermissionsGrant) {
   EXPECT_NE(refused.message.find("do not grant calls to space kr"), std::string::npos) << refused.message;
 }
 
+// A publisher (subscriber) of `link`'s participant in `partition` and an endpoint of `topic` on
+// it, as a modified bridge would make them: nullptr if DDS refuses.
+fdds::DataWriter* writer_in(bridge::DdsLink& link, const std::string& partition, const char* topic,
+                            fdds::DataWriterQos qos = fdds::DATAWRITER_QOS_DEFAULT) {
+  fdds::PublisherQos publisher_qos = fdds::PUBLISHER_QOS_DEFAULT;
+  publisher_qos.partition().push_back(partition.c_str());
+  fdds::Publisher* publisher = link.participant()->create_publisher(publisher_qos);
+  auto* made = dynamic_cast<fdds::Topic*>(link.participant()->lookup_topicdescription(topic));
+  return publisher && made ? publisher->create_datawriter(made, qos) : nullptr;
+}
+fdds::DataReader* reader_in(bridge::DdsLink& link, const std::string& partition, const char* topic) {
+  fdds::SubscriberQos subscriber_qos = fdds::SUBSCRIBER_QOS_DEFAULT;
+  subscriber_qos.partition().push_back(partition.c_str());
+  fdds::Subscriber* subscriber = link.participant()->create_subscriber(subscriber_qos);
+  auto* made = dynamic_cast<fdds::Topic*>(link.participant()->lookup_topicdescription(topic));
+  return subscriber && made ? subscriber->create_datareader(made, fdds::DATAREADER_QOS_DEFAULT) : nullptr;
+}
+
+// A catalog writer as the bridges' readers accept one (reliable, transient-local, manual-by-topic
+// liveliness within their lease).
+fdds::DataWriterQos catalog_writer_qos() {
+  fdds::DataWriterQos qos = fdds::DATAWRITER_QOS_DEFAULT;
+  qos.reliability().kind = fdds::RELIABLE_RELIABILITY_QOS;
+  qos.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
+  qos.liveliness().kind = fdds::MANUAL_BY_TOPIC_LIVELINESS_QOS;
+  qos.liveliness().lease_duration = eprosima::fastrtps::Duration_t(1.5);
+  return qos;
+}
+
+// Member spy may write the shared topics in its own partition only: its own DDS refuses it a
+// writer of urs/catalog or urs/state/component in jp's partition, and the bridge's log line says
+// which grant forbids it.
+TEST_F(SecuredLink, DdsRefusesAMemberWritingInAnotherSpacesPartition) {
+  const DdsDomains domains;
+  bridge::DdsLink spy(options(domains[0], "spy", member("fed", "spy")), [] {}, no_calls);
+  EXPECT_NE(writer_in(spy, "spy", "urs/catalog"), nullptr) << "spy's own partition";
+  EXPECT_EQ(writer_in(spy, "jp", "urs/catalog"), nullptr) << "jp's partition, granted to jp only";
+  EXPECT_EQ(writer_in(spy, "*", "urs/interface"), nullptr) << "every partition";
+  EXPECT_EQ(bridge::partition_refusal(member("fed", "spy"), "spy", "urs/catalog", {"jp"}, true),
+            "dds: the permissions of member spy do not let it write urs/catalog in partition jp (they grant it in spy)");
+  EXPECT_EQ(bridge::partition_refusal(member("fed", "watcher"), "watcher", "urs/state/pose", {"kr"}, false),
+            "dds: the permissions of member watcher do not let it read urs/state/pose in partition kr (they grant it "
+            "in jp, watcher)");
+}
+
+// Member watcher may read jp's partition only: its link reads in jp's (and its own) and sees jp's
+// entries, never kr's, and its DDS refuses it a reader in kr's partition or in all.
+TEST_F(SecuredLink, AMemberReadsOnlyThePartitionsItWasGranted) {
+  const DdsDomains domains;
+  serve_kr(domains[0]);
+  bridge::DdsLink jp(options(domains[0], "jp", member("fed", "jp")), [] {}, no_calls);
+  bridge::ServiceEntry entry;
+  entry.name = "jsvc";
+  entry.interface_name = "URS.Diagnostic";
+  entry.descriptor_set = "a description";
+  jp.announce(entry);
+  bridge::DdsLink watcher(options(domains[0], "watcher", member("fed", "watcher")), [] {}, no_calls);
+  bridge::DdsLink xx(options(domains[0], "xx", member("fed", "xx")), [] {}, no_calls);
+  ASSERT_TRUE(wait_until([&] { return seen(watcher).count("jp/jsvc") == 1; }, 30s)) << "watcher never saw jp's";
+  // kr's entry reached a member that reads every partition; it had the same chances at watcher.
+  ASSERT_TRUE(wait_until([&] { return seen(xx).count("kr/svc") == 1; }, 30s)) << "xx never saw kr's service";
+  EXPECT_EQ(seen(watcher), std::set<std::string>{"jp/jsvc"});
+  EXPECT_EQ(reader_in(watcher, "kr", "urs/catalog"), nullptr);
+  EXPECT_EQ(reader_in(watcher, "*", "urs/state/component"), nullptr);
+  EXPECT_NE(reader_in(watcher, "jp", "urs/catalog"), nullptr);
+}
+
+// A member that moves its writer into jp's partition after its own DDS let it create it in its
+// own (Fast DDS checks a writer's partitions when it is made, not when its publisher's change)
+// still reaches no reader in jp's partition: jp's DDS checks the partitions each writer announces
+// against that member's signed permissions.
+TEST_F(SecuredLink, TheOtherMembersRefuseAWriterTheGrantDoesNotAllow) {
+  const DdsDomains domains;
+  bridge::DdsLink jp(options(domains[0], "jp", member("fed", "jp")), [] {}, no_calls);
+  bridge::DdsLink spy(options(domains[0], "spy", member("fed", "spy")), [] {}, no_calls);
+  fdds::DataReader* in_jp = reader_in(jp, "jp", "urs/catalog");
+  fdds::DataReader* in_all = reader_in(jp, "*", "urs/catalog");
+  ASSERT_TRUE(in_jp && in_all);
+  // The writers each reader matched (Fast DDS 2.9 does not list them): jp's own in partition jp
+  // at first; spy's link's too for the reader of every partition.
+  auto matched = [](fdds::DataReader* reader) {
+    fdds::SubscriptionMatchedStatus status;
+    reader->get_subscription_matched_status(status);
+    return status.current_count;
+  };
+  ASSERT_TRUE(wait_until([&] { return matched(in_all) == 2 && matched(in_jp) == 1; }, 30s))
+      << matched(in_all) << " " << matched(in_jp);
+  fdds::DataWriter* moved = writer_in(spy, "spy", "urs/catalog", catalog_writer_qos());
+  ASSERT_NE(moved, nullptr);
+  ASSERT_TRUE(wait_until([&] { return matched(in_all) == 3; }, 30s)) << "jp never matched spy's writer";
+  fdds::Publisher* publisher = const_cast<fdds::Publisher*>(moved->get_publisher());
+  fdds::PublisherQos into_jp = publisher->get_qos();
+  into_jp.partition().clear();
+  into_jp.partition().push_back("jp");
+  ASSERT_EQ(publisher->set_qos(into_jp), ReturnCode_t::RETCODE_OK);
+  // Announced after the move: once jp matched it, jp had the moved writer's new partition.
+  fdds::DataWriter* later = writer_in(spy, "spy", "urs/catalog", catalog_writer_qos());
+  ASSERT_NE(later, nullptr);
+  ASSERT_TRUE(wait_until([&] { return matched(in_all) >= 4; }, 30s)) << "jp never matched spy's later writer";
+  std::this_thread::sleep_for(500ms);
+  EXPECT_EQ(matched(in_jp), 1) << "jp's reader in partition jp matched spy's writer moved there";
+}
+
+// Member spy's raw writer of `topic` in its own partition, once jp sees kr's service and the
+// writer reaches spy's own reader, jp's and kr's; nullptr (and a failure) if it does not.
+fdds::DataWriter* spy_writer(bridge::DdsLink& jp, bridge::DdsLink& spy, const char* topic) {
+  auto sees_kr = [&] {
+    for (const auto& entry : jp.catalog()) {
+      if (entry.space == "kr" && entry.name == "svc") return true;
+    }
+    return false;
+  };
+  if (!wait_until(sees_kr, 30s)) {
+    ADD_FAILURE() << "jp never saw kr's service";
+    return nullptr;
+  }
+  fdds::DataWriter* writer = writer_in(spy, "spy", topic, catalog_writer_qos());
+  const bool matched = writer && wait_until(
+                                     [&] {
+                                       fdds::PublicationMatchedStatus status;
+                                       writer->get_publication_matched_status(status);
+                                       return status.current_count >= 3;
+                                     },
+                                     30s);
+  if (!matched) ADD_FAILURE() << "spy's writer of " << topic << " never reached jp and kr";
+  return matched ? writer : nullptr;
+}
+
+// Member spy overwrites, disposes and unregisters kr's entry (its writer may write in its own
+// partition): jp ignores all three, which only kr may do, and still offers kr's service as kr's.
+TEST_F(SecuredLink, NoMemberEndsAnotherSpacesEntry) {
+  const DdsDomains domains;
+  serve_kr(domains[0]);
+  bridge::DdsLink jp(options(domains[0], "jp", member("fed", "jp")), [] {}, no_calls);
+  bridge::DdsLink spy(options(domains[0], "spy", member("fed", "spy")), [] {}, no_calls);
+  fdds::DataWriter* ender = spy_writer(jp, spy, "urs/catalog");
+  ASSERT_NE(ender, nullptr);
+  dds::ServiceEntry krs;
+  krs.space("kr");
+  krs.name("svc");
+  ender->assert_liveliness();
+  krs.bridge("spy");
+  krs.interface_digest("another");
+  EXPECT_TRUE(ender->write(&krs));
+  EXPECT_EQ(ender->dispose(&krs, fdds::HANDLE_NIL), ReturnCode_t::RETCODE_OK);
+  EXPECT_EQ(ender->unregister_instance(&krs, fdds::HANDLE_NIL), ReturnCode_t::RETCODE_OK);
+  EXPECT_EQ(ender->wait_for_acknowledgments(eprosima::fastrtps::Duration_t(10.0)), ReturnCode_t::RETCODE_OK);
+  EXPECT_EQ(seen(jp).count("kr/svc"), 1u) << ::testing::PrintToString(seen(jp));
+  for (const auto& entry : jp.catalog()) {
+    if (entry.space == "kr") {
+      EXPECT_EQ(entry.bridge, "bridge-kr");
+    }
+  }
+}
+
+// Member spy writes another schema under the digest of kr's description (its writer may write
+// in its own partition): jp takes a description only under its own digest (SHA-256), so kr's entry
+// keeps kr's description.
+TEST_F(SecuredLink, NoMemberSwapsTheDescriptionAnEntryNames) {
+  const DdsDomains domains;
+  serve_kr(domains[0]);
+  bridge::DdsLink jp(options(domains[0], "jp", member("fed", "jp")), [] {}, no_calls);
+  bridge::DdsLink spy(options(domains[0], "spy", member("fed", "spy")), [] {}, no_calls);
+  fdds::DataWriter* swapper = spy_writer(jp, spy, "urs/interface");
+  ASSERT_NE(swapper, nullptr);
+  swapper->assert_liveliness();
+  dds::InterfaceDescription swapped;
+  swapped.digest(bridge::description_digest("a description"));
+  const std::string other = "another description";
+  swapped.descriptor_set(std::vector<uint8_t>(other.begin(), other.end()));
+  EXPECT_TRUE(swapper->write(&swapped));
+  EXPECT_EQ(swapper->wait_for_acknowledgments(eprosima::fastrtps::Duration_t(10.0)), ReturnCode_t::RETCODE_OK);
+  bool described = false;
+  for (const auto& entry : jp.catalog()) {
+    if (entry.space != "kr" || entry.name != "svc") continue;
+    described = true;
+    EXPECT_EQ(entry.descriptor_set, "a description");
+  }
+  EXPECT_TRUE(described) << ::testing::PrintToString(seen(jp));
+}
+
 std::string joined(const std::vector<std::string>& problems) {
   std::string text;
   for (const auto& p : problems) text += p + "\n";
@@ -162,6 +360,22 @@ std::string joined(const std::vector<std::string>& problems) {
 TEST_F(SecuredLink, ABadFileIsNamedWithWhatIsWrong) {
   EXPECT_TRUE(bridge::check_dds_security(member("fed", "kr"), "kr").empty())
       << joined(bridge::check_dds_security(member("fed", "kr"), "kr"));
+  // kr's permissions as deploy/pki.sh made them before partitions: the shared topics in the
+  // default partition only.
+  {
+    std::ifstream in(*dir_ + "/fed/kr/permissions.xml");
+    std::string xml((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    for (auto at = xml.find("<partitions>"); at != std::string::npos; at = xml.find("<partitions>")) {
+      xml.erase(at, xml.find("</partitions>", at) + std::string("</partitions>").size() - at);
+    }
+    std::ofstream(*dir_ + "/fed/unpartitioned.xml") << xml;
+    const CommandResult signed_doc =
+        run_command({"/usr/bin/env", "openssl", "smime", "-sign", "-in", *dir_ + "/fed/unpartitioned.xml", "-text",
+                     "-out", *dir_ + "/fed/unpartitioned.p7s", "-signer", *dir_ + "/fed/ca.pem", "-inkey",
+                     *dir_ + "/fed/ca.key"},
+                    std::chrono::seconds(30));
+    ASSERT_EQ(signed_doc.exit_code, 0) << signed_doc.err;
+  }
   struct Case {
     std::string bad;                            // what is wrong
     std::string bridge::DdsSecurity::*file;     // the file replaced
@@ -177,6 +391,9 @@ TEST_F(SecuredLink, ABadFileIsNamedWithWhatIsWrong) {
        "is not signed by the documents' CA"},
       {"another member's key", &bridge::DdsSecurity::private_key, "fed/jp/identity.key", "is not the key of"},
       {"no permissions", &bridge::DdsSecurity::permissions, "fed/nobody/permissions.p7s", "cannot be read"},
+      {"permissions without partitions", &bridge::DdsSecurity::permissions, "fed/unpartitioned.p7s",
+       "do not let space kr write urs/catalog in its partition kr (they grant the default partition): make them "
+       "again with deploy/pki.sh member"},
   };
   // Another member's own files, for space kr: the others would take nothing it announces as kr's.
   EXPECT_NE(joined(bridge::check_dds_security(member("fed", "jp"), "kr"))

@@ -744,7 +744,10 @@ class ContextTap {
     qos.reliability().kind = fdds::RELIABLE_RELIABILITY_QOS;
     qos.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
     qos.history().kind = fdds::KEEP_ALL_HISTORY_QOS;
-    reader_ = participant_->create_subscriber(fdds::SUBSCRIBER_QOS_DEFAULT)->create_datareader(topic_, qos);
+    // On a secured link the spaces share their state in their own partitions: read them all.
+    fdds::SubscriberQos subscriber_qos = fdds::SUBSCRIBER_QOS_DEFAULT;
+    if (security.enabled()) subscriber_qos.partition().push_back("*");
+    reader_ = participant_->create_subscriber(subscriber_qos)->create_datareader(topic_, qos);
   }
   ~ContextTap() {
     participant_->delete_contained_entities();
@@ -807,12 +810,15 @@ std::size_t count_of(const std::string& text, const std::string& part) {
 }
 
 // A participant of the link writing samples of its own, in the link's keyed-state QoS, on topics
-// the link made: a forger's raw writers. Kept alive by its link, as the link's own writers.
+// the link made: a forger's raw writers. Kept alive by its link, as the link's own writers. On a
+// secured link they write in the partition of the link's space, the only one DDS lets it write.
 class RawKeyedWriters {
  public:
   RawKeyedWriters(bridge::DdsLink& link, std::chrono::milliseconds lease) : link_(link) {
     namespace fdds = eprosima::fastdds::dds;
-    publisher_ = link.participant()->create_publisher(fdds::PUBLISHER_QOS_DEFAULT);
+    fdds::PublisherQos publisher_qos = fdds::PUBLISHER_QOS_DEFAULT;
+    if (link.options().security.enabled()) publisher_qos.partition().push_back(link.options().space.c_str());
+    publisher_ = link.participant()->create_publisher(publisher_qos);
     qos_ = fdds::DATAWRITER_QOS_DEFAULT;
     qos_.reliability().kind = fdds::RELIABLE_RELIABILITY_QOS;
     qos_.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
@@ -876,7 +882,7 @@ TEST_P(Federation, AMemberSpeaksOnlyForTheSpaceItsCertificateNames) {
 
   RawKeyedWriters forger(spy, kLease);
   dds::InterfaceDescription description;
-  description.digest("forged-description");
+  description.digest(bridge::description_digest(described.descriptor_set));
   description.descriptor_set(std::vector<uint8_t>(described.descriptor_set.begin(), described.descriptor_set.end()));
   ASSERT_TRUE(forger.write("urs/interface", description));
   dds::ServiceEntry entry;
@@ -886,7 +892,7 @@ TEST_P(Federation, AMemberSpeaksOnlyForTheSpaceItsCertificateNames) {
   entry.repository_id(described.repository_id);
   entry.origin("camus");
   entry.bridge("bridge-jp");
-  entry.interface_digest("forged-description");
+  entry.interface_digest(description.digest());
   ASSERT_TRUE(forger.write("urs/catalog", entry));
   dds::ComponentState component;
   component.space("jp");

@@ -2,7 +2,6 @@
 
 #include <spdlog/spdlog.h>
 
-#include <cstdio>
 #include <fastdds/dds/core/LoanableSequence.hpp>
 #include <fastdds/dds/publisher/DataWriter.hpp>
 #include <fastdds/dds/publisher/Publisher.hpp>
@@ -24,22 +23,6 @@ using Clock = std::chrono::steady_clock;
 using dds_rpc::bytes_of;
 using dds_rpc::text_of;
 
-namespace {
-
-// The key of a description on urs/interface: FNV-1a 64 of its bytes and their size, the same in
-// every process (std::hash is not).
-std::string digest_of(const std::string& bytes) {
-  uint64_t hash = 14695981039346656037ull;
-  for (unsigned char c : bytes) {
-    hash ^= c;
-    hash *= 1099511628211ull;
-  }
-  char text[40];
-  std::snprintf(text, sizeof text, "%016llx-%zu", static_cast<unsigned long long>(hash), bytes.size());
-  return text;
-}
-
-}  // namespace
 
 DdsCatalog::DdsCatalog(const DdsOptions& options, LinkParticipant& participant, DdsIdentities& identities,
                        DdsLink::CatalogHandler on_catalog, std::function<void(const std::string& space)> on_space_lost)
@@ -53,15 +36,16 @@ void DdsCatalog::open(fdds::DataReaderListener* listener) {
   fdds::Topic* catalog_topic = participant_.topic(kCatalogTopic, participant_.entry_type);
   fdds::Topic* interface_topic = participant_.topic(kInterfaceTopic, participant_.interface_type);
   const fdds::DataWriterQos writer_qos = link_qos::keyed_state_writer(options_.lease);
-  catalog_writer_ = participant_.publisher()->create_datawriter(catalog_topic, writer_qos);
+  // In the shared topics' partitions (shared_partitions()): DDS refuses what the permissions do not grant.
+  catalog_writer_ = create_shared_writer(participant_.shared_publisher(), catalog_topic, writer_qos, options_);
   // Descriptions: the same QoS, one instance per description. Fast DDS keeps two copies of each
   // sample a writer holds, so a description per service cost ~30 KiB per service.
-  interface_writer_ = participant_.publisher()->create_datawriter(interface_topic, writer_qos);
+  interface_writer_ = create_shared_writer(participant_.shared_publisher(), interface_topic, writer_qos, options_);
   // Entries end by a dispose and an unregistration (withdraw()); descriptions never do.
-  catalog_reader_ = participant_.subscriber()->create_datareader(
-      catalog_topic, link_qos::ending_state_reader(options_.lease), listener);
-  interface_reader_ = participant_.subscriber()->create_datareader(
-      interface_topic, link_qos::keyed_state_reader(options_.lease), listener);
+  catalog_reader_ = create_shared_reader(participant_.shared_subscriber(), catalog_topic,
+                                         link_qos::ending_state_reader(options_.lease), listener, options_);
+  interface_reader_ = create_shared_reader(participant_.shared_subscriber(), interface_topic,
+                                           link_qos::keyed_state_reader(options_.lease), listener, options_);
   if (!catalog_writer_ || !catalog_reader_ || !interface_writer_ || !interface_reader_) {
     throw std::runtime_error("DDS: cannot create the catalog endpoints");
   }
@@ -122,8 +106,15 @@ std::vector<ServiceEntry> DdsCatalog::entries() const {
   }
   std::vector<ServiceEntry> entries;
   // The descriptions known now (an entry whose description has not arrived yet is left out until
-  // it has: its arrival wakes the bridge again).
+  // it has: its arrival wakes the bridge again). Content-addressed: a description is taken only
+  // under its own digest; a sample under another's replaces nothing (the last taken is kept).
   std::map<std::string, std::string> descriptions;
+  std::map<std::string, std::string> before;
+  {
+    std::lock_guard lock(catalog_mutex_);
+    before = descriptions_;
+  }
+  std::vector<std::string> refused;
   fdds::LoanableSequence<dds::InterfaceDescription> described;
   fdds::SampleInfoSeq described_infos;
   // Any instance state: a description is its digest's content whoever wrote it and whether or
@@ -131,32 +122,60 @@ std::vector<ServiceEntry> DdsCatalog::entries() const {
   if (interface_reader_->read(described, described_infos, fdds::LENGTH_UNLIMITED, fdds::ANY_SAMPLE_STATE,
                               fdds::ANY_VIEW_STATE, fdds::ANY_INSTANCE_STATE) == ReturnCode_t::RETCODE_OK) {
     for (fdds::LoanableCollection::size_type i = 0; i < described.length(); ++i) {
-      if (described_infos[i].valid_data) descriptions[described[i].digest()] = text_of(described[i].descriptor_set());
+      if (!described_infos[i].valid_data) continue;
+      const std::string& digest = described[i].digest();
+      std::string text = text_of(described[i].descriptor_set());
+      if (description_digest(text) == digest) {
+        descriptions[digest] = std::move(text);
+      } else {
+        refused.push_back(digest);
+        const auto kept = before.find(digest);
+        if (kept != before.end()) descriptions.insert(*kept);
+      }
     }
     interface_reader_->return_loan(described, described_infos);
   }
+  {
+    std::lock_guard lock(catalog_mutex_);
+    descriptions_ = descriptions;
+    for (const std::string& digest : refused) {
+      if (refused_digests_.insert(digest).second) {
+        spdlog::warn("dds: a description written under digest {} is not the description of that digest (SHA-256 of "
+                     "its bytes): ignored",
+                     digest);
+      }
+    }
+  }
+  // Every instance, ended or not: each space speaks only for itself (StandingInstances), and a
+  // writer refused a space neither offers its services nor keeps it alive (space_lost).
   fdds::LoanableSequence<dds::ServiceEntry> samples;
   fdds::SampleInfoSeq infos;
   if (catalog_reader_->read(samples, infos, fdds::LENGTH_UNLIMITED, fdds::ANY_SAMPLE_STATE, fdds::ANY_VIEW_STATE,
-                            fdds::ALIVE_INSTANCE_STATE) != ReturnCode_t::RETCODE_OK) {
+                            fdds::ANY_INSTANCE_STATE) != ReturnCode_t::RETCODE_OK) {
     return entries;
   }
+  std::map<fdds::InstanceHandle_t, StandingInstances<dds::ServiceEntry>::Taken> now;
+  {
+    std::lock_guard lock(catalog_mutex_);
+    now = held_.read(samples, infos, options_.space,
+                     [this](const fdds::SampleInfo& info, const dds::ServiceEntry& sample, bool ending) {
+                       return identities_.speaks_for(info.publication_handle, sample.space(),
+                                                     ending ? "end of catalog entry" : "catalog entry", sample.name());
+                     });
+  }
+  catalog_reader_->return_loan(samples, infos);
   std::map<fdds::InstanceHandle_t, std::string> spaces;
-  for (fdds::LoanableCollection::size_type i = 0; i < samples.length(); ++i) {
-    if (!infos[i].valid_data) continue;
-    const dds::ServiceEntry& sample = samples[i];
+  for (const auto& [instance, held] : now) {
+    const dds::ServiceEntry& sample = held.sample;
+    if (!held.alive) continue;
     if (sample.space() == options_.space) continue;  // our own entries (or another's claiming ours)
-    // Each space speaks only for itself: a writer refused this space neither offers its services
-    // nor keeps it alive (space_lost).
-    if (!identities_.speaks_for(infos[i].publication_handle, sample.space(), "catalog entry", sample.name())) continue;
-    spaces[infos[i].publication_handle] = sample.space();
-    if (dead.count(infos[i].publication_handle)) continue;
+    spaces[held.info.publication_handle] = sample.space();
+    if (dead.count(held.info.publication_handle)) continue;
     const auto description = descriptions.find(sample.interface_digest());
     if (description == descriptions.end()) continue;
     entries.push_back({sample.space(), sample.name(), sample.interface_name(), sample.repository_id(), sample.origin(),
                        sample.bridge(), sample.deadline_ms(), description->second});
   }
-  catalog_reader_->return_loan(samples, infos);
   {
     std::lock_guard lock(catalog_mutex_);
     for (auto& [writer, space] : spaces) writer_spaces_[writer] = std::move(space);
@@ -173,7 +192,7 @@ void DdsCatalog::announce(const ServiceEntry& entry) {
   sample.origin(entry.origin);
   sample.bridge(options_.bridge);
   sample.deadline_ms(entry.deadline_ms);
-  sample.interface_digest(digest_of(entry.descriptor_set));
+  sample.interface_digest(description_digest(entry.descriptor_set));
   {
     // Each description before the first entry naming it (readers skip entries whose description
     // they lack, so the order only saves a wake-up), and again once a lease with the entries'

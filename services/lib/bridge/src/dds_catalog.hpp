@@ -25,6 +25,7 @@
 #include <fastdds/dds/core/status/SubscriptionMatchedStatus.hpp>
 #include <fastdds/dds/common/InstanceHandle.hpp>
 
+#include "Federation.h"
 #include "dds_identity.hpp"
 #include "dds_participant.hpp"
 #include "urs/bridge/dds_link.hpp"
@@ -85,10 +86,15 @@ class DdsCatalog {
   std::mutex interfaces_mutex_;
   std::map<std::string, std::chrono::steady_clock::time_point> interfaces_written_;  // digest -> when last written
 
-  mutable std::mutex catalog_mutex_;                     // guards dead_writers_ and writer_spaces_
+  // Guards dead_writers_, writer_spaces_, held_, refused_digests_ and descriptions_.
+  mutable std::mutex catalog_mutex_;
   std::set<eprosima::fastdds::dds::InstanceHandle_t> dead_writers_;  // catalog writers whose liveliness is lost
   // Catalog writers seen, by space written (filled by entries(); a writer refused that space is not).
   mutable std::map<eprosima::fastdds::dds::InstanceHandle_t, std::string> writer_spaces_;
+  mutable std::set<std::string> refused_digests_;  // descriptions not matching their digest (logged once each)
+  mutable std::map<std::string, std::string> descriptions_;  // by digest: those entries() took last
+  // The entries entries() read last (what an ignored end or sample keeps).
+  mutable StandingInstances<dds::ServiceEntry> held_;
 };
 
 }  // namespace urs::bridge

@@ -27,6 +27,7 @@
 #include <cstdint>
 #include <functional>
 #include <fastdds/dds/domain/DomainParticipantListener.hpp>
+#include <fastdds/dds/subscriber/SampleInfo.hpp>
 #include <fastdds/rtps/common/InstanceHandle.h>
 #include <map>
 #include <mutex>
@@ -81,6 +82,58 @@ class DdsIdentities : public eprosima::fastdds::dds::DomainParticipantListener {
   std::set<GuidPrefix> warned_;               // participants whose declared space differed, once each
   // By participant GUID prefix: its writers refused a space, and that space (logged once each).
   std::map<GuidPrefix, std::set<std::pair<eprosima::fastrtps::rtps::InstanceHandle_t, std::string>>> refused_;
+};
+
+// The instances of one keyed topic as a bridge takes them from a reader's cache read with any
+// instance state: a sample, or an end (a dispose or an unregistration), counts only if `speaks_for`
+// (e.g. DdsIdentities::speaks_for) lets its writer speak for the instance's space; another's is
+// ignored and the instance kept as last taken, so that no member hides or replaces another space's
+// entries. An instance of `own_space` is never another's business. Used by one thread at a time
+// (its owner's lock).
+template <class Sample>
+class StandingInstances {
+ public:
+  struct Taken {
+    Sample sample;                                 // the last sample taken
+    eprosima::fastdds::dds::SampleInfo info;       // its info (its writer: publication_handle)
+    bool alive = true;                             // ended neither by its space nor by its writers' loss
+  };
+  // `speaks_for(info, sample, ending)`: whether the writer of `info` may write (or end) `sample`'s space.
+  using SpeaksFor = std::function<bool(const eprosima::fastdds::dds::SampleInfo&, const Sample&, bool ending)>;
+
+  // One read of the cache, in order; returns the instances it leaves.
+  template <class Samples, class Infos>
+  const std::map<eprosima::fastrtps::rtps::InstanceHandle_t, Taken>& read(const Samples& samples, const Infos& infos,
+                                                                           const std::string& own_space,
+                                                                           const SpeaksFor& speaks_for) {
+    std::map<eprosima::fastrtps::rtps::InstanceHandle_t, Taken> now;
+    for (decltype(samples.length()) i = 0; i < samples.length(); ++i) {
+      const eprosima::fastdds::dds::SampleInfo& info = infos[i];
+      const auto last = taken_.find(info.instance_handle);
+      if (info.valid_data) {
+        const Sample& sample = samples[i];
+        if (sample.space() == own_space || speaks_for(info, sample, false)) {
+          now[info.instance_handle] = {sample, info,
+                                       info.instance_state == eprosima::fastdds::dds::ALIVE_INSTANCE_STATE};
+        } else if (last != taken_.end()) {
+          now.insert(*last);  // replaces nothing (and is refused, logged, by speaks_for)
+        }
+        continue;
+      }
+      auto seen = now.find(info.instance_handle);
+      if (seen == now.end()) {
+        if (last == taken_.end()) continue;  // nothing of it was taken
+        seen = now.insert(*last).first;
+      }
+      const Sample& ended = seen->second.sample;
+      seen->second.alive = ended.space() != own_space && !speaks_for(info, ended, true);
+    }
+    taken_ = std::move(now);
+    return taken_;
+  }
+
+ private:
+  std::map<eprosima::fastrtps::rtps::InstanceHandle_t, Taken> taken_;
 };
 
 }  // namespace urs::bridge

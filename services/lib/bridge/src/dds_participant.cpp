@@ -1,12 +1,17 @@
 #include "dds_participant.hpp"
 
 #include <netdb.h>
+#include <spdlog/spdlog.h>
 
 #include <algorithm>
 #include <fastdds/dds/domain/DomainParticipant.hpp>
 #include <fastdds/dds/domain/DomainParticipantFactory.hpp>
+#include <fastdds/dds/publisher/DataWriter.hpp>
 #include <fastdds/dds/publisher/Publisher.hpp>
+#include <fastdds/dds/publisher/qos/PublisherQos.hpp>
+#include <fastdds/dds/subscriber/DataReader.hpp>
 #include <fastdds/dds/subscriber/Subscriber.hpp>
+#include <fastdds/dds/subscriber/qos/SubscriberQos.hpp>
 #include <fastdds/dds/topic/Topic.hpp>
 #include <fastdds/rtps/attributes/ServerAttributes.h>
 #include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
@@ -88,7 +93,69 @@ void use_discovery_server(const DdsOptions& options, fdds::DomainParticipantQos&
   }
 }
 
+template <class Qos>
+Qos in_partitions(Qos qos, const std::vector<std::string>& partitions) {
+  for (const auto& name : partitions) qos.partition().push_back(name.c_str());
+  return qos;
+}
+
+std::vector<std::string> partitions_of(const fdds::PartitionQosPolicy& policy) {
+  std::vector<std::string> names;
+  for (const auto& name : policy.names()) names.push_back(name);
+  return names;
+}
+
+// The refusal of a shared endpoint of `topic` in `partitions`: logged, and thrown.
+[[noreturn]] void refused(const std::string& topic, const std::vector<std::string>& partitions,
+                          const DdsOptions& options, bool write) {
+  const std::string why = options.security.enabled()
+                              ? partition_refusal(options.security, options.space, topic, partitions, write)
+                              : "dds: DDS refused a " + std::string(write ? "writer" : "reader") + " of " + topic;
+  spdlog::error("{}", why);
+  throw std::runtime_error(why);
+}
+
 }  // namespace
+
+SharedPartitions shared_partitions(const DdsOptions& options) {
+  if (!options.security.enabled()) return {};
+  try {
+    // Every shared topic has the same grant (deploy/pki.sh); the catalog's stands for them.
+    std::vector<std::string> read = read_partitions(topic_grant(options.security, "urs/catalog", false));
+    return {{options.space}, std::move(read)};
+  } catch (const std::exception& e) {
+    throw std::runtime_error(std::string("DDS security: ") + e.what());
+  }
+}
+
+fdds::Publisher* create_shared_publisher(fdds::DomainParticipant* participant,
+                                         const std::vector<std::string>& partitions) {
+  fdds::Publisher* made = participant->create_publisher(in_partitions(fdds::PUBLISHER_QOS_DEFAULT, partitions));
+  if (made == nullptr) throw std::runtime_error("DDS: cannot create a publisher");
+  return made;
+}
+
+fdds::Subscriber* create_shared_subscriber(fdds::DomainParticipant* participant,
+                                           const std::vector<std::string>& partitions) {
+  fdds::Subscriber* made = participant->create_subscriber(in_partitions(fdds::SUBSCRIBER_QOS_DEFAULT, partitions));
+  if (made == nullptr) throw std::runtime_error("DDS: cannot create a subscriber");
+  return made;
+}
+
+fdds::DataWriter* create_shared_writer(fdds::Publisher* publisher, fdds::Topic* topic,
+                                       const fdds::DataWriterQos& qos, const DdsOptions& options) {
+  fdds::DataWriter* made = publisher->create_datawriter(topic, qos);
+  if (made == nullptr) refused(topic->get_name(), partitions_of(publisher->get_qos().partition()), options, true);
+  return made;
+}
+
+fdds::DataReader* create_shared_reader(fdds::Subscriber* subscriber, fdds::Topic* topic,
+                                       const fdds::DataReaderQos& qos, fdds::DataReaderListener* listener,
+                                       const DdsOptions& options) {
+  fdds::DataReader* made = subscriber->create_datareader(topic, qos, listener);
+  if (made == nullptr) refused(topic->get_name(), partitions_of(subscriber->get_qos().partition()), options, false);
+  return made;
+}
 
 LinkParticipant::LinkParticipant()
     : entry_type(new dds::ServiceEntryPubSubType()),
@@ -147,6 +214,17 @@ void LinkParticipant::join(const DdsOptions& options, fdds::DomainParticipantLis
     publisher_ = participant_->create_publisher(fdds::PUBLISHER_QOS_DEFAULT);
     subscriber_ = participant_->create_subscriber(fdds::SUBSCRIBER_QOS_DEFAULT);
     if (publisher_ == nullptr || subscriber_ == nullptr) throw std::runtime_error("DDS: cannot create a publisher");
+    shared_publisher_ = publisher_;
+    shared_subscriber_ = subscriber_;
+    if (options.security.enabled()) {
+      const SharedPartitions partitions = shared_partitions(options);
+      shared_publisher_ = create_shared_publisher(participant_, partitions.write);
+      shared_subscriber_ = create_shared_subscriber(participant_, partitions.read);
+      std::string reads;
+      for (const auto& name : partitions.read) reads += (reads.empty() ? "" : ", ") + name;
+      spdlog::info("dds: {} shares its catalog, descriptions and state in partition {} and reads them in {}",
+                   options.space, options.space, reads);
+    }
     for (auto* type : {&entry_type, &interface_type, &request_type, &reply_type}) {
       if (type->register_type(participant_) != ReturnCode_t::RETCODE_OK) {
         throw std::runtime_error("DDS: cannot register type " + type->get_type_name());
@@ -166,6 +244,8 @@ void LinkParticipant::leave() {
   participant_ = nullptr;
   publisher_ = nullptr;
   subscriber_ = nullptr;
+  shared_publisher_ = nullptr;
+  shared_subscriber_ = nullptr;
   std::lock_guard lock(mutex_);
   topics_.clear();
 }

@@ -2,6 +2,7 @@
 
 #include <fnmatch.h>
 #include <openssl/bio.h>
+#include <openssl/evp.h>
 #include <openssl/objects.h>
 #include <openssl/pem.h>
 #include <openssl/pkcs7.h>
@@ -14,6 +15,8 @@
 #include <fstream>
 #include <iomanip>
 #include <memory>
+#include <optional>
+#include <stdexcept>
 #include <sstream>
 
 namespace urs::bridge {
@@ -108,6 +111,49 @@ StorePtr store_of(X509* ca) {
   StorePtr store(X509_STORE_new());
   X509_STORE_add_cert(store.get(), ca);
   return store;
+}
+
+bool matches(const std::string& expression, const std::string& name) {
+  return fnmatch(expression.c_str(), name.c_str(), 0) == 0;
+}
+
+// TopicGrant from the verified text of a permissions document.
+TopicGrant grant_in(const std::string& permissions, const std::string& topic, bool write) {
+  TopicGrant grant;
+  for (const std::string& rule : elements(permissions, "allow_rule")) {
+    const std::vector<std::string> criteria = elements(rule, write ? "publish" : "subscribe");
+    for (const std::string& criterion : criteria) {
+      for (const std::string& expression : elements(criterion, "topic")) grant.granted |= matches(expression, topic);
+    }
+    if (!grant.granted) continue;
+    // Fast DDS pools the partitions of every criterion of the rule.
+    for (const std::string& criterion : criteria) {
+      std::vector<std::string> partitions = elements(criterion, "partition");
+      if (partitions.empty()) partitions.emplace_back();
+      grant.partitions.insert(grant.partitions.end(), partitions.begin(), partitions.end());
+    }
+    break;
+  }
+  return grant;
+}
+
+// The first of `partitions` that `grant` does not allow (the default partition for none), or nullopt.
+std::optional<std::string> refused_partition(const TopicGrant& grant, const std::vector<std::string>& partitions) {
+  const std::vector<std::string> asked = partitions.empty() ? std::vector<std::string>{""} : partitions;
+  for (const std::string& partition : asked) {
+    bool allowed = false;
+    for (const std::string& expression : grant.partitions) allowed = allowed || matches(expression, partition);
+    if (!grant.granted || !allowed) return partition;
+  }
+  return std::nullopt;
+}
+
+std::string listed(const std::vector<std::string>& partitions) {
+  std::string text;
+  for (const std::string& partition : partitions) {
+    text += (text.empty() ? "" : ", ") + (partition.empty() ? std::string("the default partition") : partition);
+  }
+  return text;
 }
 
 }  // namespace
@@ -222,6 +268,20 @@ std::vector<std::string> check_dds_security(const DdsSecurity& s, const std::str
                            ", which has passed");
       }
     }
+    for (const std::string& topic : link_topics(space)) {
+      if (!granted || !is_shared_topic(topic)) continue;
+      const TopicGrant writes = grant_in(permissions, topic, true);
+      if (refused_partition(writes, {space})) {
+        problems.push_back("the permissions " + s.permissions + " do not let space " + space + " write " + topic +
+                           " in its partition " + space + " (" +
+                           (writes.granted ? "they grant " + listed(writes.partitions) : "they do not grant it") +
+                           "): make them again with deploy/pki.sh member");
+      }
+      if (read_partitions(grant_in(permissions, topic, false)).empty()) {
+        problems.push_back("the permissions " + s.permissions + " let space " + space + " read " + topic +
+                           " in no space's partition: make them again with deploy/pki.sh member");
+      }
+    }
     if (!granted) {
       std::string named;
       for (const auto& name : subjects) named += (named.empty() ? "'" : ", '") + name + "'";
@@ -230,6 +290,61 @@ std::vector<std::string> check_dds_security(const DdsSecurity& s, const std::str
     }
   }
   return problems;
+}
+
+TopicGrant topic_grant(const DdsSecurity& security, const std::string& topic, bool write) {
+  X509Ptr ca = read_certificate(security.documents_ca());
+  if (!ca) throw std::runtime_error("the documents' CA " + security.documents_ca() + " is not a PEM certificate");
+  StorePtr store = store_of(ca.get());
+  std::string why;
+  const std::string permissions = verified_content(security.permissions, store.get(), why);
+  if (permissions.empty()) throw std::runtime_error("the permissions " + security.permissions + " " + why);
+  return grant_in(permissions, topic, write);
+}
+
+bool is_shared_topic(const std::string& topic) {
+  return topic == "urs/catalog" || topic == "urs/interface" || topic.rfind("urs/state/", 0) == 0;
+}
+
+std::vector<std::string> read_partitions(const TopicGrant& grant) {
+  std::vector<std::string> partitions;
+  if (!grant.granted) return partitions;
+  for (const std::string& expression : grant.partitions) {
+    if (expression == "*") return {"*"};
+    if (!expression.empty()) partitions.push_back(expression);
+  }
+  return partitions;
+}
+
+std::string partition_refusal(const DdsSecurity& security, const std::string& space, const std::string& topic,
+                              const std::vector<std::string>& partitions, bool write) {
+  std::string grants;
+  std::optional<std::string> refused;
+  try {
+    const TopicGrant grant = topic_grant(security, topic, write);
+    refused = refused_partition(grant, partitions);
+    grants = grant.granted ? "they grant it in " + listed(grant.partitions) : "they do not grant " + topic;
+  } catch (const std::exception& e) {
+    grants = e.what();
+  }
+  const std::string where = refused ? listed({*refused}) : listed(partitions);
+  return "dds: the permissions of member " + space + " do not let it " + (write ? "write " : "read ") + topic +
+         " in " + (where == "the default partition" ? where : "partition " + where) + " (" + grants + ")";
+}
+
+std::string description_digest(const std::string& descriptor_set) {
+  unsigned char hash[EVP_MAX_MD_SIZE];
+  unsigned int length = 0;
+  if (EVP_Digest(descriptor_set.data(), descriptor_set.size(), hash, &length, EVP_sha256(), nullptr) != 1) {
+    throw std::runtime_error("OpenSSL cannot compute SHA-256");
+  }
+  static const char* const hex = "0123456789abcdef";
+  std::string text;
+  for (unsigned int i = 0; i < length; ++i) {
+    text += hex[hash[i] >> 4];
+    text += hex[hash[i] & 0xf];
+  }
+  return text;
 }
 
 std::vector<std::pair<std::string, std::string>> dds_security_properties(const DdsSecurity& s) {

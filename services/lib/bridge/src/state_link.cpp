@@ -21,6 +21,8 @@
 
 #include "SpaceState.h"
 #include "SpaceStatePubSubTypes.h"
+#include "dds_identity.hpp"
+#include "dds_participant.hpp"
 #include "dds_qos.hpp"
 #include "urs/world/world.hpp"
 
@@ -127,18 +129,22 @@ class KeyedIn {
       std::lock_guard lock(mutex_);  // never held while DDS is called: listeners take it holding DDS's locks
       dead = dead_;
     }
+    // Every instance, ended or not: each space speaks only for itself (StandingInstances).
     std::map<std::pair<std::string, std::string>, Value> now;
     fdds::LoanableSequence<Sample> samples;
     fdds::SampleInfoSeq infos;
     if (reader_->read(samples, infos, fdds::LENGTH_UNLIMITED, fdds::ANY_SAMPLE_STATE, fdds::ANY_VIEW_STATE,
-                      fdds::ALIVE_INSTANCE_STATE) == ReturnCode_t::RETCODE_OK) {
-      for (fdds::LoanableCollection::size_type i = 0; i < samples.length(); ++i) {
-        if (!infos[i].valid_data || dead.count(infos[i].publication_handle)) continue;
-        if (samples[i].space() == own_space_) continue;
-        if (!link_->speaks_for(infos[i], samples[i].space(), kind_of(samples[i]), name_of(samples[i]))) continue;
-        if (auto value = convert_(samples[i])) now.emplace(key_of(*value), std::move(*value));
-      }
+                      fdds::ANY_INSTANCE_STATE) == ReturnCode_t::RETCODE_OK) {
+      const auto& instances = taken_.read(
+          samples, infos, own_space_, [this](const fdds::SampleInfo& info, const Sample& sample, bool ending) {
+            const std::string kind = std::string(ending ? "end of " : "") + kind_of(sample);
+            return link_->speaks_for(info, sample.space(), kind.c_str(), name_of(sample));
+          });
       reader_->return_loan(samples, infos);
+      for (const auto& [instance, taken] : instances) {
+        if (!taken.alive || dead.count(taken.info.publication_handle) || taken.sample.space() == own_space_) continue;
+        if (auto value = convert_(taken.sample)) now.emplace(key_of(*value), std::move(*value));
+      }
     }
     for (const auto& [key, value] : held_) {
       if (!now.count(key) && handler_) handler_(value, false);
@@ -158,6 +164,7 @@ class KeyedIn {
   std::string own_space_;
   std::mutex mutex_;                       // guards dead_
   std::set<fdds::InstanceHandle_t> dead_;  // writers whose liveliness is lost
+  StandingInstances<Sample> taken_;  // the instances as last read (the reader thread's only)
   std::map<std::pair<std::string, std::string>, Value> held_;  // the reader thread's own
 };
 
@@ -219,31 +226,30 @@ struct StateLink::Impl : public fdds::DataReaderListener {
   }
 
   void create(std::chrono::milliseconds lease) {
-    publisher = participant->create_publisher(fdds::PUBLISHER_QOS_DEFAULT);
-    subscriber = participant->create_subscriber(fdds::SUBSCRIBER_QOS_DEFAULT);
-    if (publisher == nullptr || subscriber == nullptr) throw std::runtime_error("DDS: cannot create a publisher");
+    // In the shared topics' partitions, as the catalog (shared_partitions(), dds_participant.hpp).
+    const DdsOptions& options = link.options();
+    const SharedPartitions partitions = shared_partitions(options);
+    publisher = create_shared_publisher(participant, partitions.write);
+    subscriber = create_shared_subscriber(participant, partitions.read);
     fdds::Topic* components = topic(kComponentTopic, component_type);
     fdds::Topic* poses = topic(kPoseTopic, pose_type);
     fdds::Topic* context = topic(kContextTopic, context_type);
     fdds::Topic* events = topic(kEventTopic, event_type);
 
     const fdds::DataWriterQos keyed = link_qos::keyed_state_writer(lease);
-    component_writer = publisher->create_datawriter(components, keyed);
-    context_writer = publisher->create_datawriter(context, keyed);
-    pose_writer = publisher->create_datawriter(poses, shared_pose_stream_qos(fdds::DATAWRITER_QOS_DEFAULT));
+    component_writer = create_shared_writer(publisher, components, keyed, options);
+    context_writer = create_shared_writer(publisher, context, keyed, options);
+    pose_writer = create_shared_writer(publisher, poses, shared_pose_stream_qos(fdds::DATAWRITER_QOS_DEFAULT), options);
     fdds::DataWriterQos streamed = event_qos(fdds::DATAWRITER_QOS_DEFAULT);
     streamed.publish_mode().kind = fdds::ASYNCHRONOUS_PUBLISH_MODE;  // payloads up to images
-    event_writer = publisher->create_datawriter(events, streamed);
+    event_writer = create_shared_writer(publisher, events, streamed, options);
 
     const fdds::DataReaderQos keyed_in = link_qos::keyed_state_reader(lease);
-    component_reader = subscriber->create_datareader(components, keyed_in, this);
-    context_reader = subscriber->create_datareader(context, keyed_in, this);
-    pose_reader = subscriber->create_datareader(poses, shared_pose_stream_qos(fdds::DATAREADER_QOS_DEFAULT), this);
-    event_reader = subscriber->create_datareader(events, event_qos(fdds::DATAREADER_QOS_DEFAULT), this);
-    if (!component_writer || !context_writer || !pose_writer || !event_writer || !component_reader ||
-        !context_reader || !pose_reader || !event_reader) {
-      throw std::runtime_error("DDS: cannot create the state endpoints");
-    }
+    component_reader = create_shared_reader(subscriber, components, keyed_in, this, options);
+    context_reader = create_shared_reader(subscriber, context, keyed_in, this, options);
+    pose_reader =
+        create_shared_reader(subscriber, poses, shared_pose_stream_qos(fdds::DATAREADER_QOS_DEFAULT), this, options);
+    event_reader = create_shared_reader(subscriber, events, event_qos(fdds::DATAREADER_QOS_DEFAULT), this, options);
     link.keep_alive(component_writer);
     link.keep_alive(context_writer);
     components_in.attach(component_reader, link);

@@ -16,6 +16,7 @@ the test driving it:
                            asserts its liveliness by writing), and serves its calls as `replier`
 """
 
+import hashlib
 import sys
 import time
 from dataclasses import dataclass
@@ -120,11 +121,8 @@ def replier(domain, space):
 
 
 def digest_of(data):
-    """The key of a description on urs/interface: FNV-1a 64 of the bytes, and their size."""
-    value = 14695981039346656037
-    for byte in data:
-        value = ((value ^ byte) * 1099511628211) % (1 << 64)
-    return f"{value:016x}-{len(data)}"
+    """The key of a description on urs/interface: SHA-256 of the bytes, in lower-case hex."""
+    return hashlib.sha256(bytes(data)).hexdigest()
 
 
 def offer(domain, space, service, descriptor_file, lease_ms):
