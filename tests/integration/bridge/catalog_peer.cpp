@@ -7,8 +7,9 @@
 //   --pki DIR         joins secured with the files of DIR (deploy/pki.sh's layout) ...
 //   --member NAME     ... of member NAME (default SPACE)
 //   --peers H,H       unicast discovery of these hosts (DdsOptions::initial_peers)
-//   --as S,S          announces each "+NAME" as space S (a catalog writer of its own, as a forger
-//                     would), for each S, instead of as SPACE
+//   --as S,S          announces each "+NAME" as space S (catalog and description writers of its
+//                     own, as a forger would: URS.Diagnostic's description), for each S, instead
+//                     of as SPACE
 //   --call S/SERVICE  calls SERVICE of space S (operation "echo") once a report, three times
 //   --snoop S,S       then reads the requests to space S and writes replies to it (endpoints of
 //                     its own on urs/rpc/S/request and urs/rpc/S/reply), for each S: prints
@@ -41,12 +42,15 @@
 #include <sstream>
 #include <string>
 #include <thread>
+#include <tuple>
 #include <vector>
 
+#include "Diagnostic.pb.h"
 #include "Federation.h"
 #include "FederationPubSubTypes.h"
 #include "urs/bridge/dds_link.hpp"
 #include "urs/bridge/dds_security.hpp"
+#include "urs/schema/schema.hpp"
 #include "urs/util/cli.hpp"
 
 namespace {
@@ -75,8 +79,9 @@ fdds::Topic* topic_of(fdds::DomainParticipant* participant, const std::string& n
   return participant->create_topic(name, type, fdds::TOPIC_QOS_DEFAULT);
 }
 
-// Catalog entries written as any space, with the link's keyed-state QoS (manual-by-topic
-// liveliness, asserted by the link): what a forger would write.
+// Catalog entries written as any space, with URS.Diagnostic's real description (so that a bridge
+// taking them could offer them), in the link's keyed-state QoS (manual-by-topic liveliness,
+// asserted by the link): what a forger would write.
 class ForgedCatalog {
  public:
   explicit ForgedCatalog(urs::bridge::DdsLink& link) : link_(link) {
@@ -89,16 +94,29 @@ class ForgedCatalog {
     qos.liveliness().lease_duration =
         eprosima::fastrtps::Duration_t(static_cast<double>(link.options().lease.count()) / 1000.0);
     publisher_ = link.participant()->create_publisher(fdds::PUBLISHER_QOS_DEFAULT);
-    auto* topic = topic_of(link.participant(), "urs/catalog", urs::dds::ServiceEntryPubSubType().getName());
-    if (publisher_ != nullptr && topic != nullptr) writer_ = publisher_->create_datawriter(topic, qos);
-    if (writer_ == nullptr) throw std::runtime_error("cannot write on urs/catalog");
-    link_.keep_alive(writer_);
+    for (auto [writer, name, type] :
+         {std::tuple{&entries_, "urs/catalog", urs::dds::ServiceEntryPubSubType().getName()},
+          std::tuple{&descriptions_, "urs/interface", urs::dds::InterfaceDescriptionPubSubType().getName()}}) {
+      auto* topic = topic_of(link.participant(), name, type);
+      if (publisher_ != nullptr && topic != nullptr) *writer = publisher_->create_datawriter(topic, qos);
+      if (*writer == nullptr) throw std::runtime_error(std::string("cannot write on ") + name);
+      link_.keep_alive(*writer);
+    }
+    const std::string described = urs::schema::descriptor_set_for(*URS::Diagnostic_echo_Request::descriptor()->file());
+    urs::dds::InterfaceDescription description;
+    description.digest(kDigest);  // any key: readers do not check it against the content
+    description.descriptor_set(std::vector<uint8_t>(described.begin(), described.end()));
+    descriptions_->write(&description);
   }
   ~ForgedCatalog() {
-    link_.let_go(writer_);
-    publisher_->delete_datawriter(writer_);
+    for (auto* writer : {entries_, descriptions_}) {
+      link_.let_go(writer);
+      publisher_->delete_datawriter(writer);
+    }
     link_.participant()->delete_publisher(publisher_);
   }
+  ForgedCatalog(const ForgedCatalog&) = delete;
+  ForgedCatalog& operator=(const ForgedCatalog&) = delete;
   void write(const std::string& space, const std::string& name, const std::string& bridge) {
     urs::dds::ServiceEntry entry;
     entry.space(space);
@@ -106,19 +124,22 @@ class ForgedCatalog {
     entry.interface_name("URS.Diagnostic");
     entry.origin("camus");
     entry.bridge(bridge);
-    writer_->write(&entry);
+    entry.interface_digest(kDigest);
+    entries_->write(&entry);
   }
   void dispose(const std::string& space, const std::string& name) {
     urs::dds::ServiceEntry entry;
     entry.space(space);
     entry.name(name);
-    writer_->dispose(&entry, fdds::HANDLE_NIL);
+    entries_->dispose(&entry, fdds::HANDLE_NIL);
   }
 
  private:
   urs::bridge::DdsLink& link_;
   fdds::Publisher* publisher_ = nullptr;
-  fdds::DataWriter* writer_ = nullptr;
+  fdds::DataWriter* entries_ = nullptr;
+  fdds::DataWriter* descriptions_ = nullptr;
+  static constexpr const char* kDigest = "forged-description";
 };
 
 // Whether an instance handle (a GUID: the participant's prefix first) is of another participant
