@@ -26,8 +26,8 @@
 #       with another CA's certificate for `jp`, and member `spy` (compose/make-pki.sh, granted
 #       nothing), each forging catalog entries as jp and kr, calling, and trying to read the
 #       requests to jp and kr and to answer them. Neither bridge imports what they write, the first
-#       two read nothing, the spy's own permissions refuse its call endpoints, and calls between the
-#       spaces go on; their reports are printed.
+#       two read nothing, the spy reads the catalog (as any member) but its own permissions refuse its
+#       call endpoints, and calls between the spaces go on; their reports are printed.
 #   the dashboards (headless Chromium, tests/integration/gateway/browser_test.py --url): kr's, logged
 #       in with kr's operators' credential, lists every service of both spaces, sees jp's robot
 #       driven around the square by the demo step, and calls jp's diagnostic echo from the form;
@@ -241,7 +241,8 @@ step "intruders on link: a plain participant, another CA's 'jp', member spy spea
 # Three containers of the bridge image on the link network, each running catalog_peer (a test
 # program of the host build, bind-mounted: it is no part of any image) with its report every
 # second: the catalog entries it reads, its calls' outcomes, the requests to jp and kr it reads and
-# the readers its replies to them match. Each writes catalog entries intruder.<name> as space jp
+# the readers its replies to them match. Its lease is the bridges' (dds.lease_ms 3000): a reader
+# asking for a shorter one would match none of their writers. Each writes catalog entries intruder.<name> as space jp
 # and as space kr (its own catalog writer, as a forger would).
 peer_bin=$build/tests/integration/bridge/catalog_peer
 [[ -x $peer_bin ]] || fail "$peer_bin is not built (cmake --build $build --target catalog_peer)"
@@ -262,7 +263,7 @@ intruder() {  # NAME [docker run option...] -- catalog_peer argument...
   docker run -d --name "$name" --network "$link_net" --user 10001:10001 --read-only --cap-drop ALL \
     --security-opt no-new-privileges:true --no-healthcheck -e LD_LIBRARY_PATH=/opt/urslink/lib \
     -v "$peer_bin:/opt/test/catalog_peer:ro" --entrypoint /opt/test/catalog_peer "${options[@]}" \
-    "urslink/bridge:${URS_IMAGE_TAG:-dev}" --peers bridge-jp,bridge-kr --as jp,kr --snoop jp,kr "$@" >/dev/null \
+    "urslink/bridge:${URS_IMAGE_TAG:-dev}" --peers bridge-jp,bridge-kr --lease-ms 3000 --as jp,kr --snoop jp,kr "$@" >/dev/null \
     || fail "docker run $name"
 }
 intruder plain -- --call "kr/diag-$sam1" 0 jp +intruder.plain
@@ -287,7 +288,7 @@ grep -q intruder <<<"$out" && fail "kr imported an intruder's entry: $(grep intr
 out=$(jp rtc ls) || fail "urs rtc ls: $(cat "$tmp/cli.err")"
 grep -q intruder <<<"$out" && fail "jp bound an intruder's entry: $(grep intruder <<<"$out")"
 grep -q "kr_diag-$sam1.rtc" <<<"$out" || fail "kr's services left jp: $out"
-echo "intruders' results (catalog_peer's reports, last of each kind):"
+echo "intruders' results (catalog_peer's reports):"
 for name in "${intruders[@]}"; do
   docker logs "$name" >"$tmp/intruder.log" 2>&1
   who=${name##*-intruder-}
@@ -309,7 +310,8 @@ for name in "${intruders[@]}"; do
       grep -q '^seen ' "$tmp/intruder.log" || fail "$who printed no catalog report"
       grep '^call ' "$tmp/intruder.log" | grep -v ': UNAVAILABLE ' && fail "$who reached kr"
       ;;
-    spy)  # a member granted nothing: its own permissions refuse every call endpoint
+    spy)  # a member granted nothing: reads the catalog (as any member), but its own permissions refuse every call endpoint
+      [[ $spaces_seen == *jp/* && $spaces_seen == *kr/* ]] || fail "spy, a member, did not read the spaces' catalog: ${spaces_seen:-none}"
       grep '^call ' "$tmp/intruder.log" | grep -v ': PERMISSION_DENIED the permissions of space spy do not grant calls to space jp' \
         && fail "spy's call was not refused by its permissions"
       [[ $(grep -c '^snoop .*: refused$' "$tmp/intruder.log") -eq 4 ]] || fail "spy's permissions let it read or answer calls"

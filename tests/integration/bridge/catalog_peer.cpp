@@ -1,5 +1,5 @@
 // catalog_peer [OPTION...] DOMAIN SPACE STEP...: a space's catalog on a DdsLink of its own process
-// (UDP only, lease 1500 ms), as another bridge's: the test's own participants would get its samples
+// (UDP only, lease 1500 ms unless --lease-ms), as another bridge's: the test's own participants would get its samples
 // handed over in memory. Each STEP is a comma-separated list of "+NAME" (announce NAME) and "-NAME"
 // (withdraw NAME): the first is done at once, each next one on SIGHUP. Exits on SIGTERM.
 //
@@ -14,6 +14,8 @@
 //   --snoop S,S       then reads the requests to space S and writes replies to it (endpoints of
 //                     its own on urs/rpc/S/request and urs/rpc/S/reply), for each S: prints
 //                     "snooping", then what other participants matched and sent
+//   --lease-ms N      its writers' liveliness lease and the one its readers ask for (default 1500);
+//                     a reader asking for less than a writer offers never matches it
 //   --report-ms N     every N ms, prints what it saw (default 1000):
 //     "seen N: SPACE/NAME ..."                    the catalog entries it reads (when they change)
 //     "call S/SERVICE: STATUS message"            each call's outcome
@@ -214,7 +216,7 @@ class Snoop : public fdds::DataReaderListener, public fdds::DataWriterListener {
 
 [[noreturn]] void usage() {
   std::cerr << "usage: catalog_peer [--pki DIR [--member NAME]] [--peers H,H] [--as S,S] [--call S/SERVICE]\n"
-               "                    [--snoop S,S] [--report-ms N] DOMAIN SPACE STEP...\n";
+               "                    [--snoop S,S] [--lease-ms N] [--report-ms N] DOMAIN SPACE STEP...\n";
   std::exit(2);
 }
 
@@ -226,7 +228,7 @@ int main(int argc, char** argv) {
   for (; next + 1 < argc && std::string(argv[next]).rfind("--", 0) == 0; next += 2) {
     const std::string flag = argv[next];
     if (flag != "--pki" && flag != "--member" && flag != "--peers" && flag != "--as" && flag != "--call" &&
-        flag != "--snoop" && flag != "--report-ms") {
+        flag != "--snoop" && flag != "--report-ms" && flag != "--lease-ms") {
       usage();
     }
     flags[flag] = argv[next + 1];
@@ -237,7 +239,7 @@ int main(int argc, char** argv) {
   options.domain = static_cast<uint32_t>(std::stoul(argv[next]));
   options.space = argv[next + 1];
   options.bridge = "bridge-" + options.space;
-  options.lease = std::chrono::milliseconds(1500);
+  options.lease = std::chrono::milliseconds(flags["--lease-ms"].empty() ? 1500 : std::stoul(flags["--lease-ms"]));
   options.udp_only = true;
   options.initial_peers = split(flags["--peers"]);
   if (!flags["--pki"].empty()) {
