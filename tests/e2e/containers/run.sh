@@ -19,7 +19,15 @@
 #       lease, every call in flight gets an answer, and they return with the bridge; cutting the
 #       link makes cross-space calls fail fast with a reason, and reconnecting restores them;
 #       shared state: jp's RTC lifecycle states and robot pose are entries of kr's context, and
-#       leave it with jp's bridge; kr refuses a Planet client without its token.
+#       leave it with jp's bridge; kr refuses a Planet client without its token; a call jp's
+#       dds.export.callers grant nobody is refused with the reason and in jp's audit log.
+#   intruders on the `link` network (containers of the bridge image running the host build's
+#       tests/integration/bridge/catalog_peer, bind-mounted): a participant without security, one
+#       with another CA's certificate for `jp`, and member `spy` (compose/make-pki.sh, granted
+#       nothing), each forging catalog entries as jp and kr, calling, and trying to read the
+#       requests to jp and kr and to answer them. Neither bridge imports what they write, the first
+#       two read nothing, the spy reads the catalog (as any member) but its own permissions refuse its
+#       call endpoints, and calls between the spaces go on; their reports are printed.
 #   the dashboards (headless Chromium, tests/integration/gateway/browser_test.py --url): kr's, logged
 #       in with kr's operators' credential, lists every service of both spaces, sees jp's robot
 #       driven around the square by the demo step, and calls jp's diagnostic echo from the form;
@@ -69,14 +77,20 @@ while [[ $URS_JP_DASHBOARD_PORT == "$URS_KR_DASHBOARD_PORT" ]]; do URS_JP_DASHBO
 compose_file=$root/compose/docker-compose.yml
 dc() { timeout "${DC_TIMEOUT:-180}" "${compose_cmd[@]}" -p "$project" -f "$compose_file" "$@"; }
 
+intruders=()  # containers of the intruder step (docker run, outside the compose project)
 teardown() {
-  local rc=$?
+  local rc=$? name
   if [[ $rc -ne 0 || -n "$failed_step" ]]; then
     echo "==== step failed: ${failed_step:-setup}; container state:"
     dc ps -a 2>&1 || true
     echo "==== container logs (last 80 lines each)"
     DC_TIMEOUT=60 dc logs --no-color --tail=80 2>&1 || true
+    for name in "${intruders[@]}"; do
+      echo "==== intruder $name"
+      docker logs --tail=40 "$name" 2>&1 || true
+    done
   fi
+  ((${#intruders[@]})) && docker rm -f "${intruders[@]}" >/dev/null 2>&1
   say "tearing down $project"
   DC_TIMEOUT=120 dc down -v --remove-orphans -t 5 >/dev/null 2>&1 || echo "e2e_containers: teardown of $project failed" >&2
 }
@@ -112,7 +126,7 @@ wait_healthy() {
 step "images"
 if [[ "${URS_E2E_SKIP_IMAGE_BUILD:-0}" == 1 ]]; then
   for s in rtc-naming camus-server sam-host rtc-manager cli bridge gateway; do
-    docker image inspect "urslink/$s:dev" >/dev/null 2>&1 || fail "image urslink/$s:dev is missing"
+    docker image inspect "urslink/$s:${URS_IMAGE_TAG:-dev}" >/dev/null 2>&1 || fail "image urslink/$s:${URS_IMAGE_TAG:-dev} is missing"
   done
 else
   t=$SECONDS
@@ -183,17 +197,129 @@ eventually 60 jp_listed robot1.navigation || fail "jp/robot1.navigation not in k
 eventually 30 jp_listed "Diagnostic0.diagnostic@$mgr1" || fail "jp's Diagnostic0 not in kr: $(kr ls)"
 kr_bound() { jp rtc ls bridge-jp.host_cxt | grep -q "$1"; }
 eventually 30 kr_bound "kr_tts-$sam1.rtc" || fail "kr's TTS not bound in jp: $(jp rtc ls)"
-out=$(kr call "jp/Diagnostic0.diagnostic@$mgr1" echo '{"text":"from kr to jp"}') || fail "cross-space call: $(cat "$tmp/cli.err")"
-[[ "$out" == '{"result":"from kr to jp"}' ]] || fail "cross-space echo answered $out"
-out=$(jp rtc call "bridge-jp.host_cxt/kr_diag-$sam1.rtc:diagnostic" echo '{"text":"from jp to kr"}') \
-  || fail "cross-space RT call: $(cat "$tmp/cli.err")"
-[[ "$out" == '{"result":"from jp to kr"}' ]] || fail "cross-space RT echo answered $out"
+cross_space_echoes() {  # TEXT: kr calls jp's diagnostic echo, and jp's RT consumer kr's
+  local out
+  out=$(kr call "jp/Diagnostic0.diagnostic@$mgr1" echo "{\"text\":\"$1 from kr\"}") || fail "cross-space call: $(cat "$tmp/cli.err")"
+  [[ "$out" == "{\"result\":\"$1 from kr\"}" ]] || fail "cross-space echo answered $out"
+  out=$(jp rtc call "bridge-jp.host_cxt/kr_diag-$sam1.rtc:diagnostic" echo "{\"text\":\"$1 from jp\"}") \
+    || fail "cross-space RT call: $(cat "$tmp/cli.err")"
+  [[ "$out" == "{\"result\":\"$1 from jp\"}" ]] || fail "cross-space RT echo answered $out"
+}
+cross_space_echoes "hello"
 
 step "link: the bridges and gateways joined it secured (DDS-Security, compose/make-pki.sh's members)"
 for member in bridge-kr bridge-jp; do
   logs=$(dc logs "$member" 2>&1)  # whole: grep -q would end the pipe early (pipefail)
   [[ "$logs" == *"secured (DDS-Security"* ]] || fail "$member is not on a secured link: $(grep 'DDS domain' <<<"$logs")"
 done
+
+step "link: a call jp grants nobody is refused with the reason, and jp's bridge audits it"
+# compose/config/jp-bridge.yaml: dds.export.callers lets nobody call robot1.localization (kr sees
+# it), and dds.audit writes every call from kr to /var/lib/urs/bridge/calls.jsonl (jp-bridge volume).
+eventually 30 jp_listed robot1.localization || fail "jp/robot1.localization not in kr: $(kr ls 'jp/*')"
+kr call jp/robot1.localization getPose >/dev/null && fail "kr called jp/robot1.localization, which jp grants nobody"
+refusal=$(grep '^urs:' "$tmp/cli.err")
+echo "kr calls jp/robot1.localization: $refusal"
+[[ $refusal == *PERMISSION_DENIED* && $refusal == *"space kr may not call jp/robot1.localization"* ]] \
+  || fail "no refusal with the reason: $(cat "$tmp/cli.err")"
+audited_refusal() {
+  docker exec "$(dc ps -q bridge-jp)" cat /var/lib/urs/bridge/calls.jsonl >"$tmp/audit.jsonl" 2>/dev/null || return 1
+  python3 - "$tmp/audit.jsonl" <<'PY'
+import json, sys
+lines = [json.loads(l) for l in open(sys.argv[1]) if l.strip()]
+refused = [l for l in lines if l["service"] == "robot1.localization" and l["status"] == "PERMISSION_DENIED"]
+assert refused, lines[-3:]
+r = refused[-1]
+assert (r["caller_space"], r["caller"], r["space_verified"], r["operation"], r["reason"]) == \
+    ("kr", "dds:kr", True, "getPose", "space kr may not call jp/robot1.localization"), r
+print("jp's audit log (dds.audit):", json.dumps(r))
+PY
+}
+eventually 10 audited_refusal || fail "jp's audit log has no such refusal: $(tail -3 "$tmp/audit.jsonl")"
+
+step "intruders on link: a plain participant, another CA's 'jp', member spy speaking as jp and kr"
+# Three containers of the bridge image on the link network, each running catalog_peer (a test
+# program of the host build, bind-mounted: it is no part of any image) with its report every
+# second: the catalog entries it reads, its calls' outcomes, the requests to jp and kr it reads and
+# the readers its replies to them match. Its lease is the bridges' (dds.lease_ms 3000): a reader
+# asking for a shorter one would match none of their writers. Each writes catalog entries intruder.<name> as space jp
+# and as space kr (its own catalog writer, as a forger would).
+peer_bin=$build/tests/integration/bridge/catalog_peer
+[[ -x $peer_bin ]] || fail "$peer_bin is not built (cmake --build $build --target catalog_peer)"
+link_net=$(docker inspect -f '{{range $k, $v := .NetworkSettings.Networks}}{{$k}} {{end}}' "$(dc ps -q bridge-kr)" | tr ' ' '\n' | grep '_link$')
+[[ -n "$link_net" ]] || fail "bridge-kr is on no link network"
+pki_dir=${URS_PKI_DIR:-$root/compose/config/pki}
+[[ -s $pki_dir/spy/permissions.p7s ]] || fail "$pki_dir holds no member spy (compose/make-pki.sh)"
+# Another federation's CA, with the same name as compose's, and its member jp.
+"$root/deploy/pki.sh" init "$tmp/rogue" --name "URSLink compose federation" >/dev/null \
+  && "$root/deploy/pki.sh" governance "$tmp/rogue" >/dev/null \
+  && "$root/deploy/pki.sh" member "$tmp/rogue" jp --calls kr >/dev/null || fail "deploy/pki.sh: the rogue CA"
+intruder() {  # NAME [docker run option...] -- catalog_peer argument...
+  local name=$project-intruder-$1 options=()
+  shift
+  while [[ $1 != -- ]]; do options+=("$1"); shift; done
+  shift
+  intruders+=("$name")
+  docker run -d --name "$name" --network "$link_net" --user 10001:10001 --read-only --cap-drop ALL \
+    --security-opt no-new-privileges:true --no-healthcheck -e LD_LIBRARY_PATH=/opt/urslink/lib \
+    -v "$peer_bin:/opt/test/catalog_peer:ro" --entrypoint /opt/test/catalog_peer "${options[@]}" \
+    "urslink/bridge:${URS_IMAGE_TAG:-dev}" --peers bridge-jp,bridge-kr --lease-ms 3000 --as jp,kr --snoop jp,kr "$@" >/dev/null \
+    || fail "docker run $name"
+}
+intruder plain -- --call "kr/diag-$sam1" 0 jp +intruder.plain
+intruder rogue -v "$tmp/rogue:/pki:ro" -- --pki /pki --member jp --call "kr/diag-$sam1" 0 jp +intruder.rogue
+spy_mounts=()
+for f in ca.pem governance.p7s crl.pem spy; do spy_mounts+=(-v "$pki_dir/$f:/pki/$f:ro"); done
+intruder spy "${spy_mounts[@]}" -- --pki /pki --member spy --call "jp/Diagnostic0.diagnostic@$mgr1" 0 spy +intruder.spy
+t=$SECONDS
+# The spy is a member: both bridges read its entries, and take none of them as jp's or kr's.
+refused_by() { dc logs "$1" >"$tmp/bridge.log" 2>&1; grep -q "a member proven as spy announced space $2's catalog entry $2/intruder.spy: ignored" "$tmp/bridge.log"; }
+eventually 30 refused_by bridge-kr jp || fail "bridge-kr did not refuse spy's jp/intruder.spy: $(grep -i spy "$tmp/bridge.log")"
+eventually 30 refused_by bridge-jp kr || fail "bridge-jp did not refuse spy's kr/intruder.spy: $(grep -i spy "$tmp/bridge.log")"
+say "both bridges refused spy's entries $((SECONDS - t)) s after the intruders started"
+calls_of() { docker logs "$1" 2>/dev/null | grep -c '^call '; }
+three_calls() { local n; for n in "${intruders[@]}"; do (($(calls_of "$n") >= 3)) || return 1; done; }
+eventually 40 three_calls || fail "an intruder did not try 3 calls: $(for n in "${intruders[@]}"; do echo "$n $(calls_of "$n")"; done)"
+# The spaces keep working with the intruders on their link.
+cross_space_echoes "intruders around"
+say "cross-space calls kr -> jp and jp -> kr answered with the intruders on the link"
+out=$(kr ls) || fail "urs ls: $(cat "$tmp/cli.err")"
+grep -q intruder <<<"$out" && fail "kr imported an intruder's entry: $(grep intruder <<<"$out")"
+out=$(jp rtc ls) || fail "urs rtc ls: $(cat "$tmp/cli.err")"
+grep -q intruder <<<"$out" && fail "jp bound an intruder's entry: $(grep intruder <<<"$out")"
+grep -q "kr_diag-$sam1.rtc" <<<"$out" || fail "kr's services left jp: $out"
+echo "intruders' results (catalog_peer's reports):"
+for name in "${intruders[@]}"; do
+  docker logs "$name" >"$tmp/intruder.log" 2>&1
+  who=${name##*-intruder-}
+  # What it read of the spaces: the entries of every catalog report but its own (intruder.*).
+  spaces_seen=$(grep '^seen ' "$tmp/intruder.log" | tr ' ' '\n' | grep '^[a-z]*/' | grep -v '/intruder\.' | sort -u | tr '\n' ' ')
+  calls=$(grep '^call ' "$tmp/intruder.log" | sed 's/^call [^:]*: //' | sort | uniq -c | sed 's/^ *//' | tr '\n' ';')
+  requests=$(grep -c '^request ' "$tmp/intruder.log")
+  printf '  %-5s catalog entries of jp or kr it read: %s\n        calls: %s\n        requests reached it: %s\n' \
+    "$who" "${spaces_seen:-none}" "$calls" "$requests"
+  for topic in urs/rpc/jp/request urs/rpc/kr/request urs/rpc/jp/reply urs/rpc/kr/reply; do
+    printf '        %s\n' "$(grep "^snoop $topic:" "$tmp/intruder.log" | tail -1)"
+  done
+  ((requests == 0)) || fail "$who got requests: $(grep '^request ' "$tmp/intruder.log")"
+  # Never matched by a bridge on the calls' topics: refused by its own permissions, or unmatched.
+  grep -E '^snoop .*: matched [1-9]|read [1-9]' "$tmp/intruder.log" && fail "$who reads calls or its replies reach a space"
+  case $who in
+    plain | rogue)  # not a member: discovers nobody of the link, reads nothing
+      [[ -z $spaces_seen ]] || fail "$who read the spaces' catalog: $spaces_seen"
+      grep -q '^seen ' "$tmp/intruder.log" || fail "$who printed no catalog report"
+      grep '^call ' "$tmp/intruder.log" | grep -v ': UNAVAILABLE ' && fail "$who reached kr"
+      ;;
+    spy)  # a member granted nothing: reads the catalog (as any member), but its own permissions refuse every call endpoint
+      [[ $spaces_seen == *jp/* && $spaces_seen == *kr/* ]] || fail "spy, a member, did not read the spaces' catalog: ${spaces_seen:-none}"
+      grep '^call ' "$tmp/intruder.log" | grep -v ': PERMISSION_DENIED the permissions of space spy do not grant calls to space jp' \
+        && fail "spy's call was not refused by its permissions"
+      [[ $(grep -c '^snoop .*: refused$' "$tmp/intruder.log") -eq 4 ]] || fail "spy's permissions let it read or answer calls"
+      ;;
+  esac
+done
+docker rm -f "${intruders[@]}" >/dev/null 2>&1
+intruders=()
 
 step "demo: a kr client drives jp's robot around the square (waypoint errors < 50 mm), kr's dashboard watching"
 # kr's dashboard in headless Chromium, logged in with kr's operators' credential: every service of
