@@ -23,11 +23,14 @@
 #       dds.export.callers grant nobody is refused with the reason and in jp's audit log.
 #   intruders on the `link` network (containers of the bridge image running the host build's
 #       tests/integration/bridge/catalog_peer, bind-mounted): a participant without security, one
-#       with another CA's certificate for `jp`, and member `spy` (compose/make-pki.sh, granted
-#       nothing), each forging catalog entries as jp and kr, calling, and trying to read the
-#       requests to jp and kr and to answer them. Neither bridge imports what they write, the first
-#       two read nothing, the spy reads the catalog (as any member) but its own permissions refuse its
-#       call endpoints, and calls between the spaces go on; their reports are printed.
+#       with another CA's certificate for `jp`, and member `spy` (compose/make-pki.sh, granted no
+#       calls and reads of kr only), each forging catalog entries as jp and kr, calling, and trying
+#       to read the requests to jp and kr and to answer them. Neither bridge imports what they
+#       write, the first two read nothing, the spy reads kr's catalog (granted) and nothing of jp's,
+#       its own DDS refuses its writers in jp's and kr's partitions and its call endpoints, and
+#       calls between the spaces go on; their reports are printed. A capture of the link network
+#       during cross-space calls holds none of their text (a capture of jp's network, where the
+#       CORBA request carries it in clear, holds it: the control).
 #   the dashboards (headless Chromium, tests/integration/gateway/browser_test.py --url): kr's, logged
 #       in with kr's operators' credential, lists every service of both spaces, sees jp's robot
 #       driven around the square by the demo step, and calls jp's diagnostic echo from the form;
@@ -78,6 +81,7 @@ compose_file=$root/compose/docker-compose.yml
 dc() { timeout "${DC_TIMEOUT:-180}" "${compose_cmd[@]}" -p "$project" -f "$compose_file" "$@"; }
 
 intruders=()  # containers of the intruder step (docker run, outside the compose project)
+capture_pids=()  # the captures of the capture step (host processes)
 teardown() {
   local rc=$? name
   if [[ $rc -ne 0 || -n "$failed_step" ]]; then
@@ -91,6 +95,7 @@ teardown() {
     done
   fi
   ((${#intruders[@]})) && docker rm -f "${intruders[@]}" >/dev/null 2>&1
+  ((${#capture_pids[@]})) && kill "${capture_pids[@]}" 2>/dev/null
   say "tearing down $project"
   DC_TIMEOUT=120 dc down -v --remove-orphans -t 5 >/dev/null 2>&1 || echo "e2e_containers: teardown of $project failed" >&2
 }
@@ -220,7 +225,8 @@ eventually 30 jp_listed robot1.localization || fail "jp/robot1.localization not 
 kr call jp/robot1.localization getPose >/dev/null && fail "kr called jp/robot1.localization, which jp grants nobody"
 refusal=$(grep '^urs:' "$tmp/cli.err")
 echo "kr calls jp/robot1.localization: $refusal"
-[[ $refusal == *PERMISSION_DENIED* && $refusal == *"space kr may not call jp/robot1.localization"* ]] \
+# kr's CLI authenticates as "space" (compose's token): its server names it, and jp judges kr/space.
+[[ $refusal == *PERMISSION_DENIED* && $refusal == *"kr/space may not call jp/robot1.localization"* ]] \
   || fail "no refusal with the reason: $(cat "$tmp/cli.err")"
 audited_refusal() {
   docker exec "$(dc ps -q bridge-jp)" cat /var/lib/urs/bridge/calls.jsonl >"$tmp/audit.jsonl" 2>/dev/null || return 1
@@ -231,7 +237,7 @@ refused = [l for l in lines if l["service"] == "robot1.localization" and l["stat
 assert refused, lines[-3:]
 r = refused[-1]
 assert (r["caller_space"], r["caller"], r["space_verified"], r["operation"], r["reason"]) == \
-    ("kr", "dds:kr", True, "getPose", "space kr may not call jp/robot1.localization"), r
+    ("kr", "space", True, "getPose", "kr/space may not call jp/robot1.localization"), r
 print("jp's audit log (dds.audit):", json.dumps(r))
 PY
 }
@@ -310,8 +316,13 @@ for name in "${intruders[@]}"; do
       grep -q '^seen ' "$tmp/intruder.log" || fail "$who printed no catalog report"
       grep '^call ' "$tmp/intruder.log" | grep -v ': UNAVAILABLE ' && fail "$who reached kr"
       ;;
-    spy)  # a member granted nothing: reads the catalog (as any member), but its own permissions refuse every call endpoint
-      [[ $spaces_seen == *jp/* && $spaces_seen == *kr/* ]] || fail "spy, a member, did not read the spaces' catalog: ${spaces_seen:-none}"
+    spy)  # a member granted reads of kr only and no calls: its own DDS refuses what it was not granted
+      [[ $spaces_seen == *kr/* ]] || fail "spy, granted kr's partition, did not read kr's catalog: ${spaces_seen:-none}"
+      [[ $spaces_seen == *jp/* ]] && fail "spy read jp's catalog, which it was not granted: $spaces_seen"
+      for s in jp kr; do
+        grep -q "^forge urs/catalog in partition $s: refused by its own DDS" "$tmp/intruder.log" ||
+          fail "spy's DDS let it write in $s's partition: $(grep '^forge' "$tmp/intruder.log")"
+      done
       grep '^call ' "$tmp/intruder.log" | grep -v ': PERMISSION_DENIED the permissions of space spy do not grant calls to space jp' \
         && fail "spy's call was not refused by its permissions"
       [[ $(grep -c '^snoop .*: refused$' "$tmp/intruder.log") -eq 4 ]] || fail "spy's permissions let it read or answer calls"
@@ -320,6 +331,31 @@ for name in "${intruders[@]}"; do
 done
 docker rm -f "${intruders[@]}" >/dev/null 2>&1
 intruders=()
+
+step "link: a capture of the link network during cross-space calls holds none of their text"
+# Two captures on the host (tests/e2e/two_hosts/capture.py, promiscuous on the bridge device of a
+# compose network): the link's, and jp's as the control, where the same text crosses in clear in
+# the CORBA request bridge-jp makes to the RTC. Found there, it must be nowhere on the link.
+bridge_of() { local id; id=$(docker network inspect -f '{{.Id}}' "$1") && echo "br-${id:0:12}"; }
+marker="urs-capture-marker-$$-$RANDOM"
+capture_pids=()
+for net in "$link_net" "${link_net%_link}_jp"; do
+  dev=$(bridge_of "$net") || fail "no network $net"
+  [[ -e /sys/class/net/$dev ]] || fail "network $net has no bridge device $dev on this host"
+  rm -f "$tmp/$net.ready"
+  python3 "$root/tests/e2e/two_hosts/capture.py" "$dev" "$tmp/$net.frames" "$tmp/$net.ready" 2>"$tmp/$net.capture.log" &
+  capture_pids+=($!)
+  eventually 10 test -e "$tmp/$net.ready" || fail "the capture of $net did not start: $(cat "$tmp/$net.capture.log")"
+done
+cross_space_echoes "$marker"
+kill "${capture_pids[@]}"; wait "${capture_pids[@]}" 2>/dev/null || true
+capture_pids=()
+on_link=$(grep -c -a "$marker" "$tmp/$link_net.frames" || true)
+on_jp=$(grep -c -a "$marker" "$tmp/${link_net%_link}_jp.frames" || true)
+say "marker: $on_jp frames of jp's network ($(stat -c %s "$tmp/${link_net%_link}_jp.frames") bytes captured), $on_link of the link ($(stat -c %s "$tmp/$link_net.frames") bytes)"
+((on_jp > 0)) || fail "the control capture of jp's network holds no marker: the capture sees nothing"
+((on_link == 0)) || fail "the link carried a call's text in clear ($on_link frames)"
+(($(stat -c %s "$tmp/$link_net.frames") > 0)) || fail "nothing captured on the link"
 
 step "demo: a kr client drives jp's robot around the square (waypoint errors < 50 mm), kr's dashboard watching"
 # kr's dashboard in headless Chromium, logged in with kr's operators' credential: every service of

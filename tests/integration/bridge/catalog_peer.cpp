@@ -81,12 +81,16 @@ fdds::Topic* topic_of(fdds::DomainParticipant* participant, const std::string& n
   return participant->create_topic(name, type, fdds::TOPIC_QOS_DEFAULT);
 }
 
-// Catalog entries written as any space, with URS.Diagnostic's real description (so that a bridge
-// taking them could offer them), in the link's keyed-state QoS (manual-by-topic liveliness,
-// asserted by the link): what a forger would write.
+// Catalog entries written as any space, with URS.Diagnostic's real description under its real
+// digest (so that a bridge taking them could offer them), in the link's keyed-state QoS
+// (manual-by-topic liveliness, asserted by the link): what a forger would write. On a secured link
+// (`own_partition`: the member's own) it first tries a writer in each forged space's partition and
+// prints whether its own DDS made it ("forge urs/catalog in partition S: ..."), then writes in its
+// own partition, where the others' DDS takes its samples and the bridges judge them.
 class ForgedCatalog {
  public:
-  explicit ForgedCatalog(urs::bridge::DdsLink& link) : link_(link) {
+  ForgedCatalog(urs::bridge::DdsLink& link, const std::string& own_partition, const std::vector<std::string>& spaces)
+      : link_(link) {
     fdds::DataWriterQos qos = fdds::DATAWRITER_QOS_DEFAULT;
     qos.reliability().kind = fdds::RELIABLE_RELIABILITY_QOS;
     qos.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
@@ -95,7 +99,20 @@ class ForgedCatalog {
     qos.liveliness().kind = fdds::MANUAL_BY_TOPIC_LIVELINESS_QOS;
     qos.liveliness().lease_duration =
         eprosima::fastrtps::Duration_t(static_cast<double>(link.options().lease.count()) / 1000.0);
-    publisher_ = link.participant()->create_publisher(fdds::PUBLISHER_QOS_DEFAULT);
+    fdds::DomainParticipant* participant = link.participant();
+    for (const auto& space : own_partition.empty() ? std::vector<std::string>{} : spaces) {
+      fdds::PublisherQos in_space = fdds::PUBLISHER_QOS_DEFAULT;
+      in_space.partition().push_back(space.c_str());
+      fdds::Publisher* publisher = participant->create_publisher(in_space);
+      fdds::Topic* topic = topic_of(participant, "urs/catalog", urs::dds::ServiceEntryPubSubType().getName());
+      fdds::DataWriter* writer = publisher != nullptr && topic != nullptr ? publisher->create_datawriter(topic, qos) : nullptr;
+      say("forge urs/catalog in partition " + space + ": " + (writer != nullptr ? "made" : "refused by its own DDS"));
+      if (writer != nullptr) publisher->delete_datawriter(writer);
+      if (publisher != nullptr) participant->delete_publisher(publisher);
+    }
+    fdds::PublisherQos own = fdds::PUBLISHER_QOS_DEFAULT;
+    if (!own_partition.empty()) own.partition().push_back(own_partition.c_str());
+    publisher_ = participant->create_publisher(own);
     for (auto [writer, name, type] :
          {std::tuple{&entries_, "urs/catalog", urs::dds::ServiceEntryPubSubType().getName()},
           std::tuple{&descriptions_, "urs/interface", urs::dds::InterfaceDescriptionPubSubType().getName()}}) {
@@ -106,7 +123,8 @@ class ForgedCatalog {
     }
     const std::string described = urs::schema::descriptor_set_for(*URS::Diagnostic_echo_Request::descriptor()->file());
     urs::dds::InterfaceDescription description;
-    description.digest(kDigest);  // any key: readers do not check it against the content
+    digest_ = urs::bridge::description_digest(described);
+    description.digest(digest_);
     description.descriptor_set(std::vector<uint8_t>(described.begin(), described.end()));
     descriptions_->write(&description);
   }
@@ -126,7 +144,7 @@ class ForgedCatalog {
     entry.interface_name("URS.Diagnostic");
     entry.origin("camus");
     entry.bridge(bridge);
-    entry.interface_digest(kDigest);
+    entry.interface_digest(digest_);
     entries_->write(&entry);
   }
   void dispose(const std::string& space, const std::string& name) {
@@ -141,7 +159,7 @@ class ForgedCatalog {
   fdds::Publisher* publisher_ = nullptr;
   fdds::DataWriter* entries_ = nullptr;
   fdds::DataWriter* descriptions_ = nullptr;
-  static constexpr const char* kDigest = "forged-description";
+  std::string digest_;
 };
 
 // Whether an instance handle (a GUID: the participant's prefix first) is of another participant
@@ -253,7 +271,10 @@ int main(int argc, char** argv) {
   });
   const std::vector<std::string> as = split(flags["--as"]);
   std::unique_ptr<ForgedCatalog> forged;
-  if (!as.empty()) forged = std::make_unique<ForgedCatalog>(link);
+  if (!as.empty()) {
+    forged = std::make_unique<ForgedCatalog>(
+        link, options.security.enabled() ? (flags["--member"].empty() ? options.space : flags["--member"]) : "", as);
+  }
 
   next += 2;
   auto step = [&] {
