@@ -134,9 +134,15 @@ void DdsIdentities::on_participant_discovery(eprosima::fastdds::dds::DomainParti
       spaces_.erase(prefix);
     }
   }
-  if (!space) {
-    spdlog::warn("dds: participant {} announces subject '{}', which its GUID does not derive from: its calls are "
-                 "served as the space they declare, and what it announces for any space is ignored",
+  if (!space && subject.empty()) {
+    // A participant without an identity (no security, or a handshake not begun): DDS-Security's
+    // governance keeps it off every topic of the link, so nothing it writes arrives here.
+    spdlog::warn("dds: participant {} presents no certificate: it cannot authenticate, and the link's topics match "
+                 "none of its endpoints",
+                 info.info.m_participantName.to_string());
+  } else if (!space) {
+    spdlog::warn("dds: participant {} announces subject '{}', which its GUID does not derive from: its requests "
+                 "prove no space (only the one they declare), and what it announces for any space is ignored",
                  info.info.m_participantName.to_string(), subject);
   }
   if (proven && on_proven_) on_proven_();
