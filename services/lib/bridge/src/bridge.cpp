@@ -28,7 +28,6 @@ namespace {
 constexpr const char* kConnectorName = "urs-bridge";  // profile name prefix of the connections the watch makes
 constexpr auto kRetryPeriod = std::chrono::milliseconds(2000);        // a stand-in its side refused
 constexpr auto kServiceRetryPeriod = std::chrono::seconds(10);        // an RTC for a CAMUS service
-constexpr auto kLinkRetryPeriod = std::chrono::seconds(2);            // joining the DDS link again
 
 std::string file_safe(const std::string& text) {
   std::string out = text;
@@ -85,7 +84,8 @@ struct Bridge::Session {
 Bridge::Bridge(rtc::Orb& orb, rtc::NamingClient* naming, rtc::Manager* manager, const InterfaceCatalog& catalog,
                BridgeConfig config, std::optional<planet::ClientOptions> planet)
     : orb_(orb), naming_(naming), manager_(manager), catalog_(catalog), config_(std::move(config)),
-      planet_(std::move(planet)) {
+      planet_(std::move(planet)),
+      link_retry_("bridge " + config_.name) {
   if ((naming_ == nullptr) != (manager_ == nullptr)) throw std::logic_error("bridge: naming client without manager");
   if (planet_) {
     planet_->peer_name = config_.name;
@@ -200,7 +200,7 @@ void Bridge::run() {
       auto changed = [&] { return stopping_ || want_active_ != (session_ != nullptr); };
       if (session_) {
         auto next = std::min(next_rt, next_camus);
-        if (config_.dds.enabled && !session_->dds) next = std::min(next, next_link_attempt_);
+        if (config_.dds.enabled && !session_->dds) next = std::min(next, link_retry_.next_try());
         wake_.wait_until(lock, next, [&] { return changed() || remote_pending_.load() || Clock::now() >= next; });
       } else {
         wake_.wait(lock, changed);
@@ -226,7 +226,7 @@ void Bridge::run() {
         poll_camus(*session_);
         next_camus = Clock::now() + config_.camus_poll;
       }
-      if (config_.dds.enabled && !session_->dds && now >= next_link_attempt_) join_link(*session_);
+      if (config_.dds.enabled && !session_->dds && link_retry_.due(now)) join_link(*session_);
       poll_dds(*session_);
     } catch (const std::exception& e) {
       spdlog::error("bridge: {}", e.what());
@@ -275,16 +275,8 @@ void Bridge::open_session() {
 // The DDS side of a session: this space joins the link, offers its services to the other spaces and
 // imports theirs. A link that cannot be joined yet (an initial peer or discovery server whose name
 // resolves only once its container has started) leaves the rest of the space working; the run loop
-// tries again every kLinkRetryPeriod until it is joined.
+// tries again every LinkRetry::kPeriod until it is joined.
 void Bridge::join_link(Session& session) {
-  const auto failed = [&](const std::string& why) {
-    if (why != link_failure_) {
-      spdlog::error("bridge {}: no link to other spaces yet: {}; trying again every {} s", config_.name, why,
-                    std::chrono::duration_cast<std::chrono::seconds>(kLinkRetryPeriod).count());
-    }
-    link_failure_ = why;
-    next_link_attempt_ = Clock::now() + kLinkRetryPeriod;
-  };
   CamusAdapter& camus = *session.camus;
   planet::Client* client = camus.client();
   Session* s = &session;
@@ -322,7 +314,7 @@ void Bridge::join_link(Session& session) {
           }
         });
   } catch (const std::exception& e) {
-    failed(e.what());
+    link_retry_.failed(e.what());
     return;
   }
   DdsAdapter* link = dds.get();
@@ -346,8 +338,7 @@ void Bridge::join_link(Session& session) {
       "this space -> other spaces",
       std::vector{core::RouteRule{config_.dds.export_allow, config_.dds.export_deny, "*", "{name}", 0}}, *link,
       kRetryPeriod);
-  if (!link_failure_.empty()) spdlog::info("bridge {}: joined the link to other spaces", config_.name);
-  link_failure_.clear();
+  link_retry_.joined();
   std::lock_guard lock(mutex_);  // status() reads the routes
   session.dds = std::move(dds);
   session.on_camus_for_dds = std::move(on_camus);

@@ -12,10 +12,9 @@ namespace urs::gateway {
 
 namespace {
 constexpr const char* kSource = "dds";
-constexpr auto kJoinRetryPeriod = std::chrono::seconds(2);  // joining the DDS link again, as the bridge does
 }
 
-DdsSource::DdsSource(DdsSourceOptions options) : options_(std::move(options)) {}
+DdsSource::DdsSource(DdsSourceOptions options) : options_(std::move(options)), link_retry_("gateway") {}
 
 DdsSource::~DdsSource() { stop(); }
 
@@ -26,15 +25,15 @@ void DdsSource::start(ViewSink& sink) {
   join();
   // Once joined, the catalog is read when DDS says it changed and at least twice a lease;
   // until then each round tries to join again.
-  poller_.start(std::min<std::chrono::milliseconds>(options_.link.lease / 2, kJoinRetryPeriod), [this] {
-    if (!link_ && std::chrono::steady_clock::now() >= next_join_) join();
+  poller_.start(std::min<std::chrono::milliseconds>(options_.link.lease / 2, bridge::LinkRetry::kPeriod), [this] {
+    if (!link_ && link_retry_.due(bridge::LinkRetry::Clock::now())) join();
     if (link_) read_catalog();
   });
 }
 
 // Joins the link's domain. A link that cannot be joined yet (an initial peer or discovery server
 // whose name resolves only once its container has started) leaves the gateway serving what its
-// other sources show; the poller tries again every kJoinRetryPeriod.
+// other sources show; the poller tries again every LinkRetry::kPeriod.
 void DdsSource::join() {
   bridge::DdsOptions link = options_.link;
   link.space = reader_name(options_.space);
@@ -45,22 +44,17 @@ void DdsSource::join() {
         [this] { poller_.wake(); },
         [](call::Request request, call::Responder responder) {
           // Nobody calls a gateway over DDS (it announces nothing); refuse whatever arrives.
-          responder.reply(call::Reply::error(call::Status::UNKNOWN_SERVICE, "urs-gateway serves no " + request.service));
+          responder.reply(
+              call::Reply::error(call::Status::UNKNOWN_SERVICE, "urs-gateway serves no " + request.service));
         });
     state_ = std::make_unique<bridge::StateLink>(*link_, state_handlers(), std::nullopt);
   } catch (const std::exception& e) {
     state_.reset();
     link_.reset();
-    if (e.what() != join_failure_) {
-      spdlog::error("gateway: no link to other spaces yet: {}; trying again every {} s", e.what(),
-                    std::chrono::duration_cast<std::chrono::seconds>(kJoinRetryPeriod).count());
-      join_failure_ = e.what();
-    }
-    next_join_ = std::chrono::steady_clock::now() + kJoinRetryPeriod;
+    link_retry_.failed(e.what());
     return;
   }
-  if (!join_failure_.empty()) spdlog::info("gateway: joined the link to other spaces");
-  join_failure_.clear();
+  link_retry_.joined();
 }
 
 // What the state topics report, into the sink.

@@ -44,6 +44,7 @@
 
 #include "urs/bridge/config.hpp"
 #include "urs/bridge/interfaces.hpp"
+#include "urs/bridge/link_retry.hpp"
 #include "urs/planet/client.hpp"
 #include "urs/rtc/manager.hpp"
 #include "urs/rtc/naming.hpp"
@@ -120,10 +121,8 @@ class Bridge {
   std::thread thread_;
   std::shared_ptr<Session> session_;
 
-  // The bridge's thread only: why the link could not be joined last time ("" when it was), and when
-  // to try again.
-  std::string link_failure_;
-  std::chrono::steady_clock::time_point next_link_attempt_{};
+  // The bridge's thread only: joining the DDS link until it is joined.
+  LinkRetry link_retry_;
 
   // Set by DDS threads when the other spaces' catalog changed; the bridge's thread reads it.
   std::atomic<bool> remote_pending_{false};

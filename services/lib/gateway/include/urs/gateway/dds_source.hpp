@@ -14,13 +14,13 @@
 // Threads: one of its own for joining the link and the catalog (read when DDS says it changed); the state arrives on
 // StateLink's threads and is reported from there.
 
-#include <chrono>
 #include <map>
 #include <memory>
 #include <mutex>
 #include <string>
 
 #include "urs/bridge/dds_link.hpp"
+#include "urs/bridge/link_retry.hpp"
 #include "urs/bridge/state_link.hpp"
 #include "urs/gateway/payloads.hpp"
 #include "urs/gateway/poller.hpp"
@@ -64,8 +64,7 @@ class DdsSource : public SpaceSource {
 
   std::mutex components_mutex_;
   std::map<std::pair<std::string, std::string>, Component> components_;
-  std::string join_failure_;  // why the last try to join failed; empty: joined (or not tried)
-  std::chrono::steady_clock::time_point next_join_{};
+  bridge::LinkRetry link_retry_;  // the poller's thread only (and start()'s, before it runs)
   Poller poller_;  // joins the link until it is joined, then reads the catalog when DDS says it changed; liveliness ends at a lease's pace
 };
 
