@@ -125,11 +125,12 @@ std::vector<ServiceEntry> DdsCatalog::entries() const {
       if (!described_infos[i].valid_data) continue;
       const std::string& digest = described[i].digest();
       std::string text = text_of(described[i].descriptor_set());
-      if (description_digest(text) == digest) {
+      const auto kept = before.find(digest);
+      // The bytes taken before under this digest were checked then: only other bytes are hashed.
+      if ((kept != before.end() && kept->second == text) || description_digest(text) == digest) {
         descriptions[digest] = std::move(text);
       } else {
         refused.push_back(digest);
-        const auto kept = before.find(digest);
         if (kept != before.end()) descriptions.insert(*kept);
       }
     }

@@ -19,6 +19,8 @@
 #include <stdexcept>
 #include <sstream>
 
+#include "urs/util/secret.hpp"
+
 namespace urs::bridge {
 
 namespace {
@@ -332,20 +334,7 @@ std::string partition_refusal(const DdsSecurity& security, const std::string& sp
          " in " + (where == "the default partition" ? where : "partition " + where) + " (" + grants + ")";
 }
 
-std::string description_digest(const std::string& descriptor_set) {
-  unsigned char hash[EVP_MAX_MD_SIZE];
-  unsigned int length = 0;
-  if (EVP_Digest(descriptor_set.data(), descriptor_set.size(), hash, &length, EVP_sha256(), nullptr) != 1) {
-    throw std::runtime_error("OpenSSL cannot compute SHA-256");
-  }
-  static const char* const hex = "0123456789abcdef";
-  std::string text;
-  for (unsigned int i = 0; i < length; ++i) {
-    text += hex[hash[i] >> 4];
-    text += hex[hash[i] & 0xf];
-  }
-  return text;
-}
+std::string description_digest(const std::string& descriptor_set) { return util::sha256_hex(descriptor_set); }
 
 std::vector<std::pair<std::string, std::string>> dds_security_properties(const DdsSecurity& s) {
   auto uri = [](const std::string& path) { return "file://" + std::filesystem::absolute(path).string(); };
