@@ -84,8 +84,10 @@ Qos event_qos(Qos qos) {
 }
 
 // What a refusal names (DdsLink::speaks_for): the kind of sample and its name within its space.
-const char* kind_of(const dds::ComponentState&) { return "component state"; }
-const char* kind_of(const dds::ContextEntry&) { return "context entry"; }
+const char* kind_of(const dds::ComponentState&, bool ending) {
+  return ending ? "end of component state" : "component state";
+}
+const char* kind_of(const dds::ContextEntry&, bool ending) { return ending ? "end of context entry" : "context entry"; }
 const std::string& name_of(const dds::ComponentState& s) { return s.name(); }
 const std::string& name_of(const dds::ContextEntry& s) { return s.key(); }
 
@@ -137,8 +139,7 @@ class KeyedIn {
                       fdds::ANY_INSTANCE_STATE) == ReturnCode_t::RETCODE_OK) {
       const auto& instances = taken_.read(
           samples, infos, own_space_, [this](const fdds::SampleInfo& info, const Sample& sample, bool ending) {
-            const std::string kind = std::string(ending ? "end of " : "") + kind_of(sample);
-            return link_->speaks_for(info, sample.space(), kind.c_str(), name_of(sample));
+            return link_->speaks_for(info, sample.space(), kind_of(sample, ending), name_of(sample));
           });
       reader_->return_loan(samples, infos);
       for (const auto& [instance, taken] : instances) {
