@@ -169,6 +169,7 @@ void AgentHost::dispatch(call::Request request, call::Responder responder) {
                         "interface " + iface.full_name() + " has no operation '" + request.operation + "'"));
     return;
   }
+  if (agent->forward(*method, request, responder)) return;
   const gp::Message* request_proto = factory_->GetPrototype(method->input_type());
   const gp::Message* reply_proto = factory_->GetPrototype(method->output_type());
   if (request_proto == nullptr || reply_proto == nullptr) {
@@ -187,31 +188,41 @@ void AgentHost::dispatch(call::Request request, call::Responder responder) {
   ctx->caller = std::move(request.caller);
   ctx->events = &events_;
   ctx->deadline = request.deadline;
+  if (agent->runs_inline(*method)) {
+    run(*agent, *method, *parsed, *reply_proto, *ctx, responder, oneway);
+    return;
+  }
   auto shared_responder = std::make_shared<call::Responder>(std::move(responder));
-
   pool_.post([agent, method, parsed, reply_proto, ctx, shared_responder, oneway](bool cancelled) {
-    auto reply_to = [&](Reply reply) {
-      if (!oneway) shared_responder->reply(std::move(reply));
-    };
     if (cancelled) {
-      reply_to(Reply::error(Status::UNAVAILABLE, "service host is shutting down; " + ctx->service + " not called"));
+      if (!oneway) {
+        shared_responder->reply(
+            Reply::error(Status::UNAVAILABLE, "service host is shutting down; " + ctx->service + " not called"));
+      }
       return;
     }
     if (std::chrono::steady_clock::now() > ctx->deadline) {
-      reply_to(Reply::error(Status::DEADLINE_EXCEEDED, "deadline passed before " + ctx->service + "." +
-                                                           method->name() + " could start"));
+      if (!oneway) {
+        shared_responder->reply(Reply::error(Status::DEADLINE_EXCEEDED, "deadline passed before " + ctx->service +
+                                                                            "." + method->name() + " could start"));
+      }
       return;
     }
-    std::unique_ptr<gp::Message> reply(reply_proto->New());
-    Outcome outcome;
-    try {
-      outcome = agent->invoke(*method, *parsed, *reply, *ctx);
-    } catch (const std::exception& e) {
-      spdlog::error("{}.{} threw: {}", ctx->service, method->name(), e.what());
-      outcome = Outcome::error(Status::INTERNAL, ctx->service + "." + method->name() + " failed: " + e.what());
-    }
-    reply_to(encode(outcome, *reply));
+    run(*agent, *method, *parsed, *reply_proto, *ctx, *shared_responder, oneway);
   });
+}
+
+void AgentHost::run(ServiceAgent& agent, const gp::MethodDescriptor& method, const gp::Message& request,
+                    const gp::Message& reply_proto, const CallContext& ctx, call::Responder& responder, bool oneway) {
+  std::unique_ptr<gp::Message> reply(reply_proto.New());
+  Outcome outcome;
+  try {
+    outcome = agent.invoke(method, request, *reply, ctx);
+  } catch (const std::exception& e) {
+    spdlog::error("{}.{} threw: {}", ctx.service, method.name(), e.what());
+    outcome = Outcome::error(Status::INTERNAL, ctx.service + "." + method.name() + " failed: " + e.what());
+  }
+  if (!oneway) responder.reply(encode(outcome, *reply));
 }
 
 }  // namespace urs::agent

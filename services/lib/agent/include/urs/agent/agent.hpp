@@ -63,12 +63,27 @@ class ServiceAgent {
  public:
   virtual ~ServiceAgent() = default;
   virtual const google::protobuf::ServiceDescriptor& interface() const = 0;
-  // Runs on a worker thread and may block (ideally not past ctx.deadline). `request` is of
+  // Runs on a worker thread and may block (ideally not past ctx.deadline), or on the receiving
+  // thread for the operations runs_inline() names, which must not block. `request` is of
   // method.input_type(), `reply` an empty message of method.output_type(). Exceptions thrown
   // here become INTERNAL with the exception's text.
   virtual Outcome invoke(const google::protobuf::MethodDescriptor& method,
                          const google::protobuf::Message& request, google::protobuf::Message& reply,
                          const CallContext& ctx) = 0;
+  // Whether a call of `method` may run on the thread that received it (the adapter's I/O thread)
+  // instead of being handed to a worker: only for work that never blocks and is bounded, such as
+  // a computation in memory. It saves a thread hand-off per call; a slow operation run so would
+  // hold up every other call of its adapter. Default: on a worker.
+  virtual bool runs_inline(const google::protobuf::MethodDescriptor& /*method*/) const { return false; }
+  // Agents that pass calls on without looking into them (to another space, to a CAMUS server)
+  // may take a call as it came: its payload unparsed, on the thread that received it, answering
+  // through `responder` (from any thread, once; a oneway call's answers nowhere) when the reply
+  // comes. It must not block. Returning false leaves `request` and `responder` untouched, and the
+  // host runs the call as usual (parsed, invoke() on a worker). Default: false.
+  virtual bool forward(const google::protobuf::MethodDescriptor& /*method*/, call::Request& /*request*/,
+                       call::Responder& /*responder*/) {
+    return false;
+  }
   virtual void start(EventSink& /*events*/) {}  // after registration; e.g. start a sensor thread
   virtual void stop() {}                        // before the host goes away; joins own threads
 };
@@ -122,11 +137,17 @@ class AgentHost {
   void stop();   // stops agents, then the pool (queued calls answered UNAVAILABLE)
 
   // Never blocks. Answers UNKNOWN_SERVICE, UNKNOWN_OPERATION, BAD_ARGUMENTS itself; otherwise
-  // runs the agent on the pool and answers with its outcome. Oneway requests get no reply (their
+  // hands the call to the agent's forward(), or runs the agent (on this thread if it runs the
+  // operation inline, else on the pool) and answers with its outcome. Oneway requests get no reply (their
   // responder is left unanswered: the adapter passes one that answers nowhere).
   void dispatch(call::Request request, call::Responder responder);
 
  private:
+  // Runs `agent` on this thread and answers with its outcome (a oneway call's answers nowhere).
+  static void run(ServiceAgent& agent, const google::protobuf::MethodDescriptor& method,
+                  const google::protobuf::Message& request, const google::protobuf::Message& reply_proto,
+                  const CallContext& ctx, call::Responder& responder, bool oneway);
+
   EventSink& events_;
   google::protobuf::MessageFactory* factory_;
   WorkerPool pool_;

@@ -10,7 +10,9 @@
 //   };
 //
 // Every operation of the interface must get a handler (checked by the constructor's caller with
-// check_complete()); a missing one answers UNKNOWN_OPERATION naming it as not implemented.
+// check_complete()); a missing one answers UNKNOWN_OPERATION naming it as not implemented. A
+// handler that never blocks and does bounded work may be registered with Run::on_receiving_thread
+// (ServiceAgent::runs_inline): its calls then cost no thread hand-off.
 
 #include <functional>
 #include <stdexcept>
@@ -32,7 +34,12 @@ class TypedAgent : public ServiceAgent {
       return Outcome::error(call::Status::UNKNOWN_OPERATION,
                             interface_->full_name() + "." + method.name() + " is not implemented by this agent");
     }
-    return it->second(request, reply, ctx);
+    return it->second.fn(request, reply, ctx);
+  }
+
+  bool runs_inline(const google::protobuf::MethodDescriptor& method) const override {
+    auto it = handlers_.find(method.name());
+    return it != handlers_.end() && it->second.run == Run::on_receiving_thread;
   }
 
   // Throws std::logic_error naming the first operation without a handler.
@@ -46,6 +53,10 @@ class TypedAgent : public ServiceAgent {
   }
 
  protected:
+  // Where a handler runs: on one of the host's workers (it may block), or on the thread that
+  // received the call (it never blocks and its work is bounded).
+  enum class Run { on_worker, on_receiving_thread };
+
   // Throws std::logic_error if the file declares no such service.
   TypedAgent(const google::protobuf::FileDescriptor& file, const std::string& service_name)
       : interface_(file.FindServiceByName(service_name)) {
@@ -55,22 +66,26 @@ class TypedAgent : public ServiceAgent {
   }
 
   template <class Req, class Rep>
-  void on(const std::string& operation, std::function<Outcome(const Req&, Rep&, const CallContext&)> fn) {
+  void on(const std::string& operation, std::function<Outcome(const Req&, Rep&, const CallContext&)> fn,
+          Run run = Run::on_worker) {
     const auto* method = interface_->FindMethodByName(operation);
     if (method == nullptr || method->input_type() != Req::descriptor() ||
         method->output_type() != Rep::descriptor()) {
       throw std::logic_error("handler for " + interface_->full_name() + "." + operation +
                              " does not match the interface");
     }
-    handlers_[operation] = [fn = std::move(fn)](const google::protobuf::Message& request,
-                                                 google::protobuf::Message& reply, const CallContext& ctx) {
-      return fn(static_cast<const Req&>(request), static_cast<Rep&>(reply), ctx);
-    };
+    handlers_[operation] = {[fn = std::move(fn)](const google::protobuf::Message& request,
+                                                  google::protobuf::Message& reply, const CallContext& ctx) {
+                              return fn(static_cast<const Req&>(request), static_cast<Rep&>(reply), ctx);
+                            },
+                            run};
   }
 
  private:
-  using Handler = std::function<Outcome(const google::protobuf::Message&, google::protobuf::Message&,
-                                        const CallContext&)>;
+  struct Handler {
+    std::function<Outcome(const google::protobuf::Message&, google::protobuf::Message&, const CallContext&)> fn;
+    Run run = Run::on_worker;
+  };
   const google::protobuf::ServiceDescriptor* interface_;
   std::unordered_map<std::string, Handler> handlers_;
 };
