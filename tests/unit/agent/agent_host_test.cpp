@@ -6,6 +6,7 @@
 #include <condition_variable>
 #include <future>
 #include <mutex>
+#include <thread>
 
 #include <google/protobuf/descriptor.pb.h>
 
@@ -223,6 +224,84 @@ TEST_F(HostTest, AOnewayCallGetsNoReply) {
   ASSERT_EQ(done.wait_for(5s), std::future_status::ready);
   EXPECT_EQ(reply.get().status, call::Status::INTERNAL);
   EXPECT_EQ(probe->service, "probe");
+}
+
+TEST_F(HostTest, InlineOperationsAreAnsweredOnTheReceivingThreadOthersOnAWorker) {
+  auto answered_on = [&](const std::string& op, const std::string& payload) {
+    call::Request request;
+    request.service = "diag";
+    request.operation = op;
+    request.payload = payload;
+    auto thread = std::make_shared<std::promise<std::thread::id>>();
+    auto answered = thread->get_future();
+    host_.dispatch(std::move(request), call::Responder::from_callback([thread](call::Reply r) {
+      EXPECT_TRUE(r.ok()) << r.message;
+      thread->set_value(std::this_thread::get_id());
+    }));
+    EXPECT_EQ(answered.wait_for(5s), std::future_status::ready);
+    return answered.get();
+  };
+  URS::Diagnostic_echo_Request echo;
+  echo.set_text("inline");
+  EXPECT_EQ(answered_on("echo", echo.SerializeAsString()), std::this_thread::get_id());
+  URS::Diagnostic_sleep_Request sleep;
+  sleep.set_ms(1);
+  EXPECT_NE(answered_on("sleep", sleep.SerializeAsString()), std::this_thread::get_id())
+      << "sleep blocks: it must run on a worker";
+}
+
+// Takes every call unparsed and answers it later from a thread of its own, echoing the payload.
+class PassThroughAgent : public ServiceAgent {
+ public:
+  const google::protobuf::ServiceDescriptor& interface() const override {
+    return *URS::Diagnostic_echo_Request::descriptor()->file()->FindServiceByName("Diagnostic");
+  }
+  Outcome invoke(const google::protobuf::MethodDescriptor&, const google::protobuf::Message&,
+                 google::protobuf::Message&, const CallContext&) override {
+    ++invoked;
+    return Outcome::ok();
+  }
+  bool forward(const google::protobuf::MethodDescriptor& method, call::Request& request,
+               call::Responder& responder) override {
+    if (!take) return false;
+    operation = method.name();
+    caller = request.caller.name;
+    answering = std::thread([payload = std::move(request.payload), responder = std::move(responder)]() mutable {
+      responder.reply(call::Reply::success(std::move(payload)));
+    });
+    return true;
+  }
+  ~PassThroughAgent() override {
+    if (answering.joinable()) answering.join();
+  }
+  bool take = true;
+  int invoked = 0;
+  std::string operation;
+  std::string caller;
+  std::thread answering;
+};
+
+TEST_F(HostTest, AForwardingAgentTakesTheCallUnparsedAndAnswersLater) {
+  auto agent = std::make_shared<PassThroughAgent>();
+  host_.add({"relay", agent, {}, 0});
+  const std::string not_a_message("\xff\xff\xff", 3);  // no valid echo request: nobody parsed it
+  const auto result = call("relay", "echo", not_a_message);
+  ASSERT_TRUE(result.ok()) << result.message;
+  EXPECT_EQ(result.payload, not_a_message);
+  EXPECT_EQ(agent->operation, "echo");
+  EXPECT_EQ(agent->caller, "tester");
+  EXPECT_EQ(agent->invoked, 0);
+}
+
+TEST_F(HostTest, AnAgentThatDoesNotForwardACallIsRunAsUsual) {
+  auto agent = std::make_shared<PassThroughAgent>();
+  agent->take = false;
+  host_.add({"relay", agent, {}, 0});
+  EXPECT_EQ(call("relay", "echo", std::string("\xff\xff\xff", 3)).status, call::Status::BAD_ARGUMENTS);
+  URS::Diagnostic_echo_Request echo;
+  echo.set_text("parsed");
+  EXPECT_TRUE(call("relay", "echo", echo.SerializeAsString()).ok());
+  EXPECT_EQ(agent->invoked, 1);
 }
 
 TEST(AgentHostConfig, DuplicateServiceNamesAreRefused) {
