@@ -104,7 +104,7 @@ ServerCore::ServerCore(ServerOptions options_in, SessionHandler& handler_in)
       authenticator(options.authenticator) {
   const std::string where = options.host + ":" + std::to_string(options.port);
   try {
-    asio::ip::tcp::resolver resolver(*io);
+    asio::ip::tcp::resolver resolver(*ios.front());
     auto results = resolver.resolve(options.host, std::to_string(options.port),
                                     asio::ip::tcp::resolver::passive |
                                         asio::ip::tcp::resolver::numeric_service);
@@ -134,10 +134,10 @@ void ServerCore::start() {
     if (started || stopped) return;
     started = true;
   }
-  work.emplace(io->get_executor());
+  for (const auto& io : ios) work.push_back(asio::make_work_guard(*io));
   asio::post(accept_strand, [this] { do_accept(); });
-  for (unsigned i = 0; i < options.io_threads; ++i) {
-    threads.emplace_back([this] { detail::run_io(*io, "server"); });
+  for (const auto& io : ios) {
+    threads.emplace_back([io] { detail::run_io(*io, "server"); });
   }
   spdlog::info("planet: server listening on {}:{} (space '{}', instance {}, {})", options.host, bound_port,
                options.space, instance,
@@ -145,8 +145,9 @@ void ServerCore::start() {
 }
 
 void ServerCore::do_accept() {
+  auto io = ios[next_io++ % ios.size()];
   acceptor.async_accept(
-      asio::make_strand(*io), [this](const std::error_code& error, asio::ip::tcp::socket socket) {
+      io->get_executor(), [this, io](const std::error_code& error, asio::ip::tcp::socket socket) {
         if (error == asio::error::operation_aborted || !acceptor.is_open()) return;
         if (error) {
           // E.g. out of file descriptors: retry shortly instead of spinning.
@@ -176,7 +177,7 @@ void ServerCore::do_accept() {
             auto context = current_tls();
             auto stream = context ? detail::make_tls_stream(std::move(socket), context, /*server=*/true)
                                   : detail::make_tcp_stream(std::move(socket));
-            session = std::make_shared<ServerSession>(*this, id, std::move(stream), config, address);
+            session = std::make_shared<ServerSession>(*this, io, id, std::move(stream), config, address);
             sessions.emplace(id, session);
             ++connections_per_address[address];
           }
@@ -301,10 +302,10 @@ void ServerCore::stop() {
     // Each close takes at most the linger time (1 s) to send its Goodbye.
     drained = changed.wait_for(lock, std::chrono::seconds(10), [this] { return sessions.empty(); });
   }
-  work.reset();
+  work.clear();
   if (!drained) {
     spdlog::error("planet: sessions did not close within 10 s; stopping the I/O threads anyway");
-    io->stop();
+    for (const auto& io : ios) io->stop();
   }
   for (auto& thread : threads) thread.join();
   threads.clear();

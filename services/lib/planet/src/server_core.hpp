@@ -6,6 +6,7 @@
 #include <asio.hpp>
 #include <asio/ssl.hpp>
 
+#include <algorithm>
 #include <condition_variable>
 #include <map>
 #include <memory>
@@ -49,11 +50,20 @@ struct ServerCore {
   mutable std::mutex auth_mutex;
   std::shared_ptr<const Authenticator> authenticator;  // null: an open server
   const std::string instance = detail::random_hex(8);
-  std::shared_ptr<asio::io_context> io = std::make_shared<asio::io_context>();
-  asio::strand<asio::io_context::executor_type> accept_strand{io->get_executor()};
+  // One io_context per I/O thread, each connection on one of them in turn: a frame is read,
+  // handled and written on by one thread, and no thread wakes another to take over the wait for
+  // the next event (which threads sharing one io_context do on every event: two wake-ups instead
+  // of one per frame).
+  const std::vector<std::shared_ptr<asio::io_context>> ios = [n = options.io_threads] {
+    std::vector<std::shared_ptr<asio::io_context>> out;
+    for (unsigned i = 0; i < std::max(n, 1u); ++i) out.push_back(std::make_shared<asio::io_context>(1));
+    return out;
+  }();
+  size_t next_io = 0;  // the io_context of the next connection; on the accept strand
+  asio::strand<asio::io_context::executor_type> accept_strand{ios.front()->get_executor()};
   asio::ip::tcp::acceptor acceptor{accept_strand};
   asio::steady_timer accept_retry{accept_strand};
-  std::optional<asio::executor_work_guard<asio::io_context::executor_type>> work;
+  std::vector<asio::executor_work_guard<asio::io_context::executor_type>> work;
   std::vector<std::thread> threads;
   uint16_t bound_port = 0;
 

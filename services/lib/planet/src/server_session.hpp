@@ -16,9 +16,10 @@ namespace urs::planet {
 
 class ServerSession final : public detail::Link, public Session {
  public:
-  ServerSession(ServerCore& server, uint64_t id, std::unique_ptr<detail::Stream> stream,
-                const detail::LinkConfig& config, std::string source_address)
-      : Link(server.io, std::move(stream), config),
+  // `io` runs `stream`'s socket (one of the server's io_contexts).
+  ServerSession(ServerCore& server, std::shared_ptr<asio::io_context> io, uint64_t id,
+                std::unique_ptr<detail::Stream> stream, const detail::LinkConfig& config, std::string source_address)
+      : Link(std::move(io), std::move(stream), config),
         server_(server),
         id_(id),
         source_address_(std::move(source_address)),
