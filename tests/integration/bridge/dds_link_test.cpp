@@ -236,6 +236,39 @@ TEST(DdsCalls, RepliesGivenOnTheListenerThreadReachTheirCallers) {
   EXPECT_FALSE(received[0].oneway);
 }
 
+// A space's bridge in a process of its own that answers every call with its payload, until the
+// process is killed. Forked before this process makes any DDS entity or thread.
+pid_t echo_process(uint32_t domain, const std::string& space) {
+  const pid_t child = fork();
+  if (child != 0) return child;
+  try {  // never back into the test runner
+    bridge::DdsLink link(link_options(domain, space), [] {}, [](call::Request request, call::Responder responder) {
+      responder.reply(call::Reply::success(std::move(request.payload)));
+    });
+    while (true) pause();
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "bridge of %s: %s\n", space.c_str(), e.what());
+  }
+  _exit(1);
+}
+
+// Each call registers its request and reply as DDS instances, and a retired one holds its
+// instance until the readers acknowledged the retirement. More calls in a row than a writer keeps
+// in flight (4096), to a bridge in another process (acknowledgements travel as messages, not in
+// memory), are all served: with Fast DDS's default heartbeat period (3 s) the readers acknowledged
+// too late, and the 4,097th call within 3 s was refused ("could not be written").
+TEST_F(LinkedSpaces, MoreCallsInARowThanCallsInFlightAreAllServed) {
+  const DdsDomains domains;
+  children_.push_back(echo_process(domains[0], "far"));
+  bridge::DdsLink calling(link_options(domains[0], "a"), [] {}, [](call::Request, call::Responder) {});
+  ASSERT_TRUE(wait_until([&] { return calling.call("far", "svc", "echo", "first", 1s).ok(); }, 30s));
+  for (int i = 0; i < 5000; ++i) {
+    const auto echoed = calling.call("far", "svc", "echo", std::to_string(i), 10s);
+    ASSERT_EQ(echoed.status, call::Status::OK) << "call " << i << ": " << echoed.message;
+    ASSERT_EQ(echoed.payload, std::to_string(i));
+  }
+}
+
 // A link destroyed while one of its calls waits for a reply ends that call first ("bridge
 // stopping"), while its writers still exist, rather than leaving it to wake on deleted entities.
 TEST(DdsCalls, ALinkStoppingEndsItsCallsInProgressFirst) {
