@@ -41,6 +41,7 @@
 #include "bench_stats.hpp"
 #include "grpc_client.hpp"
 #include "pinning.hpp"
+#include "process_cost.hpp"
 #include "raw_tcp.hpp"
 #include "corba_stub.hpp"
 #include "dds_domain.hpp"
@@ -571,6 +572,50 @@ int main(int argc, char** argv) {
             stub_call(secured_remote), kCrossToKr + at, secured_goal}},
           // The native hops each bridged path traverses, added up repetition by repetition.
           {{kBridgeHops, {3, 0}, "", 0}, {kHops, {3, 1, 0}, "", 0}}, w, n);
+    }
+
+    // What each 64-byte path costs the processes it crosses, per call (process_cost.hpp): the
+    // thread hand-offs between a path and the wire, counted rather than timed.
+    {
+      const std::string text(64, 'x');
+      auto cost_per_call = [&](const std::string& path, const std::vector<std::pair<std::string, pid_t>>& processes,
+                               const std::function<void()>& once) {
+        const std::string label = "cost per 64-byte call (voluntary context switches, CPU): " + path;
+        if (!wanted(label)) return;
+        const int n = quick ? 200 : 5000;
+        for (int i = 0; i < 50; ++i) once();
+        std::vector<urs::bench::ProcessCost> before;
+        for (const auto& process : processes) before.push_back(urs::bench::process_cost(process.second));
+        for (int i = 0; i < n; ++i) once();
+        std::string value;
+        for (size_t i = 0; i < processes.size(); ++i) {
+          const auto after = urs::bench::process_cost(processes[i].second);
+          char part[128];
+          std::snprintf(part, sizeof(part), "%s%s %.2f, %.0f us", value.empty() ? "" : "; ", processes[i].first.c_str(),
+                        static_cast<double>(after.voluntary_switches - before[i].voluntary_switches) / n,
+                        static_cast<double>(after.cpu_ns - before[i].cpu_ns) / n / 1000.0);
+          value += part;
+        }
+        extras.push_back({label, value});
+      };
+      auto echo_to = [&](const std::string& service) {
+        return [&, service] { expect_ok(client->call(service, "echo", echo_payload, 10s), service.c_str()); };
+      };
+      const pid_t server = space.server().pid(), sam = space.sam().pid(), rtc = manager->pid();
+      cost_per_call("omniORB call, static stubs (direct)", {{"rtc-manager", rtc}}, [&] { direct.echo(text); });
+      cost_per_call("Fast DDS request/reply, UDP (direct)", {{"urs-dds-echo", dds_echo->pid()}},
+                    [&] { expect_ok(dds_a.call("dds-b", "x", "echo", echo_payload, 10s), "DDS"); });
+      cost_per_call(kPlanet, {{"server", server}, {"SAM", sam}}, echo_to("diag"));
+      cost_per_call("bridged RTC→CAMUS: client→server→bridge→RTC",
+                    {{"server", server}, {"bridge", bridge->pid()}, {"rtc-manager", rtc}}, echo_to("rt.diag"));
+      cost_per_call("bridged SA→RT: stub→bridge→server→SAM→SA",
+                    {{"bridge", bridge->pid()}, {"server", server}, {"SAM", sam}}, [&] { imported.echo(text); });
+      cost_per_call("cross-space: kr client→server→bridge-kr→DDS→bridge-jp→RTC",
+                    {{"server", server}, {"bridge-kr", bridge_kr->pid()}, {"bridge-jp", bridge_jp->pid()}, {"rtc-manager", rtc}},
+                    echo_to("jp/rt.diag"));
+      cost_per_call("cross-space: jp stub→bridge-jp→DDS→bridge-kr→server→SAM→SA",
+                    {{"bridge-jp", bridge_jp->pid()}, {"bridge-kr", bridge_kr->pid()}, {"server", server}, {"SAM", sam}},
+                    [&] { remote.echo(text); });
     }
 
     // Throughput, direct omniORB and bridged RTC→CAMUS, 1 and 4 clients, in turns.
