@@ -13,6 +13,15 @@ inline eprosima::fastrtps::Duration_t duration(std::chrono::milliseconds ms) {
   return eprosima::fastrtps::Duration_t(static_cast<double>(ms.count()) / 1000.0);
 }
 
+// How often a reliable writer of the link sends a heartbeat while a sample is unacknowledged
+// (Fast DDS's default: 3 s): how long a lost sample waits to be sent again, and how long a retired
+// instance (unregistered) stays taken, since readers acknowledge when a heartbeat asks. Nothing
+// is sent while every sample is acknowledged.
+inline constexpr std::chrono::milliseconds kHeartbeatPeriod{100};
+inline void heartbeat_every_period(eprosima::fastdds::dds::DataWriterQos& qos) {
+  qos.reliable_writer_qos().times.heartbeatPeriod = duration(kHeartbeatPeriod);
+}
+
 // Keyed state: reliable, transient-local, keep-last 1 per instance (a late joiner gets every live
 // entry), manual-by-topic liveliness with the link's lease (a silent bridge's entries end within
 // it), room for every entry of every space (Fast DDS's default of 10 instances would silently refuse the
@@ -45,6 +54,7 @@ Qos keyed_state(Qos qos, std::chrono::milliseconds lease) {
 inline eprosima::fastdds::dds::DataWriterQos keyed_state_writer(std::chrono::milliseconds lease) {
   auto qos = keyed_state(eprosima::fastdds::dds::DATAWRITER_QOS_DEFAULT, lease);
   qos.publish_mode().kind = eprosima::fastdds::dds::ASYNCHRONOUS_PUBLISH_MODE;
+  heartbeat_every_period(qos);
   return qos;
 }
 inline eprosima::fastdds::dds::DataReaderQos keyed_state_reader(std::chrono::milliseconds lease) {

@@ -10,6 +10,8 @@
 #include <string>
 #include <vector>
 
+#include "dds_qos.hpp"
+
 namespace urs::bridge::dds_rpc {
 
 // Calls in flight per request or reply writer (instances it keeps registered): beyond, a call is
@@ -50,12 +52,10 @@ inline eprosima::fastdds::dds::DataWriterQos rpc_writer_qos() {
   // and spun on the writer's lock (docs/performance.md). Fast DDS 2.9 fragments large payloads
   // in this mode too.
   qos.publish_mode().kind = eprosima::fastdds::dds::SYNCHRONOUS_PUBLISH_MODE;
-  // A retired request or reply (unregistered) holds its instance until every reader acknowledged
-  // the unregistration, which readers do when the writer's heartbeat asks: with Fast DDS's 3 s
-  // period a burst of over kRpcInFlight calls within 3 s found every instance taken and was
-  // refused. Heartbeats go out only while something is unacknowledged; they also bound how long
-  // a lost request or reply waits to be sent again.
-  qos.reliable_writer_qos().times.heartbeatPeriod = eprosima::fastrtps::Duration_t(0, 100'000'000);
+  // A retired request or reply holds its instance until the readers acknowledged it: with Fast
+  // DDS's 3 s heartbeat period a burst of over kRpcInFlight calls within 3 s found every instance
+  // taken and was refused.
+  link_qos::heartbeat_every_period(qos);
   return qos;
 }
 inline eprosima::fastdds::dds::DataReaderQos rpc_reader_qos() {
