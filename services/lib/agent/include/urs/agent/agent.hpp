@@ -4,7 +4,8 @@
 // A ServiceAgent implements one interface (a Protobuf service generated from IDL). It sees parsed
 // request messages and fills reply messages; it never touches the wire. An AgentHost maps
 // service names to agents, decodes neutral calls (urs/call/call.hpp), validates them, runs the
-// agent on a worker pool (so a slow agent never blocks another) and encodes the outcome. The same
+// agent on a worker pool (so a slow agent never blocks another; operations an agent declares
+// bounded and non-blocking run where the call arrived) and encodes the outcome. The same
 // host serves agents inside urs-sam, the server-side service container of urs-camus-server and the
 // bridge; each hands it the calls its middleware adapter converted. Nothing here knows Planet:
 // what a CAMUS session needs (the registration of a hosted service, serving a host's agents on a
