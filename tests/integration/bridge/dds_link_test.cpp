@@ -14,6 +14,7 @@
 #include <functional>
 #include <future>
 #include <mutex>
+#include <optional>
 #include <set>
 #include <vector>
 
@@ -175,6 +176,125 @@ TEST(DdsCatalog, AWithdrawalAndANewEntryReachAnotherProcessAndWhatFollowsThem) {
       << peer.log();
   EXPECT_EQ(names(), after);
   std::filesystem::remove_all(dir);
+}
+
+// call_async() on `link` to service "svc" of `space`: the future of its outcome, or nullopt when
+// the link refused to start it without waiting for a match.
+std::optional<std::future<call::Reply>> call_async(bridge::DdsLink& link, const std::string& space,
+                                                   const std::string& operation, std::string payload,
+                                                   std::chrono::milliseconds deadline) {
+  auto promise = std::make_shared<std::promise<call::Reply>>();
+  auto future = promise->get_future();
+  if (!link.call_async(space, "svc", operation, std::move(payload), deadline, "",
+                       [promise](call::Reply reply) { promise->set_value(std::move(reply)); })) {
+    return std::nullopt;
+  }
+  return future;
+}
+
+// A space's bridge whose handler answers "echo" and keeps every other call unanswered.
+class SlowSpace {
+ public:
+  SlowSpace(uint32_t domain, const std::string& space)
+      : link_(std::make_unique<bridge::DdsLink>(link_options(domain, space), [] {},
+                                                [this](call::Request request, call::Responder responder) {
+                                                  if (request.operation == "echo") {
+                                                    responder.reply(call::Reply::success(request.payload));
+                                                    return;
+                                                  }
+                                                  std::lock_guard lock(mutex_);
+                                                  unanswered_.push_back(std::move(responder));
+                                                  arrived_.notify_all();
+                                                })) {}
+  bool wait_for_call() {
+    std::unique_lock lock(mutex_);
+    return arrived_.wait_for(lock, 30s, [&] { return !unanswered_.empty(); });
+  }
+  void leave() { link_.reset(); }
+
+ private:
+  std::mutex mutex_;
+  std::condition_variable arrived_;
+  std::vector<call::Responder> unanswered_;
+  std::unique_ptr<bridge::DdsLink> link_;  // last: its handler uses the above
+};
+
+// An asynchronous call is started only to a space whose bridge is matched already (the first call
+// to it, which call() makes, waits for discovery); its payload crosses as it came, and the reply's.
+TEST(DdsCalls, AnAsyncCallStartsOnlyToAMatchedSpaceAndPassesItsBytes) {
+  const DdsDomains domains;
+  SlowSpace here(domains[0], "here");
+  bridge::DdsLink calling(link_options(domains[0], "a"), [] {}, [](call::Request, call::Responder) {});
+  const std::string bytes("\0\xff not a message\0", 17);
+  std::string payload = bytes;
+  EXPECT_FALSE(calling.call_async("here", "svc", "echo", std::move(payload), 10s, "",
+                                  [](call::Reply) { ADD_FAILURE() << "answered a call not started"; }));
+  EXPECT_EQ(payload, bytes) << "a call not started keeps its payload";
+
+  const auto first = calling.call("here", "svc", "echo", "first", 10s);
+  ASSERT_EQ(first.status, call::Status::OK) << first.message;
+  auto echoed = call_async(calling, "here", "echo", bytes, 10s);
+  ASSERT_TRUE(echoed) << "a matched space's call was not started";
+  ASSERT_EQ(echoed->wait_for(10s), std::future_status::ready);
+  const auto result = echoed->get();
+  ASSERT_EQ(result.status, call::Status::OK) << result.message;
+  EXPECT_EQ(result.payload, bytes);
+}
+
+// An asynchronous call nobody answers ends at its deadline, as a blocking one does.
+TEST(DdsCalls, AnAsyncCallUnansweredEndsAtItsDeadline) {
+  const DdsDomains domains;
+  SlowSpace slow(domains[0], "slow");
+  bridge::DdsLink calling(link_options(domains[0], "a"), [] {}, [](call::Request, call::Responder) {});
+  ASSERT_EQ(calling.call("slow", "svc", "echo", "", 10s).status, call::Status::OK);
+
+  const auto started = Clock::now();
+  auto late = call_async(calling, "slow", "sleep", "", 300ms);
+  ASSERT_TRUE(late);
+  ASSERT_EQ(late->wait_for(10s), std::future_status::ready);
+  EXPECT_GE(Clock::now() - started, 300ms);
+  const auto result = late->get();
+  EXPECT_EQ(result.status, call::Status::DEADLINE_EXCEEDED) << result.message;
+  EXPECT_EQ(result.message, "no reply from space slow for svc.sleep within 300 ms");
+
+  const auto blocking = calling.call("slow", "svc", "sleep", "", 200ms);
+  EXPECT_EQ(blocking.status, call::Status::DEADLINE_EXCEEDED) << blocking.message;
+  EXPECT_EQ(blocking.message, "no reply from space slow for svc.sleep within 200 ms");
+}
+
+// The called space's bridge leaving ends its asynchronous calls at once, not at their deadline.
+TEST(DdsCalls, AnAsyncCallEndsProviderGoneWhenTheCalledBridgeLeaves) {
+  const DdsDomains domains;
+  SlowSpace slow(domains[0], "slow");
+  bridge::DdsLink calling(link_options(domains[0], "a"), [] {}, [](call::Request, call::Responder) {});
+  ASSERT_EQ(calling.call("slow", "svc", "echo", "", 10s).status, call::Status::OK);
+
+  auto pending = call_async(calling, "slow", "sleep", "", 60s);
+  ASSERT_TRUE(pending);
+  ASSERT_TRUE(slow.wait_for_call()) << "the call never arrived";
+  slow.leave();
+  ASSERT_EQ(pending->wait_for(20s), std::future_status::ready);
+  const auto result = pending->get();
+  EXPECT_EQ(result.status, call::Status::PROVIDER_GONE) << result.message;
+  EXPECT_EQ(result.message, "the bridge of space slow left during the call");
+}
+
+// A link destroyed with asynchronous calls waiting for replies answers them first.
+TEST(DdsCalls, ALinkStoppingAnswersItsAsyncCallsUnavailable) {
+  const DdsDomains domains;
+  SlowSpace slow(domains[0], "slow");
+  auto calling = std::make_unique<bridge::DdsLink>(link_options(domains[0], "a"), [] {},
+                                                   [](call::Request, call::Responder) {});
+  ASSERT_EQ(calling->call("slow", "svc", "echo", "", 10s).status, call::Status::OK);
+
+  auto pending = call_async(*calling, "slow", "sleep", "", 60s);
+  ASSERT_TRUE(pending);
+  ASSERT_TRUE(slow.wait_for_call()) << "the call never arrived";
+  calling.reset();
+  ASSERT_EQ(pending->wait_for(0s), std::future_status::ready) << "the link went away leaving its call unanswered";
+  const auto result = pending->get();
+  EXPECT_EQ(result.status, call::Status::UNAVAILABLE) << result.message;
+  EXPECT_EQ(result.message, "bridge stopping");
 }
 
 // A call to a space whose bridge is not matched yet waits for it, woken by the request writer's

@@ -231,6 +231,12 @@ TEST_P(Federation, EachSpacesServicesAreCallableFromTheOther) {
   // kr's CAMUS client -> kr server -> bridge-kr -DDS-> bridge-jp -CORBA-> jp's RTC.
   ASSERT_NO_FATAL_FAILURE(expect_echo("jp/rt.Diagnostic0", "こんにちは from kr"));
 
+  // bridge-kr passes a call's bytes on unparsed: bridge-jp refuses what is no request of the
+  // operation, naming the service as jp calls it.
+  const auto garbage = planet_->call("jp/rt.Diagnostic0", "echo", std::string("\xff\xff\xff garbage", 11), 5s);
+  EXPECT_EQ(garbage.status, planet::BAD_ARGUMENTS) << garbage.message;
+  EXPECT_EQ(garbage.message, "payload of rt.Diagnostic0.echo is not a valid URS.Diagnostic_echo_Request");
+
   URS::Diagnostic_blob_Request blob;  // an image-sized reply crosses whole
   blob.set_size(921600);
   const auto started = Clock::now();

@@ -12,6 +12,19 @@ namespace gp = google::protobuf;
 using agent::Outcome;
 using Clock = std::chrono::steady_clock;
 
+namespace {
+
+// The reply an agent host makes of an outcome that fills no reply message (AgentHost's encoding).
+call::Reply encoded(const Outcome& outcome) {
+  if (outcome.status == call::Status::USER_EXCEPTION) {
+    return call::Reply::user_exception(outcome.exception->GetTypeName(), outcome.exception->SerializeAsString(),
+                                       outcome.message);
+  }
+  return call::Reply::error(outcome.status, outcome.message);
+}
+
+}  // namespace
+
 const gp::ServiceDescriptor* describe_service(planet::Client& client, const std::string& service,
                                               schema::SchemaPool& pool, std::chrono::milliseconds timeout,
                                               std::string& error) {
@@ -46,6 +59,19 @@ CamusForwardingAgent::CamusForwardingAgent(planet::Client& client, std::string s
                 [&client, service](const std::string& operation, std::string payload, const call::Identity&) {
                   return client.oneway(service, operation, std::move(payload));
                 },
+                // The client never blocks to send: the reply comes on its I/O thread.
+                [&client, service](const std::string& operation, std::string&& payload,
+                                   std::chrono::milliseconds deadline, const call::Identity&, Route::Done done) {
+                  client.call_async(service, operation, std::move(payload), deadline,
+                                    [done = std::move(done)](planet::CallResult result) {
+                                      done(planet::to_reply(std::move(result)));
+                                    });
+                  return true;
+                },
+                [&client, service](const std::string& operation, std::string&& payload,
+                                   const call::Identity&) -> std::optional<bool> {
+                  return client.oneway(service, operation, std::move(payload));
+                },
                 "the CAMUS server"},
           service, interface) {}
 
@@ -63,16 +89,11 @@ Outcome CamusForwardingAgent::invoke(const gp::MethodDescriptor& method, const g
     return Outcome::error(call::Status::BAD_ARGUMENTS, "request of " + method.full_name() + " cannot be serialized");
   }
   if (schema::is_oneway(method)) {
-    if (!route_.oneway(method.name(), std::move(payload), ctx.caller)) {
-      return Outcome::error(call::Status::UNAVAILABLE, service_ + "." + method.name() + " could not be sent to " + route_.to);
-    }
+    if (!route_.oneway(method.name(), std::move(payload), ctx.caller)) return not_sent(method);
     return Outcome::ok();
   }
   const auto remaining = std::chrono::duration_cast<std::chrono::milliseconds>(ctx.deadline - Clock::now());
-  if (remaining.count() <= 0) {
-    return Outcome::error(call::Status::DEADLINE_EXCEEDED, "the caller's deadline passed before " + service_ + "." +
-                                                         method.name() + " was sent");
-  }
+  if (remaining.count() <= 0) return too_late(method);
   const auto result = route_.call(method.name(), std::move(payload), remaining, ctx.caller);
   switch (result.status) {
     case call::Status::OK:
@@ -83,6 +104,51 @@ Outcome CamusForwardingAgent::invoke(const gp::MethodDescriptor& method, const g
     case call::Status::USER_EXCEPTION: return raised(method, result);
     default: return Outcome::error(result.status, result.message);
   }
+}
+
+bool CamusForwardingAgent::forward(const gp::MethodDescriptor& method, call::Request& request,
+                                   call::Responder& responder) {
+  const bool answers = !request.oneway;
+  if (schema::is_oneway(method)) {
+    if (!route_.oneway_async) return false;
+    const std::optional<bool> sent = route_.oneway_async(method.name(), std::move(request.payload), request.caller);
+    if (!sent) return false;
+    // invoke()'s outcome as the host answers it: an empty reply, or why it was not sent.
+    if (answers) responder.reply(*sent ? call::Reply::success({}) : encoded(not_sent(method)));
+    return true;
+  }
+  std::shared_ptr<CamusForwardingAgent> self = weak_from_this().lock();
+  if (!route_.call_async || !self) return false;
+  const auto remaining = std::chrono::duration_cast<std::chrono::milliseconds>(request.deadline - Clock::now());
+  if (remaining.count() <= 0) {
+    if (answers) responder.reply(encoded(too_late(method)));
+    return true;
+  }
+  // Moved back if the route does not start the call; shared with the completion otherwise, which
+  // may run before call_async() returns.
+  auto answer = std::make_shared<call::Responder>(std::move(responder));
+  auto done = [self = std::move(self), &method, answer, answers](call::Reply result) {
+    if (answers) answer->reply(self->handed_back(method, std::move(result)));
+  };
+  if (route_.call_async(method.name(), std::move(request.payload), remaining, request.caller, std::move(done))) {
+    return true;
+  }
+  responder = std::move(*answer);
+  return false;
+}
+
+call::Reply CamusForwardingAgent::handed_back(const gp::MethodDescriptor& method, call::Reply result) {
+  if (result.status != call::Status::USER_EXCEPTION) return result;
+  return encoded(raised(method, result));
+}
+
+Outcome CamusForwardingAgent::not_sent(const gp::MethodDescriptor& method) const {
+  return Outcome::error(call::Status::UNAVAILABLE, service_ + "." + method.name() + " could not be sent to " + route_.to);
+}
+
+Outcome CamusForwardingAgent::too_late(const gp::MethodDescriptor& method) const {
+  return Outcome::error(call::Status::DEADLINE_EXCEEDED,
+                        "the caller's deadline passed before " + service_ + "." + method.name() + " was sent");
 }
 
 Outcome CamusForwardingAgent::raised(const gp::MethodDescriptor& method, const call::Reply& result) {

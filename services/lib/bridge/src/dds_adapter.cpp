@@ -106,6 +106,16 @@ std::shared_ptr<agent::ServiceAgent> DdsAdapter::forwarder(const core::Route& ro
                                                                   const call::Identity& caller) {
         return link->oneway(space, name, operation, std::move(payload), caller_name(caller));
       },
+      [link, caller_name, space = entry.space, name = entry.name](
+          const std::string& operation, std::string&& payload, std::chrono::milliseconds deadline,
+          const call::Identity& caller, CamusForwardingAgent::Route::Done done) {
+        return link->call_async(space, name, operation, std::move(payload), deadline, caller_name(caller),
+                                std::move(done));
+      },
+      [link, caller_name, space = entry.space, name = entry.name](const std::string& operation, std::string&& payload,
+                                                                  const call::Identity& caller) {
+        return link->oneway_async(space, name, operation, std::move(payload), caller_name(caller));
+      },
       "space " + entry.space};
   auto agent = std::make_shared<CamusForwardingAgent>(to_space, entry.name, *interface);
   forwarding_[key] = {route.offer.revision, agent};

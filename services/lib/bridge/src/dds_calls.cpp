@@ -9,6 +9,7 @@
 #include <fastdds/dds/subscriber/SampleInfo.hpp>
 #include <fastdds/dds/subscriber/Subscriber.hpp>
 #include <fastdds/dds/topic/Topic.hpp>
+#include <future>
 #include <random>
 #include <stdexcept>
 
@@ -28,8 +29,9 @@ namespace {
 // (discovery, for the first call to it). The wait is on a condition variable the writer's
 // matched-status listener signals, on a DDS listener thread: so call() and oneway() never run on
 // one (nor on a Planet client's I/O thread, which they would hold up). The bridge calls them from
-// its agent host's workers (CamusForwardingAgent) and CORBA's threads; what arrives over DDS
-// (serve_remote) is only dispatched or sent on asynchronously.
+// its agent host's workers (CamusForwardingAgent::invoke, when call_async() refused a space not
+// matched yet) and CORBA's threads; a call forwarded from a Planet or DDS thread goes through
+// call_async() and oneway_async(), which never wait.
 constexpr std::chrono::milliseconds kMatchWait{2000};
 
 }  // namespace
@@ -51,6 +53,11 @@ bool DdsCalls::RequestWriterListener::wait_matched(Clock::time_point until) {
   return matched_ > 0 && !calls_.gate_.closing();
 }
 
+bool DdsCalls::RequestWriterListener::matched() {
+  std::lock_guard lock(mutex_);
+  return matched_ > 0;
+}
+
 void DdsCalls::RequestWriterListener::wake() {
   { std::lock_guard lock(mutex_); }
   matched_changed_.notify_all();
@@ -69,7 +76,10 @@ DdsCalls::DdsCalls(const DdsOptions& options, LinkParticipant& participant, Call
         char text[20];
         std::snprintf(text, sizeof text, "%08x%08x", random(), random());
         return std::string(text);
-      }()) {}
+      }()),
+      thread_([this] { run(); }) {}
+
+DdsCalls::~DdsCalls() { close(); }
 
 void DdsCalls::open(fdds::DataReaderListener* listener) {
   reply_reader_ = participant_.subscriber()->create_datareader(
@@ -96,13 +106,54 @@ std::string DdsCalls::next_request_id() {
   return options_.space + "/" + options_.bridge + "/" + run_ + "/" + std::to_string(next_id_++);
 }
 
+std::optional<DdsCalls::RequestRoute> DdsCalls::matched_writer(const std::string& space) {
+  RequestRoute route;
+  {
+    std::lock_guard lock(mutex_);
+    auto it = request_writers_.find(space);
+    if (it == request_writers_.end()) return std::nullopt;
+    route = it->second;
+  }
+  if (!route.listener->matched()) return std::nullopt;
+  return route;
+}
+
+std::shared_ptr<DdsCalls::Pending> DdsCalls::take(const std::string& id) {
+  auto it = pending_.find(id);
+  if (it == pending_.end()) return nullptr;
+  std::shared_ptr<Pending> call = std::move(it->second);
+  pending_.erase(it);
+  deadlines_.erase({call->until, id});
+  return call;
+}
+
+void DdsCalls::end(Pending& call, call::Reply reply) {
+  call.done(std::move(reply));
+  step(call);
+}
+
+void DdsCalls::step(Pending& call) {
+  if (++call.steps < 2 || call.caller_retires) return;
+  {
+    std::lock_guard lock(mutex_);
+    if (!closed_) {
+      retiring_.emplace_back(call.writer, call.id);
+      wake_.notify_one();
+      return;
+    }
+  }
+  // The call thread has ended: this is close() or a call it admitted, while the writer exists.
+  RpcRegistrations::retire(call.writer, call.id, false);
+}
+
 void DdsCalls::fail_pending(const std::string& space) {
   std::vector<std::shared_ptr<Pending>> failed;
   {
     std::lock_guard lock(mutex_);
     for (auto it = pending_.begin(); it != pending_.end();) {
       if (it->second->space == space) {
-        failed.push_back(it->second);
+        deadlines_.erase({it->second->until, it->first});
+        failed.push_back(std::move(it->second));
         it = pending_.erase(it);
       } else {
         ++it;
@@ -110,8 +161,7 @@ void DdsCalls::fail_pending(const std::string& space) {
     }
   }
   for (auto& call : failed) {
-    call->promise.set_value(
-        call::Reply::error(call::Status::PROVIDER_GONE, "the bridge of space " + space + " left during the call"));
+    end(*call, call::Reply::error(call::Status::PROVIDER_GONE, "the bridge of space " + space + " left during the call"));
   }
 }
 
@@ -119,26 +169,113 @@ void DdsCalls::close() {
   std::vector<std::shared_ptr<Pending>> left;
   {
     std::lock_guard lock(mutex_);  // a call registers its pending reply under it, closing or not
+    if (closed_) return;
+    closed_ = true;
     for (auto& listener : writer_listeners_) listener->wake();
-    for (auto& [id, call] : pending_) left.push_back(call);
+    for (auto& [id, call] : pending_) left.push_back(std::move(call));
     pending_.clear();
+    deadlines_.clear();
+    wake_.notify_one();
   }
-  for (auto& call : left) call->promise.set_value(call::Reply::error(call::Status::UNAVAILABLE, "bridge stopping"));
+  thread_.join();
+  std::vector<std::pair<fdds::DataWriter*, std::string>> retiring;
+  {
+    std::lock_guard lock(mutex_);
+    retiring.swap(retiring_);
+  }
+  for (const auto& [writer, id] : retiring) RpcRegistrations::retire(writer, id, false);
+  for (auto& call : left) end(*call, call::Reply::error(call::Status::UNAVAILABLE, "bridge stopping"));
+}
+
+void DdsCalls::run() {
+  std::unique_lock lock(mutex_);
+  while (!closed_) {
+    std::vector<std::shared_ptr<Pending>> expired;
+    const auto now = Clock::now();
+    while (!deadlines_.empty() && deadlines_.begin()->first <= now) expired.push_back(take(deadlines_.begin()->second));
+    std::vector<std::pair<fdds::DataWriter*, std::string>> retiring;
+    retiring.swap(retiring_);
+    if (expired.empty() && retiring.empty()) {
+      if (deadlines_.empty()) {
+        wake_.wait(lock);
+      } else {
+        wake_.wait_until(lock, deadlines_.begin()->first);
+      }
+      continue;
+    }
+    lock.unlock();
+    for (auto& call : expired) {
+      end(*call, call::Reply::error(call::Status::DEADLINE_EXCEEDED,
+                                    "no reply from space " + call->space + " for " + call->service + "." +
+                                        call->operation + " within " + std::to_string(call->deadline.count()) + " ms"));
+    }
+    for (const auto& [writer, id] : retiring) RpcRegistrations::retire(writer, id, false);
+    lock.lock();
+  }
+}
+
+std::shared_ptr<DdsCalls::Pending> DdsCalls::start(const std::string& space, fdds::DataWriter* writer,
+                                                   const std::string& service, const std::string& operation,
+                                                   std::string&& payload, Clock::time_point until,
+                                                   std::chrono::milliseconds deadline, const std::string& caller,
+                                                   bool caller_retires, Done done) {
+  auto call = std::make_shared<Pending>();
+  call->id = next_request_id();
+  call->space = space;
+  call->service = service;
+  call->operation = operation;
+  call->writer = writer;
+  call->until = until;
+  call->deadline = deadline;
+  call->caller_retires = caller_retires;
+  call->done = std::move(done);
+  bool closing = false;
+  {
+    std::lock_guard lock(mutex_);  // close() takes the calls registered before it
+    closing = closed_ || gate_.closing();
+    if (!closing) {
+      pending_[call->id] = call;
+      const auto deadline_at = deadlines_.emplace(call->until, call->id).first;
+      if (deadline_at == deadlines_.begin()) wake_.notify_one();  // the earliest: the call thread waits for it
+    }
+  }
+  if (closing) {
+    call->done(call::Reply::error(call::Status::UNAVAILABLE, "bridge stopping"));
+    return nullptr;
+  }
+  dds::CallRequest request;
+  request.request_id(call->id);
+  request.caller_space(options_.space);
+  request.service(service);
+  request.operation(operation);
+  request.deadline_ms(static_cast<uint32_t>(std::max<int64_t>(
+      1, std::chrono::duration_cast<std::chrono::milliseconds>(call->until - Clock::now()).count())));
+  request.no_reply(false);
+  request.payload(bytes_of(payload));
+  request.caller_name(caller);
+  spdlog::debug("dds: request {} to space {}: {}.{}", call->id, space, service, operation);
+  if (writer->write(&request)) {
+    step(*call);
+    return call;
+  }
+  std::shared_ptr<Pending> failed;
+  {
+    std::lock_guard lock(mutex_);
+    failed = take(call->id);
+  }
+  // Nothing to retire: it was never registered.
+  if (failed) failed->done(call::Reply::error(call::Status::UNAVAILABLE, "the request to space " + space + " could not be written"));
+  return nullptr;
 }
 
 call::Reply DdsCalls::call(const std::string& space, const std::string& service, const std::string& operation,
                            std::string payload, std::chrono::milliseconds deadline, const std::string& caller) {
   const auto until = Clock::now() + deadline;
-  const std::string id = next_request_id();
-  auto pending = std::make_shared<Pending>();
-  pending->space = space;
-  auto answer = pending->promise.get_future();
   RequestRoute route;
   try {
     std::lock_guard lock(mutex_);
-    if (gate_.closing()) return call::Reply::error(call::Status::UNAVAILABLE, "bridge stopping");
+    if (closed_ || gate_.closing()) return call::Reply::error(call::Status::UNAVAILABLE, "bridge stopping");
     route = request_writer(space);
-    pending_[id] = pending;
   } catch (const std::exception& e) {
     if (options_.security.enabled()) {  // on a secured link, the access control refused the writer
       return call::Reply::error(call::Status::PERMISSION_DENIED, "the permissions of space " + options_.space +
@@ -146,43 +283,32 @@ call::Reply DdsCalls::call(const std::string& space, const std::string& service,
     }
     return call::Reply::error(call::Status::UNAVAILABLE, e.what());
   }
-  fdds::DataWriter* writer = route.writer;
-  auto forget = [&] {
-    std::lock_guard lock(mutex_);
-    pending_.erase(id);
-  };
   // A writer made for this call waits for discovery; a known space's is matched already.
   if (!route.listener->wait_matched(std::min(until, Clock::now() + kMatchWait))) {
-    forget();
     if (gate_.closing()) return call::Reply::error(call::Status::UNAVAILABLE, "bridge stopping");
     return call::Reply::error(call::Status::UNAVAILABLE, "space " + space + " is not reachable over DDS (no bridge of it matched)");
   }
-  dds::CallRequest request;
-  request.request_id(id);
-  request.caller_space(options_.space);
-  request.service(service);
-  request.operation(operation);
-  request.deadline_ms(static_cast<uint32_t>(
-      std::max<int64_t>(1, std::chrono::duration_cast<std::chrono::milliseconds>(until - Clock::now()).count())));
-  request.no_reply(false);
-  request.payload(bytes_of(payload));
-  request.caller_name(caller);
-  spdlog::debug("dds: request {} to space {}: {}.{}", id, space, service, operation);
-  if (!writer->write(&request)) {
-    forget();
-    return call::Reply::error(call::Status::UNAVAILABLE, "the request to space " + space + " could not be written");
-  }
-  // Whatever the outcome, nobody waits for this request any more: a replier matching later must
-  // not execute it, and the one that did may forget its reply.
-  const bool answered = answer.wait_until(until) == std::future_status::ready;
-  RpcRegistrations::retire(writer, id, false);
-  if (!answered) {
-    forget();
-    return call::Reply::error(call::Status::DEADLINE_EXCEEDED, "no reply from space " + space + " for " + service +
-                                                                    "." + operation + " within " +
-                                                                    std::to_string(deadline.count()) + " ms");
-  }
-  return answer.get();
+  // The completion may outlive this frame by a moment (it runs on to its end after waking it).
+  auto answer = std::make_shared<std::promise<call::Reply>>();
+  auto reply = answer->get_future();
+  const auto written = start(space, route.writer, service, operation, std::move(payload), until, deadline, caller,
+                             true, [answer](call::Reply result) { answer->set_value(std::move(result)); });
+  call::Reply result = reply.get();
+  // Retired here, off the thread that ended the call (a DDS listener's, maybe inside the replier's
+  // write in this process, which Fast DDS 2.9 does not take a change of that writer back into),
+  // and before this caller goes on to its next call.
+  if (written) RpcRegistrations::retire(written->writer, written->id, false);
+  return result;
+}
+
+bool DdsCalls::call_async(const std::string& space, const std::string& service, const std::string& operation,
+                          std::string&& payload, std::chrono::milliseconds deadline, const std::string& caller,
+                          Done done) {
+  const std::optional<RequestRoute> route = matched_writer(space);
+  if (!route) return false;
+  start(space, route->writer, service, operation, std::move(payload), Clock::now() + deadline, deadline, caller,
+        false, std::move(done));
+  return true;
 }
 
 bool DdsCalls::oneway(const std::string& space, const std::string& service, const std::string& operation,
@@ -196,7 +322,19 @@ bool DdsCalls::oneway(const std::string& space, const std::string& service, cons
     return false;
   }
   if (!route.listener->wait_matched(Clock::now() + kMatchWait)) return false;
-  fdds::DataWriter* writer = route.writer;
+  return send_oneway(route.writer, service, operation, std::move(payload), caller);
+}
+
+std::optional<bool> DdsCalls::oneway_async(const std::string& space, const std::string& service,
+                                           const std::string& operation, std::string&& payload,
+                                           const std::string& caller) {
+  const std::optional<RequestRoute> route = matched_writer(space);
+  if (!route) return std::nullopt;
+  return send_oneway(route->writer, service, operation, std::move(payload), caller);
+}
+
+bool DdsCalls::send_oneway(fdds::DataWriter* writer, const std::string& service, const std::string& operation,
+                           std::string&& payload, const std::string& caller) {
   dds::CallRequest request;
   request.request_id(next_request_id());
   request.caller_space(options_.space);
@@ -222,11 +360,10 @@ void DdsCalls::read_replies(fdds::DataReader* reader) {
       std::lock_guard lock(mutex_);
       auto it = pending_.find(sample.request_id());
       if (it == pending_.end()) continue;  // its caller gave up
-      call = it->second;
       // On a secured link only the called space answers: another member's reply is ignored
       // (logged once per writer), the call still waits for the real one.
-      if (!identities_.speaks_for(info.publication_handle, call->space, "reply to", sample.request_id())) continue;
-      pending_.erase(it);
+      if (!identities_.speaks_for(info.publication_handle, it->second->space, "reply to", sample.request_id())) continue;
+      call = take(sample.request_id());
     }
     call::Reply result;
     const auto status = call::status_from_number(sample.status());
@@ -236,7 +373,7 @@ void DdsCalls::read_replies(fdds::DataReader* reader) {
                                   ", which this bridge does not know: " + sample.message();
     result.exception_type = sample.exception_type();
     result.payload = text_of(sample.payload());
-    call->promise.set_value(std::move(result));
+    end(*call, std::move(result));
   }
 }
 

@@ -1,22 +1,35 @@
 #pragma once
 // DdsCalls (internal to urs::bridge): the calling side of the DdsLink. A request writer per target
 // space (made at its first call, with a listener that follows its matched readers), the calls
-// waiting for their replies by request id, this space's reply reader; call() and oneway() as
-// DdsLink's, after the link admitted them (CallGate) and checked the space's liveliness.
+// waiting for their replies by request id, this space's reply reader; call(), call_async(),
+// oneway() and oneway_async() as DdsLink's, after the link admitted them (CallGate) and checked
+// the space's liveliness.
 //
-// Threads: call() and oneway() block (a first match, then the reply): never on a DDS listener or
-// Planet I/O thread. read_replies() and fail_pending() on DDS listener threads; close() from the
-// link's destructor. Its lock guards the writers and the pending calls, and is never held while a
-// caller is woken or Fast DDS writes.
+// Every call waits for its reply the same way: it is registered with a completion (`Done`) that
+// the reply (read_replies), its space's bridge leaving (fail_pending), the link closing (close) or
+// its deadline (the link's call thread) runs, whichever comes first; call() is call_async()'s wait.
+// Once a call ended its request is unregistered (RpcRegistrations::retire), never on the thread
+// that ended it (a listener's, maybe inside the replier's write in this process): call() does it
+// when it wakes, the call thread for the others.
+//
+// Threads: call() and oneway() block (a first match; call(), then the reply): never on a DDS
+// listener or Planet I/O thread. call_async() and oneway_async() never block: they refuse a space
+// whose writer is not matched yet. read_replies() and fail_pending() on DDS listener threads;
+// close() from the link's destructor. Its lock guards the writers, the pending calls and the call
+// thread's work, and is never held while a completion runs or Fast DDS writes.
 
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
-#include <future>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
+#include <set>
 #include <string>
+#include <thread>
+#include <utility>
 #include <vector>
 
 #include <fastdds/dds/publisher/DataWriterListener.hpp>
@@ -32,10 +45,12 @@ namespace urs::bridge {
 class DdsCalls {
  public:
   using Clock = std::chrono::steady_clock;
+  using Done = std::function<void(call::Reply)>;
 
   // `identities` says which space wrote each reply: on a secured link only the called space's are taken.
   DdsCalls(const DdsOptions& options, LinkParticipant& participant, CallGate& gate, RpcRegistrations& registrations,
            DdsIdentities& identities);
+  ~DdsCalls();  // close()
   DdsCalls(const DdsCalls&) = delete;
   DdsCalls& operator=(const DdsCalls&) = delete;
 
@@ -44,24 +59,39 @@ class DdsCalls {
   void open(eprosima::fastdds::dds::DataReaderListener* listener);
   const std::string& reply_name() const { return reply_name_; }  // the reply reader's topic
 
-  // DdsLink::call() and oneway(), once admitted and the space not known lost.
+  // DdsLink::call(), call_async(), oneway() and oneway_async(), once admitted and the space not
+  // known lost.
   call::Reply call(const std::string& space, const std::string& service, const std::string& operation,
                    std::string payload, std::chrono::milliseconds deadline, const std::string& caller);
+  bool call_async(const std::string& space, const std::string& service, const std::string& operation,
+                  std::string&& payload, std::chrono::milliseconds deadline, const std::string& caller, Done done);
   bool oneway(const std::string& space, const std::string& service, const std::string& operation,
               std::string payload, const std::string& caller);
+  std::optional<bool> oneway_async(const std::string& space, const std::string& service, const std::string& operation,
+                                   std::string&& payload, const std::string& caller);
 
   void read_replies(eprosima::fastdds::dds::DataReader* reader);
   // The calls waiting for a reply from `space` fail (PROVIDER_GONE): its bridge left or was lost.
   void fail_pending(const std::string& space);
   // The link is closing (the gate closed): callers waiting for a match are woken, those waiting
-  // for a reply get UNAVAILABLE "bridge stopping".
+  // for a reply get UNAVAILABLE "bridge stopping", and the call thread ends. Idempotent.
   void close();
 
  private:
   // A call waiting for its reply.
   struct Pending {
+    std::string id;  // its request's
     std::string space;
-    std::promise<call::Reply> promise;
+    std::string service;
+    std::string operation;
+    eprosima::fastdds::dds::DataWriter* writer = nullptr;  // its request's
+    Clock::time_point until;                                 // its deadline
+    std::chrono::milliseconds deadline{0};                   // as the caller gave it, for the message
+    bool caller_retires = false;                             // call() retires its request itself
+    Done done;
+    // Its request is retired once both have happened (the second one retires it): written, and
+    // the call ended. Retired before it is written, it would stay registered.
+    std::atomic<int> steps{0};
   };
   // Follows a request writer's matched readers: wakes the callers waiting for the first one
   // (wait_matched), and notices the writer losing its last: the target space's bridge left.
@@ -73,6 +103,7 @@ class DdsCalls {
     // Waits until the writer has a matched reader, or `until`, or the link closes (false). Blocks:
     // never on a DDS listener thread (the match it waits for would be reported on such a thread).
     bool wait_matched(Clock::time_point until);
+    bool matched();  // has a matched reader now
     // Wakes the callers in wait_matched() (the link is closing).
     void wake();
 
@@ -89,7 +120,26 @@ class DdsCalls {
   };
 
   RequestRoute request_writer(const std::string& space);  // caller holds mutex_
+  // The writer to `space` if it exists and is matched: a call to it can start without waiting.
+  std::optional<RequestRoute> matched_writer(const std::string& space);
   std::string next_request_id();
+  // Registers the call, ending at `until` (`deadline` after the caller made it), and writes its
+  // request on `writer`; `done` gets its outcome (maybe before this returns, on this thread, when
+  // the link is closing or the request cannot be written). Returns the call if its request was
+  // written: `caller_retires` says the caller retires it once done, else the call thread does.
+  std::shared_ptr<Pending> start(const std::string& space, eprosima::fastdds::dds::DataWriter* writer,
+                                 const std::string& service, const std::string& operation, std::string&& payload,
+                                 Clock::time_point until, std::chrono::milliseconds deadline,
+                                 const std::string& caller, bool caller_retires, Done done);
+  bool send_oneway(eprosima::fastdds::dds::DataWriter* writer, const std::string& service,
+                   const std::string& operation, std::string&& payload, const std::string& caller);
+  // The pending call `id`, taken away (its deadline too): nobody else ends it. Caller holds mutex_.
+  std::shared_ptr<Pending> take(const std::string& id);
+  // Runs the call's completion with `reply` and counts its end towards retiring its request.
+  void end(Pending& call, call::Reply reply);
+  void step(Pending& call);  // written or ended: the second hands its request to the call thread
+  // The call thread: ends the calls whose deadline passed and retires the requests of those that ended.
+  void run();
 
   const DdsOptions& options_;
   LinkParticipant& participant_;
@@ -106,7 +156,14 @@ class DdsCalls {
   std::map<std::string, RequestRoute> request_writers_;  // by target space
   std::vector<std::unique_ptr<RequestWriterListener>> writer_listeners_;
   std::map<std::string, std::shared_ptr<Pending>> pending_;  // by request id
+  std::set<std::pair<Clock::time_point, std::string>> deadlines_;  // of pending_, earliest first
+  // Requests of ended calls to unregister (writer, id), by the call thread; after close(), by
+  // whoever ends them.
+  std::vector<std::pair<eprosima::fastdds::dds::DataWriter*, std::string>> retiring_;
+  std::condition_variable wake_;  // the call thread: an earlier deadline, a request to retire, closing
+  bool closed_ = false;
   std::atomic<uint64_t> next_id_{1};
+  std::thread thread_;  // the call thread; last: started once the rest exists
 };
 
 }  // namespace urs::bridge

@@ -6,6 +6,7 @@
 #include "urs/bridge/dds_link.hpp"
 
 #include <algorithm>
+#include <optional>
 #include <fastdds/dds/domain/DomainParticipant.hpp>
 #include <fastdds/dds/subscriber/DataReader.hpp>
 #include <fastdds/dds/subscriber/DataReaderListener.hpp>
@@ -45,6 +46,15 @@ struct DdsLink::Impl : public fdds::DataReaderListener {
   DdsServed served;
   // Asserts the keyed-state writers' liveliness (the link's and StateLink's); stopped first.
   std::unique_ptr<LivelinessAsserter> asserter;
+
+  // Why a call to `space` is refused at once, if it is: the link is closing, or the space lost.
+  std::optional<call::Reply> refusal(const CallGate::InProgress& in_progress, const std::string& space) const {
+    if (!in_progress.admitted()) return call::Reply::error(call::Status::UNAVAILABLE, "bridge stopping");
+    if (catalog.space_lost(space)) {
+      return call::Reply::error(call::Status::UNAVAILABLE, "the bridge of space " + space + " lost its liveliness");
+    }
+    return std::nullopt;
+  }
 
   // The listeners run on DDS threads from the moment each reader exists, while the constructor is
   // still creating the others: they know a reader by its topic, never by its component's members.
@@ -120,10 +130,7 @@ call::Reply DdsLink::call(const std::string& space, const std::string& service, 
                           std::string payload, std::chrono::milliseconds deadline, const std::string& caller) {
   Impl& d = *impl_;
   const CallGate::InProgress in_progress(d.gate);  // first: the last to end
-  if (!in_progress.admitted()) return call::Reply::error(call::Status::UNAVAILABLE, "bridge stopping");
-  if (d.catalog.space_lost(space)) {
-    return call::Reply::error(call::Status::UNAVAILABLE, "the bridge of space " + space + " lost its liveliness");
-  }
+  if (auto refused = d.refusal(in_progress, space)) return std::move(*refused);
   return d.calls.call(space, service, operation, std::move(payload), deadline, caller);
 }
 
@@ -133,6 +140,27 @@ bool DdsLink::oneway(const std::string& space, const std::string& service, const
   const CallGate::InProgress in_progress(d.gate);  // first: the last to end
   if (!in_progress.admitted() || d.catalog.space_lost(space)) return false;
   return d.calls.oneway(space, service, operation, std::move(payload), caller);
+}
+
+bool DdsLink::call_async(const std::string& space, const std::string& service, const std::string& operation,
+                         std::string&& payload, std::chrono::milliseconds deadline, const std::string& caller,
+                         std::function<void(call::Reply)> done) {
+  Impl& d = *impl_;
+  const CallGate::InProgress in_progress(d.gate);  // until its request is written: close() ends it after
+  if (auto refused = d.refusal(in_progress, space)) {
+    done(std::move(*refused));
+    return true;
+  }
+  return d.calls.call_async(space, service, operation, std::move(payload), deadline, caller, std::move(done));
+}
+
+std::optional<bool> DdsLink::oneway_async(const std::string& space, const std::string& service,
+                                          const std::string& operation, std::string&& payload,
+                                          const std::string& caller) {
+  Impl& d = *impl_;
+  const CallGate::InProgress in_progress(d.gate);  // first: the last to end
+  if (!in_progress.admitted() || d.catalog.space_lost(space)) return false;
+  return d.calls.oneway_async(space, service, operation, std::move(payload), caller);
 }
 
 }  // namespace urs::bridge

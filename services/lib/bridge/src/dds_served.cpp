@@ -193,14 +193,20 @@ void DdsServed::send_reply(const std::string& space, const std::string& id, cons
     spdlog::error("dds: reply to {} for {}: {}", space, id, e.what());
     return;
   }
-  registrations_.retire_later(writer, id, true, until);
   dds::CallReply reply;
   reply.request_id(id);
   reply.status(call::status_number(result.status));
   reply.message(result.message);
   reply.exception_type(result.exception_type);
   reply.payload(bytes_of(result.payload));
-  if (!writer->write(&reply)) spdlog::warn("dds: the reply to {} could not be written", id);
+  if (!writer->write(&reply)) {
+    spdlog::warn("dds: the reply to {} could not be written", id);
+    return;
+  }
+  // Registered once written: a caller done with it during the write (in this process, its reply
+  // listener runs inside the write) must not unregister it on this writer then, which Fast DDS 2.9
+  // does not take while the write delivers; such a reply is retired at `until`.
+  registrations_.retire_later(writer, id, true, until);
 }
 
 }  // namespace urs::bridge

@@ -9,12 +9,15 @@
 // number, and the calls served arrive as a call::Request and a call::Responder.
 //
 // Threads: handlers run on DDS listener threads and must not block; call() and oneway() block (a
-// first match, then the reply): never from a DDS listener or Planet I/O thread (see src/dds_calls.cpp).
+// first match, then the reply): never from a DDS listener or Planet I/O thread (see
+// src/dds_calls.cpp). call_async() and oneway_async() never block: a forwarded call starts on the
+// thread that received it and its reply is handed on from the thread that read it.
 
 #include <chrono>
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -130,6 +133,20 @@ class DdsLink {
                    std::string payload, std::chrono::milliseconds deadline, const std::string& caller = {});
   bool oneway(const std::string& space, const std::string& service, const std::string& operation,
               std::string payload, const std::string& caller = {});
+
+  // call() without blocking: `done` gets the same outcome, once, never under the link's locks: on
+  // a DDS listener thread (the reply; PROVIDER_GONE), the link's call thread (DEADLINE_EXCEEDED),
+  // the link's destructor (UNAVAILABLE "bridge stopping"), or this thread before it returns (the
+  // call refused at once). False, with nothing sent, `payload` untouched and `done` dropped
+  // uncalled, when the call would have to wait: no request writer to `space` is matched yet (its
+  // first call, which call() makes and waits for).
+  bool call_async(const std::string& space, const std::string& service, const std::string& operation,
+                  std::string&& payload, std::chrono::milliseconds deadline, const std::string& caller,
+                  std::function<void(call::Reply)> done);
+  // oneway() without blocking: whether it was sent; nullopt, with nothing sent and `payload`
+  // untouched, when it would have to wait for a first match (oneway() does).
+  std::optional<bool> oneway_async(const std::string& space, const std::string& service, const std::string& operation,
+                                   std::string&& payload, const std::string& caller = {});
 
  private:
   struct Impl;
