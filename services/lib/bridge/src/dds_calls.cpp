@@ -33,6 +33,10 @@ namespace {
 // matched yet) and CORBA's threads; a call forwarded from a Planet or DDS thread goes through
 // call_async() and oneway_async(), which never wait.
 constexpr std::chrono::milliseconds kMatchWait{2000};
+// How long the request of an ended asynchronous call may stay registered, so that the call thread
+// unregisters the requests of many calls at one wake-up. A bridge of the called space matching
+// within that time could still take the request, and find its caller gone.
+constexpr std::chrono::milliseconds kRetireDelay{10};
 
 }  // namespace
 
@@ -133,12 +137,15 @@ void DdsCalls::end(Pending& call, call::Reply reply) {
 }
 
 void DdsCalls::step(Pending& call) {
-  if (++call.steps < 2 || call.caller_retires) return;
+  if (++call.steps < 2) return;
   {
     std::lock_guard lock(mutex_);
     if (!closed_) {
       retiring_.emplace_back(call.writer, call.id);
-      wake_.notify_one();
+      if (retiring_.size() == 1) {
+        retire_due_ = Clock::now() + kRetireDelay;
+        if (retire_due_ < next_wake_) wake_.notify_one();
+      }
       return;
     }
   }
@@ -194,13 +201,18 @@ void DdsCalls::run() {
     const auto now = Clock::now();
     while (!deadlines_.empty() && deadlines_.begin()->first <= now) expired.push_back(take(deadlines_.begin()->second));
     std::vector<std::pair<fdds::DataWriter*, std::string>> retiring;
-    retiring.swap(retiring_);
+    if (retire_due_ <= now) {
+      retiring.swap(retiring_);
+      retire_due_ = Clock::time_point::max();
+    }
     if (expired.empty() && retiring.empty()) {
-      if (deadlines_.empty()) {
+      next_wake_ = std::min(retire_due_, deadlines_.empty() ? Clock::time_point::max() : deadlines_.begin()->first);
+      if (next_wake_ == Clock::time_point::max()) {
         wake_.wait(lock);
       } else {
-        wake_.wait_until(lock, deadlines_.begin()->first);
+        wake_.wait_until(lock, next_wake_);
       }
+      next_wake_ = Clock::time_point::min();
       continue;
     }
     lock.unlock();
@@ -214,11 +226,9 @@ void DdsCalls::run() {
   }
 }
 
-std::shared_ptr<DdsCalls::Pending> DdsCalls::start(const std::string& space, fdds::DataWriter* writer,
-                                                   const std::string& service, const std::string& operation,
-                                                   std::string&& payload, Clock::time_point until,
-                                                   std::chrono::milliseconds deadline, const std::string& caller,
-                                                   bool caller_retires, Done done) {
+void DdsCalls::start(const std::string& space, fdds::DataWriter* writer, const std::string& service,
+                     const std::string& operation, std::string&& payload, Clock::time_point until,
+                     std::chrono::milliseconds deadline, const std::string& caller, Done done) {
   auto call = std::make_shared<Pending>();
   call->id = next_request_id();
   call->space = space;
@@ -227,7 +237,6 @@ std::shared_ptr<DdsCalls::Pending> DdsCalls::start(const std::string& space, fdd
   call->writer = writer;
   call->until = until;
   call->deadline = deadline;
-  call->caller_retires = caller_retires;
   call->done = std::move(done);
   bool closing = false;
   {
@@ -236,12 +245,12 @@ std::shared_ptr<DdsCalls::Pending> DdsCalls::start(const std::string& space, fdd
     if (!closing) {
       pending_[call->id] = call;
       const auto deadline_at = deadlines_.emplace(call->until, call->id).first;
-      if (deadline_at == deadlines_.begin()) wake_.notify_one();  // the earliest: the call thread waits for it
+      if (deadline_at->first < next_wake_) wake_.notify_one();  // before the call thread would wake
     }
   }
   if (closing) {
     call->done(call::Reply::error(call::Status::UNAVAILABLE, "bridge stopping"));
-    return nullptr;
+    return;
   }
   dds::CallRequest request;
   request.request_id(call->id);
@@ -256,7 +265,7 @@ std::shared_ptr<DdsCalls::Pending> DdsCalls::start(const std::string& space, fdd
   spdlog::debug("dds: request {} to space {}: {}.{}", call->id, space, service, operation);
   if (writer->write(&request)) {
     step(*call);
-    return call;
+    return;
   }
   std::shared_ptr<Pending> failed;
   {
@@ -265,7 +274,6 @@ std::shared_ptr<DdsCalls::Pending> DdsCalls::start(const std::string& space, fdd
   }
   // Nothing to retire: it was never registered.
   if (failed) failed->done(call::Reply::error(call::Status::UNAVAILABLE, "the request to space " + space + " could not be written"));
-  return nullptr;
 }
 
 call::Reply DdsCalls::call(const std::string& space, const std::string& service, const std::string& operation,
@@ -291,14 +299,9 @@ call::Reply DdsCalls::call(const std::string& space, const std::string& service,
   // The completion may outlive this frame by a moment (it runs on to its end after waking it).
   auto answer = std::make_shared<std::promise<call::Reply>>();
   auto reply = answer->get_future();
-  const auto written = start(space, route.writer, service, operation, std::move(payload), until, deadline, caller,
-                             true, [answer](call::Reply result) { answer->set_value(std::move(result)); });
-  call::Reply result = reply.get();
-  // Retired here, off the thread that ended the call (a DDS listener's, maybe inside the replier's
-  // write in this process, which Fast DDS 2.9 does not take a change of that writer back into),
-  // and before this caller goes on to its next call.
-  if (written) RpcRegistrations::retire(written->writer, written->id, false);
-  return result;
+  start(space, route.writer, service, operation, std::move(payload), until, deadline, caller,
+        [answer](call::Reply result) { answer->set_value(std::move(result)); });
+  return reply.get();
 }
 
 bool DdsCalls::call_async(const std::string& space, const std::string& service, const std::string& operation,
@@ -307,7 +310,7 @@ bool DdsCalls::call_async(const std::string& space, const std::string& service, 
   const std::optional<RequestRoute> route = matched_writer(space);
   if (!route) return false;
   start(space, route->writer, service, operation, std::move(payload), Clock::now() + deadline, deadline, caller,
-        false, std::move(done));
+        std::move(done));
   return true;
 }
 

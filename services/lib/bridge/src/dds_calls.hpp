@@ -8,9 +8,10 @@
 // Every call waits for its reply the same way: it is registered with a completion (`Done`) that
 // the reply (read_replies), its space's bridge leaving (fail_pending), the link closing (close) or
 // its deadline (the link's call thread) runs, whichever comes first; call() is call_async()'s wait.
-// Once a call ended its request is unregistered (RpcRegistrations::retire), never on the thread
-// that ended it (a listener's, maybe inside the replier's write in this process): call() does it
-// when it wakes, the call thread for the others.
+// Once a call ended its request is unregistered (RpcRegistrations::retire) by the call thread,
+// never on the thread that ended it (a listener's, maybe inside the replier's write in this
+// process), and the requests of the calls ended within kRetireDelay together: one wake-up of the
+// call thread for many calls, none on the caller's way back.
 //
 // Threads: call() and oneway() block (a first match; call(), then the reply): never on a DDS
 // listener or Planet I/O thread. call_async() and oneway_async() never block: they refuse a space
@@ -87,7 +88,6 @@ class DdsCalls {
     eprosima::fastdds::dds::DataWriter* writer = nullptr;  // its request's
     Clock::time_point until;                                 // its deadline
     std::chrono::milliseconds deadline{0};                   // as the caller gave it, for the message
-    bool caller_retires = false;                             // call() retires its request itself
     Done done;
     // Its request is retired once both have happened (the second one retires it): written, and
     // the call ended. Retired before it is written, it would stay registered.
@@ -125,12 +125,11 @@ class DdsCalls {
   std::string next_request_id();
   // Registers the call, ending at `until` (`deadline` after the caller made it), and writes its
   // request on `writer`; `done` gets its outcome (maybe before this returns, on this thread, when
-  // the link is closing or the request cannot be written). Returns the call if its request was
-  // written: `caller_retires` says the caller retires it once done, else the call thread does.
-  std::shared_ptr<Pending> start(const std::string& space, eprosima::fastdds::dds::DataWriter* writer,
-                                 const std::string& service, const std::string& operation, std::string&& payload,
-                                 Clock::time_point until, std::chrono::milliseconds deadline,
-                                 const std::string& caller, bool caller_retires, Done done);
+  // the link is closing or the request cannot be written). Once written and ended, the call
+  // thread retires its request.
+  void start(const std::string& space, eprosima::fastdds::dds::DataWriter* writer, const std::string& service,
+             const std::string& operation, std::string&& payload, Clock::time_point until,
+             std::chrono::milliseconds deadline, const std::string& caller, Done done);
   bool send_oneway(eprosima::fastdds::dds::DataWriter* writer, const std::string& service,
                    const std::string& operation, std::string&& payload, const std::string& caller);
   // The pending call `id`, taken away (its deadline too): nobody else ends it. Caller holds mutex_.
@@ -160,7 +159,12 @@ class DdsCalls {
   // Requests of ended calls to unregister (writer, id), by the call thread; after close(), by
   // whoever ends them.
   std::vector<std::pair<eprosima::fastdds::dds::DataWriter*, std::string>> retiring_;
-  std::condition_variable wake_;  // the call thread: an earlier deadline, a request to retire, closing
+  Clock::time_point retire_due_ = Clock::time_point::max();  // when retiring_ is unregistered
+  // When the call thread wakes next (min(): it is awake). It is woken only for a deadline or a
+  // retirement due before that, not once per call: a call's own deadline is rarely the earliest
+  // and the ended calls' requests are unregistered together, kRetireDelay after the first.
+  Clock::time_point next_wake_ = Clock::time_point::min();
+  std::condition_variable wake_;  // the call thread: an earlier deadline, retirements due earlier, closing
   bool closed_ = false;
   std::atomic<uint64_t> next_id_{1};
   std::thread thread_;  // the call thread; last: started once the rest exists
