@@ -113,7 +113,7 @@ std::string DdsCalls::next_request_id() {
 std::optional<DdsCalls::RequestRoute> DdsCalls::matched_writer(const std::string& space) {
   RequestRoute route;
   {
-    std::lock_guard lock(mutex_);
+    std::lock_guard lock(writers_mutex_);
     auto it = request_writers_.find(space);
     if (it == request_writers_.end()) return std::nullopt;
     route = it->second;
@@ -138,19 +138,16 @@ void DdsCalls::end(Pending& call, call::Reply reply) {
 
 void DdsCalls::step(Pending& call) {
   if (++call.steps < 2) return;
-  {
-    std::lock_guard lock(mutex_);
-    if (!closed_) {
-      retiring_.emplace_back(call.writer, call.id);
-      if (retiring_.size() == 1) {
-        retire_due_ = Clock::now() + kRetireDelay;
-        if (retire_due_ < next_wake_) wake_.notify_one();
-      }
-      return;
-    }
+  std::lock_guard lock(mutex_);
+  // Closed: the link is going, its writers with it (and with them their instances); this may be
+  // a listener's thread inside the replier's write, where Fast DDS 2.9 would deadlock on an
+  // unregistration.
+  if (closed_) return;
+  retiring_.emplace_back(call.writer, call.id);
+  if (retiring_.size() == 1) {
+    retire_due_ = Clock::now() + kRetireDelay;
+    if (retire_due_ < next_wake_) wake_.notify_one();
   }
-  // The call thread has ended: this is close() or a call it admitted, while the writer exists.
-  RpcRegistrations::retire(call.writer, call.id, false);
 }
 
 void DdsCalls::fail_pending(const std::string& space) {
@@ -178,11 +175,14 @@ void DdsCalls::close() {
     std::lock_guard lock(mutex_);  // a call registers its pending reply under it, closing or not
     if (closed_) return;
     closed_ = true;
-    for (auto& listener : writer_listeners_) listener->wake();
     for (auto& [id, call] : pending_) left.push_back(std::move(call));
     pending_.clear();
     deadlines_.clear();
     wake_.notify_one();
+  }
+  {
+    std::lock_guard lock(writers_mutex_);
+    for (auto& listener : writer_listeners_) listener->wake();
   }
   thread_.join();
   std::vector<std::pair<fdds::DataWriter*, std::string>> retiring;
@@ -279,10 +279,13 @@ void DdsCalls::start(const std::string& space, fdds::DataWriter* writer, const s
 call::Reply DdsCalls::call(const std::string& space, const std::string& service, const std::string& operation,
                            std::string payload, std::chrono::milliseconds deadline, const std::string& caller) {
   const auto until = Clock::now() + deadline;
-  RequestRoute route;
-  try {
+  {
     std::lock_guard lock(mutex_);
     if (closed_ || gate_.closing()) return call::Reply::error(call::Status::UNAVAILABLE, "bridge stopping");
+  }
+  RequestRoute route;
+  try {
+    std::lock_guard lock(writers_mutex_);
     route = request_writer(space);
   } catch (const std::exception& e) {
     if (options_.security.enabled()) {  // on a secured link, the access control refused the writer
@@ -316,10 +319,10 @@ bool DdsCalls::call_async(const std::string& space, const std::string& service, 
 
 bool DdsCalls::oneway(const std::string& space, const std::string& service, const std::string& operation,
                       std::string payload, const std::string& caller) {
+  if (gate_.closing()) return false;
   RequestRoute route;
   try {
-    std::lock_guard lock(mutex_);
-    if (gate_.closing()) return false;
+    std::lock_guard lock(writers_mutex_);
     route = request_writer(space);
   } catch (const std::exception&) {
     return false;

@@ -16,8 +16,9 @@
 // Threads: call() and oneway() block (a first match; call(), then the reply): never on a DDS
 // listener or Planet I/O thread. call_async() and oneway_async() never block: they refuse a space
 // whose writer is not matched yet. read_replies() and fail_pending() on DDS listener threads;
-// close() from the link's destructor. Its lock guards the writers, the pending calls and the call
-// thread's work, and is never held while a completion runs or Fast DDS writes.
+// close() from the link's destructor. Two locks: one for the writers (Fast DDS is called under it,
+// never taken on a listener thread), one for the pending calls and the call thread's work (taken
+// on listener threads, never held while a completion runs or Fast DDS is called).
 
 #include <atomic>
 #include <chrono>
@@ -119,7 +120,7 @@ class DdsCalls {
     RequestWriterListener* listener = nullptr;  // owned by writer_listeners_
   };
 
-  RequestRoute request_writer(const std::string& space);  // caller holds mutex_
+  RequestRoute request_writer(const std::string& space);  // caller holds writers_mutex_
   // The writer to `space` if it exists and is matched: a call to it can start without waiting.
   std::optional<RequestRoute> matched_writer(const std::string& space);
   std::string next_request_id();
@@ -151,13 +152,19 @@ class DdsCalls {
   const std::string run_;
   eprosima::fastdds::dds::DataReader* reply_reader_ = nullptr;
 
-  std::mutex mutex_;  // guards the maps below and the writers' creation
+  // Guards the request writers and their creation. Never taken on a DDS listener thread, so Fast
+  // DDS may be called under it (creating a writer takes Fast DDS's locks of the readers it pairs
+  // with, which a listener holds while it runs).
+  std::mutex writers_mutex_;
   std::map<std::string, RequestRoute> request_writers_;  // by target space
   std::vector<std::unique_ptr<RequestWriterListener>> writer_listeners_;
+  // Guards the calls and the call thread's work below. Taken on DDS listener threads (replies,
+  // lost bridges), so never held while Fast DDS is called.
+  std::mutex mutex_;
   std::map<std::string, std::shared_ptr<Pending>> pending_;  // by request id
   std::set<std::pair<Clock::time_point, std::string>> deadlines_;  // of pending_, earliest first
-  // Requests of ended calls to unregister (writer, id), by the call thread; after close(), by
-  // whoever ends them.
+  // Requests of ended calls to unregister (writer, id), by the call thread; after close(), none
+  // (the writers go with the link).
   std::vector<std::pair<eprosima::fastdds::dds::DataWriter*, std::string>> retiring_;
   Clock::time_point retire_due_ = Clock::time_point::max();  // when retiring_ is unregistered
   // When the call thread wakes next (min(): it is awake). It is woken only for a deadline or a
