@@ -69,7 +69,23 @@ done
 
 project=urs-e2e-$$
 # Free host ports for the two dashboards (a demo may hold 8765/8766); read back with `dc port`.
-free_port() { /usr/bin/python3 -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])'; }
+# Below the kernel's ephemeral range: Docker binds them seconds after they were chosen, and a port
+# of that range may meanwhile be taken by any connection of the tests running alongside.
+free_port() {
+  /usr/bin/python3 -c '
+import random, socket
+below = int(open("/proc/sys/net/ipv4/ip_local_port_range").read().split()[0])
+while True:
+    port = random.randrange(10000, below)
+    with socket.socket() as s:
+        try:
+            s.bind(("0.0.0.0", port))
+        except OSError:
+            continue
+    print(port)
+    break
+'
+}
 export URS_KR_DASHBOARD_PORT=${URS_E2E_KR_DASHBOARD_PORT:-$(free_port)}
 export URS_JP_DASHBOARD_PORT=${URS_E2E_JP_DASHBOARD_PORT:-$(free_port)}
 while [[ $URS_JP_DASHBOARD_PORT == "$URS_KR_DASHBOARD_PORT" ]]; do URS_JP_DASHBOARD_PORT=$(free_port); done
