@@ -575,14 +575,17 @@ int main(int argc, char** argv) {
     }
 
     // What each 64-byte path costs the processes it crosses, per call (process_cost.hpp): the
-    // thread hand-offs between a path and the wire, counted rather than timed.
+    // thread hand-offs between a path and the wire, counted rather than timed; and the Planet
+    // path's CPU per 921,600-byte reply (the copies of the payload on each hop).
     {
       const std::string text(64, 'x');
       auto cost_per_call = [&](const std::string& path, const std::vector<std::pair<std::string, pid_t>>& processes,
-                               const std::function<void()>& once) {
-        const std::string label = "cost per 64-byte call (voluntary context switches, CPU): " + path;
+                               const std::function<void()>& once, bool big = false) {
+        const std::string label =
+            std::string(big ? "cost per 921,600-byte call" : "cost per 64-byte call") +
+            " (voluntary context switches, CPU): " + path;
         if (!wanted(label)) return;
-        const int n = quick ? 200 : 5000;
+        const int n = big ? (quick ? 20 : 500) : (quick ? 200 : 5000);
         for (int i = 0; i < 50; ++i) once();
         std::vector<urs::bench::ProcessCost> before;
         for (const auto& process : processes) before.push_back(urs::bench::process_cost(process.second));
@@ -606,6 +609,8 @@ int main(int argc, char** argv) {
       cost_per_call("Fast DDS request/reply, UDP (direct)", {{"urs-dds-echo", dds_echo->pid()}},
                     [&] { expect_ok(dds_a.call("dds-b", "x", "echo", echo_payload, 10s), "DDS"); });
       cost_per_call(kPlanet, {{"server", server}, {"SAM", sam}}, echo_to("diag"));
+      cost_per_call(kPlanet, {{"server", server}, {"SAM", sam}},
+                    [&] { expect_ok(client->call("diag", "blob", blob_payload, 10s), "diag blob"); }, true);
       cost_per_call("bridged RTC→CAMUS: client→server→bridge→RTC",
                     {{"server", server}, {"bridge", bridge->pid()}, {"rtc-manager", rtc}}, echo_to("rt.diag"));
       cost_per_call("bridged SA→RT: stub→bridge→server→SAM→SA",
