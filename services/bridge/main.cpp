@@ -5,10 +5,10 @@
 // Exit codes: 0 clean shutdown (SIGINT/SIGTERM); 2 bad arguments, configuration or IDL; 1 the
 // bridge RTC could not be created or bound (the reason on stderr).
 
-#include <malloc.h>
 #include <spdlog/spdlog.h>
 
 #include <CLI/CLI.hpp>
+#include <chrono>
 #include <cstdlib>
 #include <filesystem>
 
@@ -21,14 +21,17 @@
 #include "urs/rtc/orb.hpp"
 #include "urs/rtc/orb_flags.hpp"
 #include "urs/util/cli.hpp"
+#include "urs/util/heap.hpp"
 #include "urs/util/program_flags.hpp"
 #include "urs/util/tls.hpp"
 
 int main(int argc, char** argv) {
-  // glibc gives every thread that allocates an arena of its own, up to 8 per core; the bridge's
-  // workers, ORB and DDS threads made them about 18 MiB of its resident memory. Its calls do not
-  // contend on malloc enough to need them (docs/performance.md). MALLOC_ARENA_MAX still rules.
-  if (std::getenv("MALLOC_ARENA_MAX") == nullptr) mallopt(M_ARENA_MAX, 2);
+  // One arena per thread that allocates made the bridge's workers, ORB and DDS threads about
+  // 18 MiB of its resident memory; its calls do not contend on malloc enough to need them. What
+  // large calls and streams leave free goes back to the system within seconds
+  // (docs/performance.md, "Bridge memory").
+  urs::util::use_few_arenas();
+  const urs::util::HeapTrimmer trimmer(std::chrono::seconds(5));
   CLI::App app{"urs-bridge: makes RT-Components and CAMUS services usable from each other"};
   urs::util::ProgramFlags program;
   urs::rtc::OrbFlags orb_flags;

@@ -6,7 +6,6 @@
 // Exit codes: 0 clean shutdown (SIGINT/SIGTERM); 2 bad arguments or configuration; 1 it cannot
 // listen, or DDS or the ORB refuses to start (the reason on stderr).
 
-#include <malloc.h>
 #include <spdlog/spdlog.h>
 #include <unistd.h>
 
@@ -26,6 +25,7 @@
 #include "urs/gateway/world_source.hpp"
 #include "urs/rtc/orb.hpp"
 #include "urs/util/cli.hpp"
+#include "urs/util/heap.hpp"
 #include "urs/util/tls.hpp"
 
 namespace gw = urs::gateway;
@@ -61,7 +61,7 @@ std::vector<std::string> split(const std::string& list) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (std::getenv("MALLOC_ARENA_MAX") == nullptr) mallopt(M_ARENA_MAX, 2);  // as urs-bridge: few arenas
+  urs::util::use_few_arenas();  // as urs-bridge
   CLI::App app{"urs-gateway: a space's dashboard and Foxglove WebSocket endpoint"};
   std::string space, server, naming, listen = "127.0.0.1:8765", token_file, viewer_token_file, web_dir,
       anonymous = "none", port_file, log_level = "info", robots, devices_source = "localizer";
