@@ -9,7 +9,6 @@
 
 #include <CLI/CLI.hpp>
 #include <chrono>
-#include <cstdlib>
 #include <filesystem>
 
 #include "urs/bridge/bridge.hpp"

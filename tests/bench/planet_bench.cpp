@@ -575,8 +575,8 @@ int main(int argc, char** argv) {
     }
 
     // What each 64-byte path costs the processes it crosses, per call (process_cost.hpp): the
-    // thread hand-offs between a path and the wire, counted rather than timed; and the Planet
-    // path's CPU per 921,600-byte reply (the copies of the payload on each hop).
+    // thread hand-offs between a path and the wire, counted rather than timed; and the same for
+    // the Planet path's 921,600-byte reply.
     {
       const std::string text(64, 'x');
       auto cost_per_call = [&](const std::string& path, const std::vector<std::pair<std::string, pid_t>>& processes,
