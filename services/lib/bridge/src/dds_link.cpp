@@ -138,7 +138,7 @@ bool DdsLink::oneway(const std::string& space, const std::string& service, const
                      std::string payload, const std::string& caller) {
   Impl& d = *impl_;
   const CallGate::InProgress in_progress(d.gate);  // first: the last to end
-  if (!in_progress.admitted() || d.catalog.space_lost(space)) return false;
+  if (d.refusal(in_progress, space)) return false;
   return d.calls.oneway(space, service, operation, std::move(payload), caller);
 }
 
@@ -159,7 +159,7 @@ std::optional<bool> DdsLink::oneway_async(const std::string& space, const std::s
                                           const std::string& caller) {
   Impl& d = *impl_;
   const CallGate::InProgress in_progress(d.gate);  // first: the last to end
-  if (!in_progress.admitted() || d.catalog.space_lost(space)) return false;
+  if (d.refusal(in_progress, space)) return false;
   return d.calls.oneway_async(space, service, operation, std::move(payload), caller);
 }
 
