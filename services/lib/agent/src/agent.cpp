@@ -127,13 +127,15 @@ void AgentHost::stop() {
   pool_.stop();
 }
 
-namespace {
-
 using call::Reply;
 using call::Status;
 
 Reply encode(const Outcome& outcome, const gp::Message& reply) {
   if (outcome.status == Status::OK) return Reply::success(reply.SerializeAsString());
+  return encode_failure(outcome);
+}
+
+Reply encode_failure(const Outcome& outcome) {
   if (outcome.status == Status::USER_EXCEPTION) {
     if (!outcome.exception) {
       return Reply::error(Status::INTERNAL, "agent raised an exception without a value: " + outcome.message);
@@ -143,8 +145,6 @@ Reply encode(const Outcome& outcome, const gp::Message& reply) {
   }
   return Reply::error(outcome.status, outcome.message);
 }
-
-}  // namespace
 
 void AgentHost::dispatch(call::Request request, call::Responder responder) {
   const bool oneway = request.oneway;

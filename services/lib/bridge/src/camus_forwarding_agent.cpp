@@ -12,19 +12,6 @@ namespace gp = google::protobuf;
 using agent::Outcome;
 using Clock = std::chrono::steady_clock;
 
-namespace {
-
-// The reply an agent host makes of an outcome that fills no reply message (AgentHost's encoding).
-call::Reply encoded(const Outcome& outcome) {
-  if (outcome.status == call::Status::USER_EXCEPTION) {
-    return call::Reply::user_exception(outcome.exception->GetTypeName(), outcome.exception->SerializeAsString(),
-                                       outcome.message);
-  }
-  return call::Reply::error(outcome.status, outcome.message);
-}
-
-}  // namespace
-
 const gp::ServiceDescriptor* describe_service(planet::Client& client, const std::string& service,
                                               schema::SchemaPool& pool, std::chrono::milliseconds timeout,
                                               std::string& error) {
@@ -114,14 +101,14 @@ bool CamusForwardingAgent::forward(const gp::MethodDescriptor& method, call::Req
     const std::optional<bool> sent = route_.oneway_async(method.name(), std::move(request.payload), request.caller);
     if (!sent) return false;
     // invoke()'s outcome as the host answers it: an empty reply, or why it was not sent.
-    if (answers) responder.reply(*sent ? call::Reply::success({}) : encoded(not_sent(method)));
+    if (answers) responder.reply(*sent ? call::Reply::success({}) : agent::encode_failure(not_sent(method)));
     return true;
   }
   std::shared_ptr<CamusForwardingAgent> self = weak_from_this().lock();
   if (!route_.call_async || !self) return false;
   const auto remaining = std::chrono::duration_cast<std::chrono::milliseconds>(request.deadline - Clock::now());
   if (remaining.count() <= 0) {
-    if (answers) responder.reply(encoded(too_late(method)));
+    if (answers) responder.reply(agent::encode_failure(too_late(method)));
     return true;
   }
   // Moved back if the route does not start the call; shared with the completion otherwise, which
@@ -139,7 +126,7 @@ bool CamusForwardingAgent::forward(const gp::MethodDescriptor& method, call::Req
 
 call::Reply CamusForwardingAgent::handed_back(const gp::MethodDescriptor& method, call::Reply result) {
   if (result.status != call::Status::USER_EXCEPTION) return result;
-  return encoded(raised(method, result));
+  return agent::encode_failure(raised(method, result));
 }
 
 Outcome CamusForwardingAgent::not_sent(const gp::MethodDescriptor& method) const {

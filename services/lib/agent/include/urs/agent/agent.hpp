@@ -60,6 +60,13 @@ struct Outcome {
   }
 };
 
+// The reply a host answers for `outcome`: `reply` serialized on OK; else the status and message,
+// with the exception on USER_EXCEPTION (INTERNAL if the outcome carries none). For an agent that
+// answers a call itself (ServiceAgent::forward) as the host would have.
+call::Reply encode(const Outcome& outcome, const google::protobuf::Message& reply);
+// The same for an outcome that is not OK (it fills no reply message).
+call::Reply encode_failure(const Outcome& outcome);
+
 class ServiceAgent {
  public:
   virtual ~ServiceAgent() = default;
