@@ -42,11 +42,6 @@ class CamusService : public RemoteService {
   std::string service_;
 };
 
-class NoEvents : public agent::EventSink {
- public:
-  call::Reply publish(const std::string&, const gp::Message&) override { return {}; }
-};
-
 class RtProvider : public RemoteService {
  public:
   RtProvider(rtc::Orb& orb, CORBA::Object_ptr target, const gp::ServiceDescriptor& interface, std::string where)
@@ -72,7 +67,7 @@ class RtProvider : public RemoteService {
 
  private:
   corba_agent::CorbaProxyAgent proxy_;
-  NoEvents events_;
+  agent::DiscardingEventSink events_;
   std::string where_;
 };
 

@@ -41,14 +41,6 @@ class StaticDiagnostic : public virtual POA_URS::Diagnostic {
   void notify(const char*, const char*) override {}
 };
 
-// Events of the DSI-hosted agent are dropped: this process only answers calls.
-class NoEvents : public urs::agent::EventSink {
- public:
-  urs::call::Reply publish(const std::string&, const google::protobuf::Message&) override {
-    return urs::call::Reply::success({});
-  }
-};
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -57,7 +49,7 @@ int main(int argc, char** argv) {
     return 2;
   }
   urs::rtc::Orb orb;
-  NoEvents events;
+  urs::agent::DiscardingEventSink events;
   urs::corba_agent::AgentServant dsi(orb.orb(), std::make_shared<urs::diagnostic::DiagnosticAgent>(), events,
                                      {"peer"});
   StaticDiagnostic baseline;

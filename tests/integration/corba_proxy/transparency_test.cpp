@@ -26,13 +26,6 @@ namespace {
 using namespace std::chrono_literals;
 using Clock = std::chrono::steady_clock;
 
-class AcceptingSink : public agent::EventSink {
- public:
-  call::Reply publish(const std::string&, const google::protobuf::Message&) override {
-    return call::Reply::success({});
-  }
-};
-
 // What a caller sees of one call.
 struct Observed {
   call::Status status = call::Status::INTERNAL;
@@ -106,7 +99,7 @@ class CorbaProxyTransparency : public RtSpaceTest {
     return proxied;
   }
 
-  AcceptingSink sink_;
+  agent::DiscardingEventSink sink_;
   std::unique_ptr<agent::AgentHost> native_;
   std::unique_ptr<agent::AgentHost> proxy_;
 };

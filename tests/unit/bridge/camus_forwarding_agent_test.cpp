@@ -19,13 +19,6 @@ namespace {
 using namespace std::chrono_literals;
 using Clock = std::chrono::steady_clock;
 
-class NoEvents : public agent::EventSink {
- public:
-  call::Reply publish(const std::string&, const google::protobuf::Message&) override {
-    return call::Reply::success({});
-  }
-};
-
 // What the route was handed; a test answers the calls it started through `done`.
 struct Sent {
   std::string operation;
@@ -105,7 +98,7 @@ class Forwarding : public ::testing::Test {
     sent_ = std::move(sent);
   }
 
-  NoEvents events_;
+  agent::DiscardingEventSink events_;
   agent::AgentHost host_;
   bool starts_ = true;  // whether the route starts calls without blocking
   call::Reply blocking_reply_ = call::Reply::error(call::Status::INTERNAL, "not set");

@@ -37,6 +37,12 @@ class EventSink {
   virtual call::Reply publish(const std::string& topic, const google::protobuf::Message& event) = 0;
 };
 
+// Accepts every event and drops it: for a host whose agents' events go nowhere.
+class DiscardingEventSink final : public EventSink {
+ public:
+  call::Reply publish(const std::string&, const google::protobuf::Message&) override { return call::Reply::success({}); }
+};
+
 struct CallContext {
   std::string service;                               // the service name the caller used
   call::Identity caller;                             // as the receiving adapter verified it; empty if unknown
