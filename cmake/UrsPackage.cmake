@@ -11,6 +11,9 @@
 #   share/urslink/web/            urs-gateway's dashboard (static files)
 #   share/urslink/python/urslink/ the Python SDK (docs/sdk.md): PYTHONPATH=<prefix>/share/urslink/python
 #   share/doc/urslink/examples/   the out-of-tree example project
+#   lib/systemd/system/           the systemd units (deploy/systemd; they name /usr: the .deb's prefix)
+#   libexec/urslink/              urs-entrypoint and urs-health, which the units run
+#   share/urslink/systemd/        urslink.env, the example of /etc/urslink/urslink.env
 
 # Programs. A new program joins this list (and so the package, the .deb and the images).
 set(URS_INSTALLED_PROGRAMS urs-camus-server urs-sam urs-rtc-manager urs urs-bridge urs-lab urs-gateway)
@@ -39,6 +42,14 @@ install(DIRECTORY ${PROJECT_SOURCE_DIR}/examples/ DESTINATION ${CMAKE_INSTALL_DO
         PATTERN "__pycache__" EXCLUDE)
 install(DIRECTORY ${PROJECT_SOURCE_DIR}/python/urslink DESTINATION ${URS_INSTALL_DATADIR}/python
         FILES_MATCHING PATTERN "*.py" PATTERN "__pycache__" EXCLUDE)
+
+# The systemd units (generated with deploy/services/urs-services from deploy/services/services.yaml) and
+# the entry point they run: the images' urs-entrypoint, which turns the environment into flags.
+file(GLOB urs_systemd_units CONFIGURE_DEPENDS ${PROJECT_SOURCE_DIR}/deploy/systemd/*.service)
+install(FILES ${urs_systemd_units} DESTINATION lib/systemd/system)
+install(PROGRAMS ${PROJECT_SOURCE_DIR}/deploy/images/bin/urs-entrypoint ${PROJECT_SOURCE_DIR}/deploy/images/bin/urs-health
+        DESTINATION ${CMAKE_INSTALL_LIBEXECDIR}/urslink)
+install(FILES ${PROJECT_SOURCE_DIR}/deploy/systemd/urslink.env DESTINATION ${URS_INSTALL_DATADIR}/systemd)
 
 # find_package(urslink): the exported libraries as urslink::<name>, their dependencies, and the
 # IDL functions of idl/PlanetIdl.cmake.
@@ -82,6 +93,8 @@ set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS ON)
 set(CPACK_DEBIAN_PACKAGE_GENERATE_SHLIBS ON)
 set(CPACK_DEBIAN_PACKAGE_DEPENDS "omniidl, python3, espeak-ng-data, pocketsphinx-en-us")
 set(CPACK_DEBIAN_PACKAGE_RECOMMENDS "omniorb-nameserver")
+# postinst: the system user urslink the units run as, /etc/urslink, and systemd told of the units.
+set(CPACK_DEBIAN_PACKAGE_CONTROL_EXTRA ${PROJECT_SOURCE_DIR}/deploy/systemd/postinst)
 set(CPACK_DEBIAN_PACKAGE_SUGGESTS
-    "python3-protobuf, cmake, pkg-config, g++, libprotobuf-dev, protobuf-compiler, libspdlog-dev, libyaml-cpp-dev, libomniorb4-dev")
+    "python3-protobuf, cmake, pkg-config, g++, libprotobuf-dev, protobuf-compiler, libspdlog-dev, libyaml-cpp-dev, libomniorb4-dev, prometheus-cpp-dev")
 include(CPack)

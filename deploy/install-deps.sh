@@ -7,6 +7,8 @@ set -euo pipefail
 PACKAGES=(
   # toolchain
   build-essential cmake ninja-build pkg-config git ca-certificates
+  clang-format clang-tidy  # deploy/lint.sh: the layout and the names (.clang-format, .clang-tidy)
+  mold  # the linker (cmake/UrsBuildSpeed.cmake: URS_LINKER)
   # required stack
   libprotobuf-dev protobuf-compiler python3-protobuf
   libprotoc-dev  # protobuf::libprotoc (compiler::Importer) for urs::schema load_idl()
@@ -20,14 +22,22 @@ PACKAGES=(
   libespeak-ng-dev libpocketsphinx-dev libsphinxbase-dev pocketsphinx-en-us  # speech devices
   libqrencode-dev libzbar-dev libpng-dev  # camera device: QR markers, their recognition, PNG frames
   libboost-dev  # urs-gateway: Boost.Beast (HTTP and WebSocket, header-only)
+  prometheus-cpp-dev  # urs::metrics: the metric registry and the Prometheus text format
   libgrpc++-dev protobuf-compiler-grpc  # urs-bench's gRPC baseline rows
   # tools used by tests and scripts
   python3 procps iproute2 nftables  # nftables: the two-hosts test's sites pass no multicast
   python3-venv  # the rtshell and Cyclone DDS interoperability tests install their peers from PyPI into venvs
   python3-websockets python3-selenium chromium chromium-driver  # the gateway's protocol and browser tests
+  python3-jsonschema  # the gateway's schema test validates what every channel carries
+  prometheus  # promtool check metrics on every program's /metrics
   # containers: the engine, compose, and debootstrap for the base image made from Debian packages
   docker.io docker-compose debootstrap
+  # deploy/services/urs-services (python3-yaml), the units' systemd-analyze verify (systemd)
+  python3-yaml systemd
 )
+# kubectl renders the Kubernetes overlays (kubectl kustomize): Debian's kubernetes-client, unless a
+# kubectl is installed already (another package's would conflict with it).
+command -v kubectl >/dev/null || PACKAGES+=(kubernetes-client)
 if [[ "${1:-}" == "--with-fuzz" ]]; then
   PACKAGES+=(clang libclang-rt-14-dev)
 fi

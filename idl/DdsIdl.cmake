@@ -10,6 +10,9 @@
 #   strict warnings on the includer do not fire on generated code, which itself is compiled with -w.
 #   - fastddsgen writes into an existing folder only (made first); IDL base names must be unique
 #     within one library, and every output is regenerated when any listed IDL file changes.
+#   - Its preprocessed IDL goes to a folder of its own per IDL file (-t): by default fastddsgen
+#     writes /tmp/<name>.cc, which two builds of the same file at once (two build folders on one
+#     machine) overwrite under each other, leaving a library without its PubSubTypes.
 #   - Every type announces its XTypes TypeObject in discovery (PID_TYPE_OBJECT), so that other
 #     parties' tools build the type at run time (docs/federation.md, Interoperability); the
 #     generated code is corrected by DdsTypeObjects.cmake (unbounded strings, qualified names,
@@ -38,8 +41,8 @@ function(urs_dds_idl_library target)
              ${out_dir}/${name}TypeObject.h ${out_dir}/${name}TypeObject.cxx)
     add_custom_command(
       OUTPUT ${outs}
-      COMMAND ${CMAKE_COMMAND} -E make_directory ${out_dir}
-      COMMAND ${URS_FASTDDSGEN} -replace -typeobject -d ${out_dir} ${abs}
+      COMMAND ${CMAKE_COMMAND} -E make_directory ${out_dir} ${out_dir}/${name}.tmp
+      COMMAND ${URS_FASTDDSGEN} -replace -typeobject -d ${out_dir} -t ${out_dir}/${name}.tmp ${abs}
       COMMAND ${CMAKE_COMMAND} -DIDL=${abs} -DDIR=${out_dir} -DNAME=${name} -P ${_URS_DDS_TYPE_OBJECTS_SCRIPT}
       DEPENDS ${abs_idls} ${URS_FASTDDSGEN} ${_URS_DDS_TYPE_OBJECTS_SCRIPT}
       COMMENT "fastddsgen ${target}: ${name}.idl"

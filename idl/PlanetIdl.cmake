@@ -179,11 +179,14 @@ function(urs_idl_library target)
   set_target_properties(${target} PROPERTIES URS_IDL_PROTO_DIR ${out_dir})
 endfunction()
 
-# urs_corba_idl_library(<target> IDLS <file.idl>... [INCLUDE_DIRS <dir>...] [LINK <target>...])
+# urs_corba_idl_library(<target> IDLS <file.idl>... [NO_TYPECODES] [INCLUDE_DIRS <dir>...]
+#                       [LINK <target>...])
 #   Compiles CORBA IDL files with omniidl's C++ back-end (omniORB 4) into one shared library
 #   <target> (alias urs::<target>) linking omniORB4 and omniDynamic4 (pkg-config).
 #   Per IDL file <name>.idl, ${CMAKE_CURRENT_BINARY_DIR}/<target>/ receives <name>.hh (stubs and
-#   skeletons), <name>SK.cc and <name>DynSK.cc (TypeCodes and Any operators: -Wba). Code includes
+#   skeletons), <name>SK.cc and <name>DynSK.cc (TypeCodes and Any operators: -Wba); with
+#   NO_TYPECODES, only <name>.hh and <name>SK.cc (no _tc_<Type>, no Any operators: for a library
+#   whose users call and serve through the stubs alone, it halves what is compiled). Code includes
 #   "<name>.hh"; the folder is a SYSTEM include directory so strict warnings on the includer do
 #   not fire on generated code, which itself is compiled with -w.
 #   - omniidl's C++ back-end takes one file at a time: an IDL file #included by another must be
@@ -191,7 +194,7 @@ endfunction()
 #   - Every output is regenerated when any listed IDL file changes (includes are not tracked).
 #   - The directory of every IDL file is on the include path; INCLUDE_DIRS adds more.
 function(urs_corba_idl_library target)
-  cmake_parse_arguments(ARG "" "" "IDLS;INCLUDE_DIRS;LINK" ${ARGN})
+  cmake_parse_arguments(ARG "NO_TYPECODES" "" "IDLS;INCLUDE_DIRS;LINK" ${ARGN})
   _urs_check_idl_arguments(urs_corba_idl_library ${target} "${ARG_UNPARSED_ARGUMENTS}" "${ARG_IDLS}"
                            URS_OMNIIDL omniidl)
   # GLOBAL: the imported target is linked from other directories (the library's users).
@@ -202,19 +205,28 @@ function(urs_corba_idl_library target)
   _urs_resolve_idls(urs_corba_idl_library ${target} "${ARG_IDLS}" "${ARG_INCLUDE_DIRS}" abs_idls names include_args)
   set(srcs)
   set(hdrs)
+  set(any_args -Wba -Wbd=DynSK.cc)
+  if(ARG_NO_TYPECODES)
+    set(any_args)
+  endif()
   foreach(abs IN LISTS abs_idls)
     get_filename_component(name ${abs} NAME_WE)
-    set(outs ${out_dir}/${name}.hh ${out_dir}/${name}SK.cc ${out_dir}/${name}DynSK.cc)
+    set(outs ${out_dir}/${name}.hh ${out_dir}/${name}SK.cc)
+    if(NOT ARG_NO_TYPECODES)
+      list(APPEND outs ${out_dir}/${name}DynSK.cc)
+    endif()
     add_custom_command(
       OUTPUT ${outs}
       COMMAND ${CMAKE_COMMAND} -E make_directory ${out_dir}
-      COMMAND ${URS_OMNIIDL} -bcxx -Wba -Wbh=.hh -Wbs=SK.cc -Wbd=DynSK.cc -C ${out_dir}
-              ${include_args} ${abs}
+      COMMAND ${URS_OMNIIDL} -bcxx ${any_args} -Wbh=.hh -Wbs=SK.cc -C ${out_dir} ${include_args} ${abs}
       DEPENDS ${abs_idls} ${URS_OMNIIDL}
       COMMENT "omniidl cxx ${target}: ${name}.idl"
       VERBATIM)
     list(APPEND hdrs ${out_dir}/${name}.hh)
-    list(APPEND srcs ${out_dir}/${name}SK.cc ${out_dir}/${name}DynSK.cc)
+    list(APPEND srcs ${out_dir}/${name}SK.cc)
+    if(NOT ARG_NO_TYPECODES)
+      list(APPEND srcs ${out_dir}/${name}DynSK.cc)
+    endif()
   endforeach()
   _urs_add_generated_library(${target} ${out_dir} URS_CORBA_IDL_DIR "${srcs}" "${hdrs}"
                              PkgConfig::OMNIORB ${ARG_LINK})

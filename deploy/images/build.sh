@@ -17,7 +17,7 @@ base=${URS_IMAGE_BASE:-urslink/base:bookworm}
 tag=${URS_IMAGE_TAG:-dev}
 ctx=${URS_IMAGE_CONTEXT:-$URS_BUILD_DIR/image-context}
 services=("$@")
-((${#services[@]})) || services=(rtc-naming camus-server sam-host rtc-manager cli bridge gateway)
+((${#services[@]})) || services=(rtc-naming camus-server sam-host rtc-manager cli bridge gateway prometheus)
 
 command -v docker >/dev/null || { echo "images: docker is not installed" >&2; exit 1; }
 docker info >/dev/null 2>&1 || { echo "images: the docker daemon does not answer (is it running? may this user use it?)" >&2; exit 1; }

@@ -1,6 +1,7 @@
 // urs-bridge: the bridge between an RT-Middleware space and a CAMUS space (the papers' RSCM /
-// SAM-RTC). It is an RT-Component, bound at "<host>.host_cxt/<instance>.rtc", and a SAM of the
-// CAMUS server; see docs/bridge.md.
+// SAM-RTC), and between spaces over DDS. With a naming service it is an RT-Component, bound at
+// "<host>.host_cxt/<instance>.rtc"; with a CAMUS server a SAM of it; see docs/bridge.md. Its sides
+// are composed from the configuration (urs/bridge/sides.hpp); without --naming it starts no ORB.
 //
 // Exit codes: 0 clean shutdown (SIGINT/SIGTERM); 2 bad arguments, configuration or IDL; 1 the
 // bridge RTC could not be created or bound (the reason on stderr).
@@ -11,17 +12,22 @@
 #include <chrono>
 #include <filesystem>
 
-#include "urs/bridge/bridge.hpp"
+#include "bridge_metrics.hpp"
 #include "urs/bridge/config.hpp"
-#include "urs/bridge/interfaces.hpp"
+#include "urs/bridge/core/bridge.hpp"
+#include "urs/bridge/rt/rt_side.hpp"
+#include "urs/bridge/sides.hpp"
+#include "urs/metrics/flags.hpp"
 #include "urs/planet/client_flags.hpp"
 #include "urs/rtc/manager.hpp"
 #include "urs/rtc/naming.hpp"
 #include "urs/rtc/orb.hpp"
 #include "urs/rtc/orb_flags.hpp"
+#include "urs/schema/interface_catalog.hpp"
 #include "urs/util/cli.hpp"
 #include "urs/util/heap.hpp"
 #include "urs/util/program_flags.hpp"
+#include "urs/util/service_manager.hpp"
 #include "urs/util/tls.hpp"
 
 int main(int argc, char** argv) {
@@ -51,17 +57,25 @@ int main(int argc, char** argv) {
                  "Directory keeping the connections of the bridge's RTCs, restored after a restart (default: none)");
   urs::util::TlsConfig tls;
   urs::util::add_tls_client_flags(app, tls);
+  std::string metrics_listen;
+  urs::metrics::add_metrics_flag(app, metrics_listen);
   CLI11_PARSE(app, argc, argv);
 
   urs::util::block_shutdown_signals();
   urs::bridge::BridgeConfig config;
   std::optional<urs::planet::ClientOptions> planet;
   urs::rtc::OrbOptions orb_options;
-  std::unique_ptr<urs::bridge::InterfaceCatalog> catalog;
+  std::unique_ptr<urs::schema::InterfaceCatalog> catalog;
+  std::unique_ptr<urs::metrics::Metrics> metrics;
   try {
-    urs::util::init_logging("urs-bridge", program.log_level);
+    urs::util::init_logging(program.log_options("urs-bridge"));
+    metrics = urs::metrics::metrics_for(metrics_listen, "urs-bridge", program.space);
     if (server.empty() && naming.empty()) throw urs::util::ConfigError("give --server, --naming or both");
     if (!server.empty()) planet = urs::planet::client_options_from(server, token_file, tls);
+    if (planet && metrics) {  // the calls the CAMUS side makes and serves, as a SAM's
+      planet->calls = &metrics->client_calls("planet");
+      planet->served_calls = &metrics->served_calls("planet");
+    }
     orb_options = urs::rtc::orb_options_from(orb_flags, naming);
     config = urs::bridge::load_bridge_config(program.config_path,
                                              orb_flags.host.empty() ? urs::util::host_name() : orb_flags.host);
@@ -70,12 +84,12 @@ int main(int argc, char** argv) {
       std::error_code error;
       std::filesystem::create_directories(data_dir, error);
       if (error || !std::filesystem::is_directory(data_dir)) {
-        throw urs::util::ConfigError("--data-dir: '" + data_dir + "' cannot be created: " +
-                                     (error ? error.message() : "not a directory"));
+        throw urs::util::ConfigError("--data-dir: '" + data_dir +
+                                     "' cannot be created: " + (error ? error.message() : "not a directory"));
       }
       config.data_dir = data_dir;
     }
-    catalog = std::make_unique<urs::bridge::InterfaceCatalog>();
+    catalog = std::make_unique<urs::schema::InterfaceCatalog>();
     for (const auto& idl : config.idl) {
       for (const auto& loaded : catalog->load_idl(idl, config.include_dirs)) {
         spdlog::info("interface {} loaded from {}", loaded, idl);
@@ -86,25 +100,53 @@ int main(int argc, char** argv) {
     return 2;
   }
 
-  urs::rtc::Orb orb(orb_options);
+  // The RT side only with a naming service: a space without one starts no ORB.
+  std::unique_ptr<urs::rtc::Orb> orb;
   std::unique_ptr<urs::rtc::NamingClient> naming_client;
   std::unique_ptr<urs::rtc::Manager> manager;
   if (!naming.empty()) {
-    naming_client = std::make_unique<urs::rtc::NamingClient>(orb, naming);
-    manager = std::make_unique<urs::rtc::Manager>(orb, *naming_client,
+    orb = std::make_unique<urs::rtc::Orb>(orb_options);
+    naming_client = std::make_unique<urs::rtc::NamingClient>(*orb, naming);
+    manager = std::make_unique<urs::rtc::Manager>(*orb, *naming_client,
                                                   urs::rtc::ManagerOptions{program.space, orb_flags.host, 10.0});
   }
-  std::unique_ptr<urs::bridge::Bridge> bridge;
+  std::unique_ptr<urs::bridge::BridgeMetrics> bridge_metrics;
+  if (metrics) bridge_metrics = std::make_unique<urs::bridge::BridgeMetrics>(*metrics);
+  std::unique_ptr<urs::bridge::core::Bridge> bridge;
   try {
-    bridge = std::make_unique<urs::bridge::Bridge>(orb, naming_client.get(), manager.get(), *catalog, config, planet);
+    urs::bridge::Composition composition = urs::bridge::compose(
+        config, urs::bridge::SideResources{*catalog, orb.get(), naming_client.get(), manager.get(), planet});
+    urs::bridge::core::Bridge::CallRecorders recorders;
+    if (bridge_metrics) {
+      recorders = [&](const urs::bridge::core::DirectionConfig& direction) {
+        return bridge_metrics->direction(direction);
+      };
+    }
+    bridge = std::make_unique<urs::bridge::core::Bridge>(config.name, std::move(composition.sides),
+                                                         std::move(composition.layout), recorders);
   } catch (const urs::util::ConfigError& e) {
     fmt::print(stderr, "urs-bridge: {}: {}\n", program.config_path, e.what());
     return 2;
   }
+  std::unique_ptr<urs::metrics::HttpEndpoint> endpoint;  // declared after what it reads: stopped first
+  if (metrics) {
+    if (auto* dds = dynamic_cast<urs::bridge::DdsSide*>(bridge->side("dds"))) {
+      dds->record_served(&metrics->served_calls("dds"));
+    }
+    bridge_metrics->watch(*bridge);
+  }
   try {
-    auto* component = bridge->start();
-    const std::string where = component ? manager->naming_path(*component) : "(no naming service)";
+    endpoint = urs::metrics::serve(metrics_listen, metrics.get());
+  } catch (const std::exception& e) {
+    fmt::print(stderr, "urs-bridge: {}\n", e.what());
+    return 2;
+  }
+  try {
+    bridge->start();
+    const auto* rt = dynamic_cast<const urs::bridge::RtSide*>(bridge->side("rt"));
+    const std::string where = rt ? rt->path() : "(no naming service)";
     if (!ready_file.empty()) urs::util::write_file_atomically(ready_file, where + "\n");
+    urs::util::notify_ready();  // systemd (Type=notify): the bridge RTC bound, the sides started
     spdlog::info("bridge {} at {} (space {}, CAMUS server {}, naming service {})", config.name, where, program.space,
                  server.empty() ? "none" : server, naming.empty() ? "none" : naming);
   } catch (const std::exception& e) {
@@ -114,6 +156,7 @@ int main(int argc, char** argv) {
 
   const int signal_number = urs::util::wait_for_shutdown();
   spdlog::info("signal {}: withdrawing everything bridged", signal_number);
+  endpoint.reset();
   bridge->shutdown();
   if (manager) manager->shutdown();
   return 0;

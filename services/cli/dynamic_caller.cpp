@@ -33,16 +33,16 @@ CallResult DynamicCaller::load_interface_of(const std::string& service, std::str
   return CallResult::success({});
 }
 
-CallOutput DynamicCaller::call(const std::string& service, const std::string& operation,
-                               const std::string& json_args, std::chrono::milliseconds deadline) {
+CallOutput DynamicCaller::call(const std::string& service, const std::string& operation, const std::string& json_args,
+                               std::chrono::milliseconds deadline) {
   std::string interface_name;
   auto loaded = load_interface_of(service, interface_name);
   if (!loaded.ok()) return {loaded, {}};
   const gp::ServiceDescriptor* iface = pool_.find_service(interface_name);
   if (iface == nullptr) {
-    return {CallResult::error(planet::INTERNAL, "the description of '" + service + "' does not define " +
-                                                    interface_name),
-            {}};
+    return {
+        CallResult::error(planet::INTERNAL, "the description of '" + service + "' does not define " + interface_name),
+        {}};
   }
   const gp::MethodDescriptor* method = iface->FindMethodByName(operation);
   if (method == nullptr) {
@@ -113,7 +113,8 @@ const gp::Descriptor* DynamicCaller::find_type(const std::string& full_name) {
   request.set_type(full_name);
   auto result = client_.call("camus.registry", "Describe", request.SerializeAsString(), timeout_);
   camus::DescribeReply reply;
-  if (result.ok() && reply.ParseFromString(result.payload) && pool_.add_descriptor_set(reply.descriptor_set()).empty()) {
+  if (result.ok() && reply.ParseFromString(result.payload) &&
+      pool_.add_descriptor_set(reply.descriptor_set()).empty()) {
     if (const auto* described = pool_.find_message(full_name)) return described;
   }
   unknown_types_[full_name] = now + std::chrono::seconds(5);
@@ -135,7 +136,8 @@ std::string DynamicCaller::event_payload_json(const std::string& content_type, c
 
 std::string DynamicCaller::event_json(const planet::Event& event) {
   return "{\"seq\":" + std::to_string(event.seq()) + ",\"topic\":" + util::json_string(event.topic()) +
-         ",\"source\":" + util::json_string(event.source()) + ",\"time_unix_ns\":" + std::to_string(event.time_unix_ns()) +
+         ",\"source\":" + util::json_string(event.source()) +
+         ",\"time_unix_ns\":" + std::to_string(event.time_unix_ns()) +
          ",\"content_type\":" + util::json_string(event.content_type()) +
          ",\"payload\":" + event_payload_json(event.content_type(), event.payload()) + "}";
 }

@@ -16,7 +16,7 @@ namespace urs::cli {
 
 struct CallOutput {
   planet::CallResult result;
-  std::string json;   // reply (OK) or exception (USER_EXCEPTION) as JSON; empty otherwise
+  std::string json;  // reply (OK) or exception (USER_EXCEPTION) as JSON; empty otherwise
 };
 
 class DynamicCaller {

@@ -8,24 +8,30 @@
 #include <spdlog/spdlog.h>
 
 #include <CLI/CLI.hpp>
+#include <charconv>
+#include <chrono>
 #include <condition_variable>
 #include <cstdlib>
 #include <deque>
 #include <fstream>
-#include <map>
 #include <iostream>
 #include <limits>
+#include <map>
 #include <memory>
 #include <mutex>
+#include <set>
 #include <sstream>
 
 #include "camus.pb.h"
 #include "dynamic_caller.hpp"
+#include "recording_commands.hpp"
 #include "rtc_commands.hpp"
 #include "urs/planet/authenticator.hpp"
 #include "urs/planet/client.hpp"
 #include "urs/util/cli.hpp"
+#include "urs/util/program_flags.hpp"
 #include "urs/util/tls.hpp"
+#include "urs/util/trace.hpp"
 
 namespace {
 
@@ -49,6 +55,19 @@ int report(const std::string& what, const CallResult& result, const std::string&
   if (!result.message.empty()) std::cerr << ": " << result.message;
   std::cerr << "\n";
   return result.status == urs::planet::UNAVAILABLE ? kUnreachable : kFailed;
+}
+
+// How long ago `unix_seconds` (a decimal string) was, as "42s", "7m" or "3h"; "?" if it is not a time.
+std::string unreachable_for(const std::string& unix_seconds) {
+  int64_t since = 0;
+  const auto [end, error] = std::from_chars(unix_seconds.data(), unix_seconds.data() + unix_seconds.size(), since);
+  if (error != std::errc() || end != unix_seconds.data() + unix_seconds.size()) return "?";
+  const int64_t now =
+      std::chrono::duration_cast<std::chrono::seconds>(std::chrono::system_clock::now().time_since_epoch()).count();
+  const int64_t ago = std::max<int64_t>(now - since, 0);
+  if (ago < 120) return std::to_string(ago) + "s";
+  if (ago < 7200) return std::to_string(ago / 60) + "m";
+  return std::to_string(ago / 3600) + "h";
 }
 
 std::string to_json(const google::protobuf::Message& message) {
@@ -83,7 +102,10 @@ std::string read_file(const std::string& path) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // urs record / urs play: the Python SDK's recorder and player, with every argument theirs.
+  if (urs::cli::is_recording_command(argc, argv)) return urs::cli::run_recording_command(argc, argv);
   CLI::App app{"urs: command-line client of a CAMUS space"};
+  app.footer("Also: urs record / urs play (a space's gateway recorded to MCAP and played back): urs record --help");
   app.require_subcommand(1);
   std::string server = env_or("URS_SERVER", "127.0.0.1:7600");
   std::string token_file;
@@ -96,12 +118,18 @@ int main(int argc, char** argv) {
   urs::util::TlsConfig tls_config;
   urs::util::add_tls_client_flags(app, tls_config);
   app.add_option("--log-level", log_level, urs::util::kLogLevels)->capture_default_str();
+  std::string log_format = "text";
+  urs::util::add_log_format_flag(app, log_format);
 
   auto* ls = app.add_subcommand("ls", "List services (glob PATTERN)");
   std::string pattern;
   bool json_out = false;
   ls->add_option("pattern", pattern, "Glob on service names");
   ls->add_flag("--json", json_out, "Print the registry's JSON reply");
+
+  auto* spaces = app.add_subcommand(
+      "spaces", "List the other spaces whose services this space imports: reachable or unreachable (for how long)");
+  spaces->add_flag("--json", json_out, "Print the registry's JSON reply");
 
   auto* whoami = app.add_subcommand("whoami", "Print who the server takes this client for: identity, role, space");
 
@@ -119,6 +147,14 @@ int main(int argc, char** argv) {
   call->add_option("--deadline-ms", deadline_ms,
                    "Deadline of the call (default: none sent, so the service's advertised deadline applies)")
       ->check(CLI::Range(1, std::numeric_limits<int>::max()));
+  std::string traceparent;
+  call->add_option("--traceparent", traceparent,
+                   "Make the call part of this W3C trace (00-<trace id>-<parent id>-<flags>, e.g. from the program "
+                   "that runs urs) instead of starting a new one");
+  bool show_trace = false;
+  call->add_flag("--show-trace", show_trace,
+                 "Print the call's trace id on stderr when it succeeds too (always when it fails or stderr is a "
+                 "terminal)");
 
   auto* watch = app.add_subcommand("watch", "Print events whose topic matches PATTERN, one JSON line each");
   int count = 0;
@@ -180,7 +216,7 @@ int main(int argc, char** argv) {
 
   urs::planet::ClientOptions options;
   try {
-    urs::util::init_logging("urs", log_level);
+    urs::util::init_logging({"urs", log_level, log_format, {}});
     auto endpoint = urs::util::parse_endpoint(server, "--server");
     options.host = endpoint.host;
     options.port = endpoint.port;
@@ -223,17 +259,64 @@ int main(int argc, char** argv) {
       int rc = builtin(client, "camus.registry", "List", request, timeout, reply, json_out);
       if (rc != kOk || json_out) return rc;
       // ORIGIN: "native" for a service agent of this space; what a bridge offers names where the
-      // service really is ("rtc:<naming path>:<port>"). OWNER is the provider's authenticated
-      // identity; PEER the name it declared (display only). STATE: the registry's, unless the
-      // provider reports it cannot serve (urslink.health of a bridged RT provider: slow, inactive, error).
+      // service really is ("rtc:<naming path>:<port>"). OWNER is the providers' authenticated
+      // identity; PEER the names they declared (display only), one per provider, comma-separated,
+      // longest registered first. STATE: the registry's, unless the provider reports it cannot
+      // serve (urslink.health of a bridged RT provider: slow, inactive, error; of another space's
+      // service: "unreachable <how long>" while that space is lost).
       std::printf("%-32s %-28s %-20s %-20s %-10s %s\n", "SERVICE", "INTERFACE", "OWNER", "PEER", "STATE", "ORIGIN");
       for (const auto& s : reply.services()) {
         const auto origin = s.properties().find("urslink.origin");
         const auto health = s.properties().find("urslink.health");
-        const std::string& state = health == s.properties().end() || health->second == "ok" ? s.state() : health->second;
-        std::printf("%-32s %-28s %-20s %-20s %-10s %s\n", s.name().c_str(), s.interface().c_str(),
-                    s.owner().c_str(), s.peer_name().empty() ? "-" : s.peer_name().c_str(), state.c_str(),
-                    origin == s.properties().end() ? "native" : origin->second.c_str());
+        std::string state = health == s.properties().end() || health->second == "ok" ? s.state() : health->second;
+        const auto since = s.properties().find("urslink.unreachable_since");
+        if (health != s.properties().end() && health->second == "unreachable" && since != s.properties().end()) {
+          state += " " + unreachable_for(since->second);
+        }
+        std::string peers;
+        for (const auto& provider : s.providers()) {
+          peers += (peers.empty() ? "" : ",") + (provider.peer_name().empty() ? "-" : provider.peer_name());
+        }
+        if (peers.empty()) peers = s.peer_name().empty() ? "-" : s.peer_name();
+        std::printf("%-32s %-28s %-20s %-20s %-10s %s\n", s.name().c_str(), s.interface().c_str(), s.owner().c_str(),
+                    peers.c_str(), state.c_str(), origin == s.properties().end() ? "native" : origin->second.c_str());
+      }
+      return kOk;
+    }
+    if (*spaces) {
+      camus::ListRequest request;
+      camus::ListReply reply;
+      int rc = builtin(client, "camus.registry", "List", request, timeout, reply, json_out);
+      if (rc != kOk || json_out) return rc;
+      // Per other space, from its services a bridge registered here (urslink.space): UNREACHABLE
+      // for how long while its bridges are all lost (urslink.health, urslink.unreachable_since),
+      // how many of its services are here, and which bridges of this space brought them.
+      struct Space {
+        std::size_t services = 0;
+        std::string unreachable;  // "" while reachable, else for how long
+        std::set<std::string> bridges;
+      };
+      std::map<std::string, Space> seen;
+      for (const auto& s : reply.services()) {
+        const auto space = s.properties().find("urslink.space");
+        if (space == s.properties().end()) continue;
+        Space& entry = seen[space->second];
+        ++entry.services;
+        const auto bridge = s.properties().find("urslink.bridge");
+        if (bridge != s.properties().end()) entry.bridges.insert(bridge->second);
+        const auto health = s.properties().find("urslink.health");
+        const auto since = s.properties().find("urslink.unreachable_since");
+        if (health != s.properties().end() && health->second == "unreachable") {
+          entry.unreachable = since == s.properties().end() ? "?" : unreachable_for(since->second);
+        }
+      }
+      std::printf("%-16s %-20s %-9s %s\n", "SPACE", "STATE", "SERVICES", "BRIDGES");
+      for (const auto& [name, space] : seen) {
+        std::string bridges;
+        for (const auto& bridge : space.bridges) bridges += (bridges.empty() ? "" : ",") + bridge;
+        const std::string state = space.unreachable.empty() ? "reachable" : "unreachable " + space.unreachable;
+        std::printf("%-16s %-20s %-9zu %s\n", name.c_str(), state.c_str(), space.services,
+                    bridges.empty() ? "-" : bridges.c_str());
       }
       return kOk;
     }
@@ -246,7 +329,21 @@ int main(int argc, char** argv) {
     }
     if (*call) {
       auto deadline = std::chrono::milliseconds(deadline_ms);
+      // The call's trace, which every hop logs (docs/operations.md, "Following one call"): the
+      // caller's, or a new one; its id on stderr (util::show_trace_id), so that stdout stays the reply alone.
+      auto trace = urs::util::TraceContext::start();
+      if (!traceparent.empty()) {
+        auto given = urs::util::TraceContext::parse(traceparent);
+        if (!given) {
+          std::cerr << "urs: --traceparent: '" << traceparent.substr(0, 64)
+                    << "' is not a W3C traceparent (00-<32 hex>-<16 hex>-<2 hex>, lower case, ids not all zero)\n";
+          return kUsage;
+        }
+        trace = *given;
+      }
+      urs::util::TraceScope scope(trace);
       auto out = caller.call(service, operation, args, deadline);
+      urs::util::show_trace_id(trace, show_trace || !out.result.ok());
       if (!out.result.ok()) {
         int rc = report(service + "." + operation, out.result, out.json);
         return out.result.status == urs::planet::BAD_ARGUMENTS && out.result.payload.empty() ? kUsage : rc;

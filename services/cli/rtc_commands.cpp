@@ -7,17 +7,17 @@
 
 #include "rtc_conf.hpp"
 #include "rtc_session.hpp"
-
 #include "urs/agent/agent.hpp"
-#include "urs/bridge/interfaces.hpp"
-#include "urs/bridge/provider_port.hpp"
+#include "urs/rt_call/provider_port.hpp"
+#include "urs/rt_call/rt_call.hpp"
 #include "urs/rtc/naming.hpp"
 #include "urs/rtc/nvlist.hpp"
 #include "urs/rtc/orb.hpp"
 #include "urs/rtc/tools.hpp"
-#include "urs/rt_call/rt_call.hpp"
+#include "urs/schema/interface_catalog.hpp"
 #include "urs/schema/json.hpp"
 #include "urs/util/cli.hpp"
+#include "urs/util/trace.hpp"
 
 namespace urs::cli {
 namespace {
@@ -44,9 +44,12 @@ std::string plural(std::size_t n, const std::string& noun) {
 
 const char* kind_name(RTC::ExecutionKind kind) {
   switch (kind) {
-    case RTC::PERIODIC: return "periodic";
-    case RTC::EVENT_DRIVEN: return "event-driven";
-    default: return "other";
+    case RTC::PERIODIC:
+      return "periodic";
+    case RTC::EVENT_DRIVEN:
+      return "event-driven";
+    default:
+      return "other";
   }
 }
 
@@ -103,8 +106,8 @@ std::string component_summary(Session& session, const std::string& path, bool wi
   return state;
 }
 
-void print_object(Session& session, const rtc::NamingClient::Entry& entry, const std::string& label,
-                  std::size_t width, const std::string& indent, bool with_ports) {
+void print_object(Session& session, const rtc::NamingClient::Entry& entry, const std::string& label, std::size_t width,
+                  const std::string& indent, bool with_ports) {
   if (entry.kind != "rtc") {
     std::cout << indent << label << "\n";
     return;
@@ -244,40 +247,44 @@ void print_configuration(RTC::RTObject_ptr target) {
 
 int cat_component(Session& session, const std::string& path) {
   RTC::RTObject_var target = session.component(path);
-  calling(path, [&] {
-    RTC::ComponentProfile_var profile = target->get_component_profile();
-    RTC::ExecutionContextList_var owned = target->get_owned_contexts();
-    RTC::ExecutionContextList_var participating = target->get_participating_contexts();
-    RTC::PortServiceList_var ports = target->get_ports();
-    // A port that fails (e.g. a foreign port that cannot reach a dead peer) is shown as such.
-    std::vector<RTC::PortProfile_var> port_profiles;
-    std::vector<std::string> port_failures;
-    for (CORBA::ULong i = 0; i < ports->length(); ++i) {
-      try {
-        port_profiles.emplace_back(ports[i]->get_port_profile());
-      } catch (const CORBA::SystemException& e) {
-        port_failures.push_back("port " + std::to_string(i) + ": no profile: " + reason(e, ports[i]));
-      }
-    }
-    const std::string state = rtc::state_name(rtc::component_state(target));
+  calling(
+      path,
+      [&] {
+        RTC::ComponentProfile_var profile = target->get_component_profile();
+        RTC::ExecutionContextList_var owned = target->get_owned_contexts();
+        RTC::ExecutionContextList_var participating = target->get_participating_contexts();
+        RTC::PortServiceList_var ports = target->get_ports();
+        // A port that fails (e.g. a foreign port that cannot reach a dead peer) is shown as such.
+        std::vector<RTC::PortProfile_var> port_profiles;
+        std::vector<std::string> port_failures;
+        for (CORBA::ULong i = 0; i < ports->length(); ++i) {
+          try {
+            port_profiles.emplace_back(ports[i]->get_port_profile());
+          } catch (const CORBA::SystemException& e) {
+            port_failures.push_back("port " + std::to_string(i) + ": no profile: " + reason(e, ports[i]));
+          }
+        }
+        const std::string state = rtc::state_name(rtc::component_state(target));
 
-    std::cout << path << "  " << state << "\n";
-    const std::pair<const char*, const char*> fields[] = {
-        {"instance", profile->instance_name.in()}, {"type", profile->type_name.in()},
-        {"description", profile->description.in()}, {"vendor", profile->vendor.in()},
-        {"version", profile->version.in()}, {"category", profile->category.in()},
-    };
-    for (const auto& [name, value] : fields) std::cout << "  " << padded(std::string(name) + ":", 13) << value << "\n";
-    std::cout << "  execution contexts:\n";
-    print_contexts(target, owned.in(), "owned", "    ");
-    print_contexts(target, participating.in(), "participating", "    ");
-    print_properties(profile->properties, "  ");
-    print_configuration(target);
-    const std::size_t port_count = port_profiles.size() + port_failures.size();
-    std::cout << "  " << plural(port_count, "port") << (port_count == 0 ? "" : ":") << "\n";
-    for (const auto& port : port_profiles) print_port(port.in(), "    ");
-    for (const auto& failure : port_failures) std::cout << "    " << failure << "\n";
-  }, target);
+        std::cout << path << "  " << state << "\n";
+        const std::pair<const char*, const char*> fields[] = {
+            {"instance", profile->instance_name.in()},  {"type", profile->type_name.in()},
+            {"description", profile->description.in()}, {"vendor", profile->vendor.in()},
+            {"version", profile->version.in()},         {"category", profile->category.in()},
+        };
+        for (const auto& [name, value] : fields)
+          std::cout << "  " << padded(std::string(name) + ":", 13) << value << "\n";
+        std::cout << "  execution contexts:\n";
+        print_contexts(target, owned.in(), "owned", "    ");
+        print_contexts(target, participating.in(), "participating", "    ");
+        print_properties(profile->properties, "  ");
+        print_configuration(target);
+        const std::size_t port_count = port_profiles.size() + port_failures.size();
+        std::cout << "  " << plural(port_count, "port") << (port_count == 0 ? "" : ":") << "\n";
+        for (const auto& port : port_profiles) print_port(port.in(), "    ");
+        for (const auto& failure : port_failures) std::cout << "    " << failure << "\n";
+      },
+      target);
   return kOk;
 }
 
@@ -295,8 +302,7 @@ int cat(Session& session, const std::string& target) {
 
 // ---- act / deact / reset -------------------------------------------------------------------
 
-RTC::ReturnCode_t transition(const std::string& command, RTC::ExecutionContext_ptr context,
-                              RTC::RTObject_ptr target) {
+RTC::ReturnCode_t transition(const std::string& command, RTC::ExecutionContext_ptr context, RTC::RTObject_ptr target) {
   if (command == "act") return context->activate_component(target);
   if (command == "deact") return context->deactivate_component(target);
   return context->reset_component(target);
@@ -351,14 +357,18 @@ int connect(Session& session, const std::string& first, const std::string& secon
   // Ports that cannot work together (another interface or data type) are refused before any
   // call that would change them, unless the user insists.
   if (!force) {
-    RTC::PortProfile_var a_profile = calling(first, [&] { return a->get_port_profile(); }, a);
-    RTC::PortProfile_var b_profile = calling(second, [&] { return b->get_port_profile(); }, b);
+    RTC::PortProfile_var a_profile = calling(
+        first, [&] { return a->get_port_profile(); }, a);
+    RTC::PortProfile_var b_profile = calling(
+        second, [&] { return b->get_port_profile(); }, b);
     const std::string mismatch = rtc::connection_mismatch(a_profile.in(), b_profile.in());
     if (!mismatch.empty()) throw Failure(kFailed, mismatch + " (--force connects them anyway)");
   }
   // Without --name the connector is named after the ports it joins.
   if (name.empty()) name = port_name_of(a) + "_" + port_name_of(b);
-  const rtc::Connection connection = calling(what, [&] { return rtc::connect_ports({a.in(), b.in()}, name, extra, id); });
+  const rtc::Connection connection = calling(what, [&] {
+    return rtc::connect_ports({a.in(), b.in()}, name, extra, id);
+  });
   if (connection.code != RTC::RTC_OK) throw Failure(kFailed, what + ": " + rtc::return_code_name(connection.code));
   std::cout << connection.profile.connector_id.in() << "\n";
   return kOk;
@@ -383,12 +393,13 @@ int disconnect(Session& session, const std::string& first, const std::string& se
 // ---- call: an RT consumer of any provider port, from the interface's description -------------
 
 struct CallRequest {
-  std::string target;     // PATH:PORT
+  std::string target;  // PATH:PORT
   std::string operation;
   std::string arguments;  // JSON; empty = {}
   std::string interface;  // the provided type_name to use; empty = the port's only one
   std::vector<std::string> idl_files;
   std::chrono::milliseconds deadline;
+  bool show_trace = false;  // its trace id on stderr even when the call succeeds
 };
 
 int call(Session& session, const CallRequest& call) {
@@ -402,7 +413,7 @@ int call(Session& session, const CallRequest& call) {
   if (!provides) {
     throw Failure(kFailed, call.target + ": provides no interface (a " + port_type(port_profile.in()) + " port)");
   }
-  bridge::InterfaceCatalog catalog;
+  schema::InterfaceCatalog catalog;
   for (const auto& file : call.idl_files) {
     try {
       catalog.load_idl(file, {});
@@ -426,8 +437,13 @@ int call(Session& session, const CallRequest& call) {
   const std::string error = schema::json_to_message(call.arguments.empty() ? "{}" : call.arguments, *request);
   if (!error.empty()) throw Failure(kUsage, call.operation + ": " + error);
 
+  // The call's trace, in the request's service context (docs/rtc.md, "Trace context"); its id on
+  // stderr (util::show_trace_id), so that stdout stays the reply alone.
+  const auto trace = util::TraceContext::start();
+  util::TraceScope scope(trace);
   const rt_call::ProviderOutcome outcome =
       rt_call::call_provider(session.orb(), target, *method, *request, *reply, call.deadline, call.target);
+  util::show_trace_id(trace, call.show_trace || outcome.status != call::Status::OK);
   std::string json;
   if (outcome.status == call::Status::OK) {
     schema::message_to_json(*reply, json);
@@ -438,7 +454,9 @@ int call(Session& session, const CallRequest& call) {
   if (!outcome.exception_type.empty()) std::cerr << " " << outcome.exception_type << " " << outcome.exception_json;
   if (!outcome.message.empty()) std::cerr << ": " << outcome.message;
   std::cerr << "\n";
-  return outcome.status == call::Status::BAD_ARGUMENTS ? kUsage : outcome.status == call::Status::UNAVAILABLE ? kUnreachable : kFailed;
+  return outcome.status == call::Status::BAD_ARGUMENTS ? kUsage
+         : outcome.status == call::Status::UNAVAILABLE ? kUnreachable
+                                                       : kFailed;
 }
 
 }  // namespace
@@ -489,7 +507,12 @@ RtcCommands::RtcCommands(CLI::App& app) {
   call_->add_option("arguments", arguments_, "JSON object of the in/inout arguments (default {})");
   call_->add_option("--interface", interface_, "The provided interface's type_name, if the port has several");
   call_->add_option("--idl", idl_files_, "IDL file of an interface not built in (repeatable)");
-  call_->add_option("--deadline-ms", deadline_ms_, "Bound on the call")->check(CLI::Range(1, 3600000))->capture_default_str();
+  call_->add_option("--deadline-ms", deadline_ms_, "Bound on the call")
+      ->check(CLI::Range(1, 3600000))
+      ->capture_default_str();
+  call_->add_flag("--show-trace", show_trace_,
+                  "Print the call's trace id on stderr when it succeeds too (always when it fails or stderr is a "
+                  "terminal)");
 
   conf_ = rtc_->add_subcommand("conf", "Read and change a component's configuration sets (rtconf-like)");
   conf_->require_subcommand(1);
@@ -499,7 +522,8 @@ RtcCommands::RtcCommands(CLI::App& app) {
   conf_get_->add_option("path", path_, "Naming path of a component")->required();
   conf_get_->add_option("name", parameter_, "Parameter")->required();
   conf_get_->add_option("--set", set_, "Configuration set (default: the active one)");
-  conf_set_ = conf_->add_subcommand("set", "Set parameter NAME to VALUE (in the active set or --set); it takes effect at once in the active set");
+  conf_set_ = conf_->add_subcommand(
+      "set", "Set parameter NAME to VALUE (in the active set or --set); it takes effect at once in the active set");
   conf_set_->add_option("path", path_, "Naming path of a component")->required();
   conf_set_->add_option("name", parameter_, "Parameter")->required();
   conf_set_->add_option("value", value_, "New value")->required();
@@ -537,7 +561,7 @@ int RtcCommands::run(const std::string& log_level) {
     if (chosen == conf_act_) return conf_activate(session, normalize_path(path_), set_);
     if (chosen == call_) {
       return call(session, {first_port_, operation_, arguments_, interface_, idl_files_,
-                            std::chrono::milliseconds(deadline_ms_)});
+                            std::chrono::milliseconds(deadline_ms_), show_trace_});
     }
   } catch (const Failure& failure) {
     std::cerr << "urs: rtc " << command << ": " << failure.what() << "\n";

@@ -56,6 +56,7 @@ class RtcCommands {
   std::string interface_;
   std::vector<std::string> idl_files_;
   int deadline_ms_ = 10000;
+  bool show_trace_ = false;
   std::string parameter_;
   std::string value_;
   std::string set_;

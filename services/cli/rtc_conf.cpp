@@ -34,7 +34,8 @@ SDOPackage::Configuration_ptr configuration_of(Session& session, const std::stri
 SDOPackage::ConfigurationSet* set_named(SDOPackage::Configuration_ptr configuration, const std::string& path,
                                         const std::string& id) {
   return configuring(path, [&] {
-    return id.empty() ? configuration->get_active_configuration_set() : configuration->get_configuration_set(id.c_str());
+    return id.empty() ? configuration->get_active_configuration_set()
+                      : configuration->get_configuration_set(id.c_str());
   });
 }
 
@@ -53,10 +54,12 @@ std::string value_in(const SDOPackage::ConfigurationSet& set, const std::string&
 
 int conf_list(Session& session, const std::string& path) {
   SDOPackage::Configuration_var configuration = configuration_of(session, path);
-  SDOPackage::ConfigurationSetList_var sets = configuring(path, [&] { return configuration->get_configuration_sets(); });
+  SDOPackage::ConfigurationSetList_var sets =
+      configuring(path, [&] { return configuration->get_configuration_sets(); });
   std::string active;
   try {
-    SDOPackage::ConfigurationSet_var set = configuring(path, [&] { return configuration->get_active_configuration_set(); });
+    SDOPackage::ConfigurationSet_var set =
+        configuring(path, [&] { return configuration->get_active_configuration_set(); });
     active = set->id.in();
   } catch (const Failure&) {
     // No active set (NotAvailable): none is marked.
@@ -83,7 +86,8 @@ int conf_set(Session& session, const std::string& path, const std::string& name,
   SDOPackage::Configuration_var configuration = configuration_of(session, path);
   SDOPackage::ConfigurationSet_var current = set_named(configuration, path, set);
   value_in(current.in(), path, name);  // the parameter exists
-  SDOPackage::ConfigurationSet_var active = configuring(path, [&] { return configuration->get_active_configuration_set(); });
+  SDOPackage::ConfigurationSet_var active =
+      configuring(path, [&] { return configuration->get_active_configuration_set(); });
   const std::string id = current->id.in();
   SDOPackage::ConfigurationSet change;
   change.id = current->id;

@@ -79,18 +79,22 @@ RTC::RTObject_ptr Session::component(const std::string& path) {
 
 RTC::PortService_ptr Session::port(const PortAddress& address) {
   RTC::RTObject_var target = component(address.path);
-  RTC::PortService_var port = calling(address.path, [&] { return rtc::find_port(target, address.port); }, target);
+  RTC::PortService_var port = calling(
+      address.path, [&] { return rtc::find_port(target, address.port); }, target);
   if (CORBA::is_nil(port)) {
     std::string names;
-    calling(address.path, [&] {
-      RTC::PortServiceList_var ports = target->get_ports();
-      for (CORBA::ULong i = 0; i < ports->length(); ++i) {
-        RTC::PortProfile_var profile = ports[i]->get_port_profile();
-        names += (names.empty() ? "" : ", ") + short_port_name(profile->name.in());
-      }
-    }, target);
-    throw Failure(kFailed, address.path + ": no port '" + address.port + "' (ports: " +
-                               (names.empty() ? "none" : names) + ")");
+    calling(
+        address.path,
+        [&] {
+          RTC::PortServiceList_var ports = target->get_ports();
+          for (CORBA::ULong i = 0; i < ports->length(); ++i) {
+            RTC::PortProfile_var profile = ports[i]->get_port_profile();
+            names += (names.empty() ? "" : ", ") + short_port_name(profile->name.in());
+          }
+        },
+        target);
+    throw Failure(kFailed,
+                  address.path + ": no port '" + address.port + "' (ports: " + (names.empty() ? "none" : names) + ")");
   }
   return port._retn();
 }

@@ -13,18 +13,22 @@
 #include <filesystem>
 #include <memory>
 
+#include "urs/federation/dds_security.hpp"
 #include "urs/gateway/camus_source.hpp"
-#include "urs/bridge/dds_security.hpp"
 #include "urs/gateway/dds_source.hpp"
 #include "urs/gateway/gateway.hpp"
 #include "urs/gateway/hub.hpp"
 #include "urs/gateway/logins.hpp"
+#include "urs/gateway/playback.hpp"
 #include "urs/gateway/rt_source.hpp"
 #include "urs/gateway/server.hpp"
 #include "urs/gateway/world_source.hpp"
+#include "urs/metrics/flags.hpp"
 #include "urs/rtc/orb.hpp"
 #include "urs/util/cli.hpp"
 #include "urs/util/heap.hpp"
+#include "urs/util/program_flags.hpp"
+#include "urs/util/service_manager.hpp"
 #include "urs/util/tls.hpp"
 
 namespace gw = urs::gateway;
@@ -63,8 +67,9 @@ int main(int argc, char** argv) {
   urs::util::use_few_arenas();  // as urs-bridge
   CLI::App app{"urs-gateway: a space's dashboard and Foxglove WebSocket endpoint"};
   std::string space, server, naming, listen = "127.0.0.1:8765", token_file, viewer_token_file, web_dir,
-      anonymous = "none", port_file, log_level = "info", robots, devices_source = "localizer";
-  bool read_only = false, dds_udp_only = false;
+                                     anonymous = "none", port_file, log_level = "info", robots,
+                                     devices_source = "localizer";
+  bool read_only = false, dds_udp_only = false, playback = false;
   int dds_domain = -1, devices_domain = -1, dds_lease_ms = 3000, rt_poll_ms = 1000, call_deadline_ms = 10000,
       max_clients = 64, max_queue_kib = 8192;
   std::vector<std::string> dds_peers, dds_servers, idl_files;
@@ -72,6 +77,9 @@ int main(int argc, char** argv) {
   app.add_option("--space", space, "Name of the space the gateway shows and drives")->required()->envname("URS_SPACE");
   app.add_option("--server", server, "CAMUS server HOST:PORT (none: a space without CAMUS)")->envname("URS_SERVER");
   app.add_option("--naming", naming, "Naming service HOST:PORT (none: a space without RT side)")->envname("URS_NAMING");
+  app.add_flag("--playback", playback,
+               "Serve a recording that a player publishes (urs play): attached to no space; the --token-file "
+               "credential logs in as the operator who may publish");
   app.add_option("--listen", listen, "HOST:PORT of the dashboard and the WebSocket endpoint")
       ->envname("URS_GATEWAY_LISTEN")
       ->capture_default_str();
@@ -89,7 +97,8 @@ int main(int argc, char** argv) {
   app.add_option("--dds-domain", dds_domain, "Read the DDS link between spaces in this domain (default: not at all)")
       ->check(CLI::Range(0, 232))
       ->envname("URS_DDS_DOMAIN");
-  app.add_option("--dds-peer", dds_peers, "Unicast DDS peer HOST or HOST:PORT (repeatable), for networks without multicast");
+  app.add_option("--dds-peer", dds_peers,
+                 "Unicast DDS peer HOST or HOST:PORT (repeatable), for networks without multicast");
   app.add_option("--dds-discovery-server", dds_servers, "Fast DDS discovery server HOST:PORT (repeatable)");
   app.add_flag("--dds-udp-only", dds_udp_only, "No shared-memory transport (between containers)");
   app.add_option("--dds-pki", dds_pki,
@@ -112,12 +121,18 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1, 3600000))
       ->capture_default_str();
   app.add_option("--idl", idl_files, "IDL file of an RT interface not built in (repeatable)");
-  app.add_option("--max-clients", max_clients, "WebSocket clients at once")->check(CLI::Range(1, 4096))->capture_default_str();
+  app.add_option("--max-clients", max_clients, "WebSocket clients at once")
+      ->check(CLI::Range(1, 4096))
+      ->capture_default_str();
   app.add_option("--max-queue-kib", max_queue_kib, "Bytes not yet sent to one client before it is dropped (KiB)")
       ->check(CLI::Range(64, 1048576))
       ->capture_default_str();
   app.add_option("--port-file", port_file, "Written with the bound port once listening (for tests)");
   app.add_option("--log-level", log_level, urs::util::kLogLevels)->envname("URS_LOG_LEVEL")->capture_default_str();
+  std::string log_format = "text";
+  urs::util::add_log_format_flag(app, log_format);
+  std::string metrics_listen;
+  urs::metrics::add_metrics_flag(app, metrics_listen);
   urs::util::TlsConfig tls;
   urs::util::add_tls_client_flags(app, tls);
   CLI11_PARSE(app, argc, argv);
@@ -126,10 +141,23 @@ int main(int argc, char** argv) {
   gw::ServerOptions server_options;
   gw::LoginOptions login_options;
   std::optional<urs::planet::ClientOptions> planet;
+  std::unique_ptr<urs::metrics::Metrics> metrics;
   try {
-    urs::util::init_logging("urs-gateway", log_level);
-    if (server.empty() && naming.empty() && dds_domain < 0) {
-      throw urs::util::ConfigError("give --server, --naming or --dds-domain (what the gateway shows)");
+    urs::util::init_logging({"urs-gateway", log_level, log_format, space});
+    metrics = urs::metrics::metrics_for(metrics_listen, "urs-gateway", space);
+    if (playback) {
+      std::string errors;
+      for (const auto& [flag, given] :
+           {std::pair{"--server", !server.empty()}, std::pair{"--naming", !naming.empty()},
+            std::pair{"--dds-domain", dds_domain >= 0}, std::pair{"--devices-domain", devices_domain >= 0}}) {
+        if (given) errors += std::string(errors.empty() ? "" : "; ") + "--playback: " + flag + " is given";
+      }
+      if (token_file.empty()) {
+        errors += std::string(errors.empty() ? "" : "; ") + "--playback: give --token-file (the player's credential)";
+      }
+      if (!errors.empty()) throw urs::util::ConfigError(errors + " (a playback gateway attaches to no space)");
+    } else if (server.empty() && naming.empty() && dds_domain < 0) {
+      throw urs::util::ConfigError("give --server, --naming or --dds-domain (what the gateway shows), or --playback");
     }
     const auto endpoint = urs::util::parse_endpoint(listen, "--listen");
     server_options.host = endpoint.host;
@@ -139,7 +167,8 @@ int main(int argc, char** argv) {
       throw urs::util::ConfigError("--web-dir: no index.html in '" + server_options.web_dir + "'");
     }
     server_options.space = space;
-    if (anonymous != "none") server_options.anonymous = anonymous == "operator" ? gw::Role::operator_ : gw::Role::viewer;
+    if (anonymous != "none")
+      server_options.anonymous = anonymous == "operator" ? gw::Role::operator_ : gw::Role::viewer;
     server_options.max_clients = static_cast<std::size_t>(max_clients);
     server_options.max_queue_bytes = static_cast<std::size_t>(max_queue_kib) * 1024;
     const std::string token = urs::util::read_token_file(token_file);
@@ -153,6 +182,7 @@ int main(int argc, char** argv) {
       planet->tls = tls;
       planet->peer_name = "urs-gateway@" + urs::util::host_name();
       planet->max_queued = 256;
+      if (metrics) planet->calls = &metrics->client_calls("planet");  // its own and its logins' calls
       login_options.camus = *planet;
       login_options.camus->max_queued = 64;
     } else {
@@ -177,6 +207,8 @@ int main(int argc, char** argv) {
   hub_options.name = "urs-gateway " + space;
   hub_options.session_id = std::to_string(getpid()) + "-" + gw::random_id().substr(0, 8);
   hub_options.metadata = {{"space", space}};
+  if (playback) hub_options.metadata.emplace_back("playback", "true");
+  hub_options.client_publish = playback;
   gw::Hub hub(hub_options);
   gw::GatewayOptions view;
   view.space = space;
@@ -185,11 +217,16 @@ int main(int argc, char** argv) {
   view.dds = dds_domain >= 0;
   view.dds_domain = static_cast<uint32_t>(std::max(dds_domain, 0));
   gw::Gateway gateway(view, hub);
+  if (playback) {
+    hub.set_publish_handler([&gateway](const gw::Caller&, const std::string& topic, const std::string&,
+                                       const std::string& payload) { return gw::replay(gateway, topic, payload); });
+  }
   gw::Logins logins(login_options);
 
   std::unique_ptr<urs::rtc::Orb> orb;
   std::vector<std::unique_ptr<gw::SpaceSource>> sources;
   std::unique_ptr<gw::Server> http;
+  std::unique_ptr<urs::metrics::HttpEndpoint> endpoint;  // declared last: stopped before what it reads
   try {
     if (planet) {
       gw::CamusSourceOptions options;
@@ -216,7 +253,8 @@ int main(int argc, char** argv) {
       options.link.udp_only = dds_udp_only;
       options.link.initial_peers = dds_peers;
       options.link.discovery_servers = dds_servers;
-      if (!dds_pki.empty()) options.link.security = urs::bridge::security_from_folder(dds_pki, gw::DdsSource::reader_name(space));
+      if (!dds_pki.empty())
+        options.link.security = urs::federation::security_from_folder(dds_pki, gw::DdsSource::reader_name(space));
       options.own_services = server.empty() && naming.empty();
       options.own_state = server.empty();
       options.own_poses = devices_domain < 0;
@@ -233,18 +271,28 @@ int main(int argc, char** argv) {
     http = std::make_unique<gw::Server>(server_options, hub, logins);
     for (auto& source : sources) source->start(gateway);
     http->start();
+    if (metrics) {
+      metrics->health().add("serving", [] { return std::string(); });  // HTTP and WebSocket: started above
+      metrics->add_scraped("urslink_gateway_clients", "WebSocket clients connected.", urs::metrics::Kind::kGauge,
+                           [&hub] {
+                             return std::vector<urs::metrics::Sample>{{{}, static_cast<double>(hub.clients())}};
+                           });
+    }
+    endpoint = urs::metrics::serve(metrics_listen, metrics.get());
     if (!port_file.empty()) urs::util::write_file_atomically(port_file, std::to_string(http->port()));
+    urs::util::notify_ready();  // systemd (Type=notify): serving HTTP and WebSocket
   } catch (const std::exception& e) {
     fmt::print(stderr, "urs-gateway: {}\n", e.what());
     for (auto& source : sources) source->stop();
     return 1;
   }
-  spdlog::info("urs-gateway: space {} on http://{}:{}/ (dashboard) and ws://{}:{}/ (Foxglove WebSocket){}", space,
-               server_options.host, http->port(), server_options.host, http->port(),
-               read_only ? ", read only" : "");
+  spdlog::info("urs-gateway: space {} on http://{}:{}/ (dashboard) and ws://{}:{}/ (Foxglove WebSocket){}{}", space,
+               server_options.host, http->port(), server_options.host, http->port(), read_only ? ", read only" : "",
+               playback ? ", playing a recording" : "");
 
   const int signal = urs::util::wait_for_shutdown();
   spdlog::info("urs-gateway: signal {}, stopping", signal);
+  endpoint.reset();
   for (auto& source : sources) source->stop();  // nothing is published any more
   http->stop();
   return 0;

@@ -129,7 +129,8 @@ Tracer::Tracer(RemoteService& navigation, double time_scale, std::chrono::millis
       URC::Navigation_getPosition_Reply reply;
       const auto asked = Clock::now();
       if (navigation.call("getPosition", URC::Navigation_getPosition_Request(), reply, 2s).ok()) {
-        add(reply.result().x(), reply.result().y(), std::chrono::duration<double>(asked - start_).count() * time_scale_);
+        add(reply.result().x(), reply.result().y(),
+            std::chrono::duration<double>(asked - start_).count() * time_scale_);
       }
       std::this_thread::sleep_until(asked + period);
     }
@@ -291,8 +292,8 @@ SpeechVisionRun run_speech_vision(RemoteService* camera, RemoteService& tts, Rem
     run.width = image.result().format().width();
     run.height = image.result().format().height();
     run.png_bytes = image.result().data().size();
-    const auto markers = call<URC::ImageRecognition_recognize_Request, URC::ImageRecognition_recognize_Reply>(
-        *camera, "recognize", {});
+    const auto markers =
+        call<URC::ImageRecognition_recognize_Request, URC::ImageRecognition_recognize_Reply>(*camera, "recognize", {});
     for (const auto& marker : markers.result()) run.markers.push_back(marker.content());
   }
 
@@ -303,8 +304,8 @@ SpeechVisionRun run_speech_vision(RemoteService* camera, RemoteService& tts, Rem
   run.audio_s = audio.result().duration();
   URC::VoiceRecognition_playBytes_Request play;
   play.set_wave(audio.result().wav());
-  const auto heard = call<URC::VoiceRecognition_playBytes_Request, URC::VoiceRecognition_playBytes_Reply>(
-      voice, "playBytes", play);
+  const auto heard =
+      call<URC::VoiceRecognition_playBytes_Request, URC::VoiceRecognition_playBytes_Reply>(voice, "playBytes", play);
   if (heard.result_size() > 0) {
     run.heard = heard.result(0).text();
     run.confidence = heard.result(0).confidence();
@@ -327,8 +328,8 @@ void write_square(const SquareRun& run, const std::string& dir) {
     md << " " << fixed(leg.error_mm, 1) << " mm / " << fixed(leg.time_s, 2) << " s |";
     worst = std::max(worst, leg.error_mm);
     total += leg.time_s;
-    json << (i ? "," : "") << "{\"x\":" << leg.target.x << ",\"y\":" << leg.target.y << ",\"error_mm\":"
-         << fixed(leg.error_mm, 2) << ",\"time_s\":" << fixed(leg.time_s, 3) << "}";
+    json << (i ? "," : "") << "{\"x\":" << leg.target.x << ",\"y\":" << leg.target.y
+         << ",\"error_mm\":" << fixed(leg.error_mm, 2) << ",\"time_s\":" << fixed(leg.time_s, 3) << "}";
   }
   md << " " << fixed(worst, 1) << " mm | " << fixed(total, 1) << " s |\n";
   json << "],\"worst_error_mm\":" << fixed(worst, 2) << ",\"total_time_s\":" << fixed(total, 3) << "}\n";
@@ -341,7 +342,9 @@ void write_speed(const SpeedRun& run, const std::string& dir) {
   csv << "t_s,speed_mm_s\n";
   for (const auto& [t, v] : run.speed) csv << fixed(t, 3) << "," << fixed(v, 1) << "\n";
   write_text(dir + "/speed.csv", csv.str());
-  Figure figure{"Speed changes 200 → 800 → 500 → 0 mm/s (" + run.path + ")", "time (s, simulated)", "speed (mm/s)",
+  Figure figure{"Speed changes 200 → 800 → 500 → 0 mm/s (" + run.path + ")",
+                "time (s, simulated)",
+                "speed (mm/s)",
                 {{"commanded", "#888888", run.command, true, false}, {"measured", kColors[0], run.speed, false, false}},
                 false};
   write_text(dir + "/speed.svg", to_svg(figure));
@@ -362,7 +365,7 @@ void write_speed(const SpeedRun& run, const std::string& dir) {
 void write_speech_vision(const SpeechVisionRun& run, const std::string& dir) {
   std::ostringstream md, json, markers;
   for (std::size_t i = 0; i < run.markers.size(); ++i) markers << (i ? ", " : "") << run.markers[i];
- md << "Calls: " << run.path << ".\n\n| step | result |\n|---|---|\n";
+  md << "Calls: " << run.path << ".\n\n| step | result |\n|---|---|\n";
   if (run.width > 0) {
     md << "| openCamera(0), captureImage(PNG) | " << run.width << " × " << run.height << ", " << run.png_bytes
        << " bytes |\n"
@@ -394,8 +397,8 @@ std::string write_report(const std::string& dir) {
   Figure figure{"Square path at 500 mm/s: the robot's traces", "x (m)", "y (m)", {}, true};
   figure.series.push_back({"commanded path", "#888888", ideal, true, false});
   for (std::size_t i = 0; i < labels.size(); ++i) {
-    figure.series.push_back({labels[i], kColors[i % 5], xy(read_trace_csv(dir + "/square-" + labels[i] + ".csv")),
-                             false, false});
+    figure.series.push_back(
+        {labels[i], kColors[i % 5], xy(read_trace_csv(dir + "/square-" + labels[i] + ".csv")), false, false});
   }
   figure.series.push_back({"waypoints", "#000000", ideal, false, true});
   write_text(dir + "/square.svg", to_svg(figure));

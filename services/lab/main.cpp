@@ -100,7 +100,9 @@ int main(int argc, char** argv) {
         ->capture_default_str();
   };
   auto* square = app.add_subcommand("square", "Drive the square path and trace it");
-  square->add_option("--via", o.via, "rt: CORBA straight to the RTC's port (omniORB stubs); camus: through the CAMUS server")
+  square
+      ->add_option("--via", o.via,
+                   "rt: CORBA straight to the RTC's port (omniORB stubs); camus: through the CAMUS server")
       ->check(CLI::IsMember({"rt", "camus"}))
       ->capture_default_str();
   square->add_option("--naming", o.naming, "Naming service HOST:PORT (--via rt)")->capture_default_str();
@@ -154,10 +156,15 @@ int main(int argc, char** argv) {
         if (!client) client = connect(o);
         return urs::lab::camus_service(*client, name);
       };
-      auto camera = o.camera.empty() ? nullptr
-                                     : service(o.camera, *URC::ImageRecognition_recognize_Request::descriptor()->file()->FindServiceByName("ImageRecognition"));
-      auto tts = service(o.tts, *URC::TextToSpeech_speak_Request::descriptor()->file()->FindServiceByName("TextToSpeech"));
-      auto voice = service(o.voice, *URC::VoiceRecognition_playBytes_Request::descriptor()->file()->FindServiceByName("VoiceRecognition"));
+      auto camera =
+          o.camera.empty()
+              ? nullptr
+              : service(o.camera, *URC::ImageRecognition_recognize_Request::descriptor()->file()->FindServiceByName(
+                                      "ImageRecognition"));
+      auto tts =
+          service(o.tts, *URC::TextToSpeech_speak_Request::descriptor()->file()->FindServiceByName("TextToSpeech"));
+      auto voice = service(o.voice, *URC::VoiceRecognition_playBytes_Request::descriptor()->file()->FindServiceByName(
+                                        "VoiceRecognition"));
       const auto run = urs::lab::run_speech_vision(camera.get(), *tts, *voice, o.text);
       urs::lab::write_speech_vision(run, o.out);
       std::cout << "markers: " << run.markers.size() << ", heard \"" << run.heard << "\" for \"" << run.spoken
@@ -179,7 +186,8 @@ int main(int argc, char** argv) {
     }
     auto trace = tracer(o, *navigation);
     if (*square) {
-      const auto run = urs::lab::run_square(*navigation, *trace, o.speed, o.time_scale, o.label.empty() ? o.via : o.label);
+      const auto run =
+          urs::lab::run_square(*navigation, *trace, o.speed, o.time_scale, o.label.empty() ? o.via : o.label);
       urs::lab::write_square(run, o.out);
       for (const auto& leg : run.legs) {
         std::cout << "(" << leg.target.x << ", " << leg.target.y << "): " << leg.error_mm << " mm, " << leg.time_s

@@ -2,18 +2,18 @@
 
 #include <google/protobuf/descriptor.h>
 #include <google/protobuf/message.h>
+#include <omniORB4/CORBA.h>
+#include <omniORB4/minorCode.h>
 
 #include <algorithm>
 #include <cstdint>
 #include <stdexcept>
 
-#include "Navigation.hh"  // before minorCode.h, which needs CORBA.h
-#include "urs/bridge/provider_port.hpp"
+#include "Navigation.hh"
+#include "urs/rt_call/provider_port.hpp"
 #include "urs/rtc/naming.hpp"
 #include "urs/rtc/orb.hpp"
 #include "urs/rtc/tools.hpp"
-
-#include <omniORB4/minorCode.h>
 
 namespace urs::lab {
 
@@ -49,8 +49,7 @@ class NavigationStub : public RemoteService {
         navigation_->stop();
       } else if (operation == "_get_state") {
         // The IDL enumerators keep their order as Protobuf numbers (docs/idl-mapping.md).
-        reply.GetReflection()->SetEnumValue(&reply, &field_of(reply, "result"),
-                                            static_cast<int>(navigation_->state()));
+        reply.GetReflection()->SetEnumValue(&reply, &field_of(reply, "result"), static_cast<int>(navigation_->state()));
       } else if (operation == "getPosition") {
         const URC::Pose2D pose = navigation_->getPosition();
         gp::Message* result = reply.GetReflection()->MutableMessage(&reply, &field_of(reply, "result"));
@@ -91,7 +90,7 @@ std::unique_ptr<RemoteService> rt_navigation_stub(rtc::Orb& orb, rtc::NamingClie
   if (CORBA::is_nil(component)) throw std::runtime_error(port_address.substr(0, colon) + " is not an RT-Component");
   RTC::PortService_var port = rtc::find_port(component, port_address.substr(colon + 1));
   if (CORBA::is_nil(port)) throw std::runtime_error(port_address + ": no such port");
-  for (const auto& provided : bridge::offered_by(port)) {
+  for (const auto& provided : rt_call::offered_by(port)) {
     CORBA::Object_var target = orb.string_to_object(provided.ior);
     if (!target->_is_a("IDL:URC/Navigation:1.0")) continue;
     URC::Navigation_var navigation = URC::Navigation::_narrow(target);

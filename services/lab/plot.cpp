@@ -15,18 +15,22 @@ namespace {
 constexpr double kPlotWidth = 490;  // the frame; the figure is 720 px wide unless the legend needs more
 constexpr double kHeight = 520;
 constexpr double kLeft = 70;
-constexpr double kRight = 160;     // room for the legend, at least
-constexpr double kCharWidth = 7;   // a generous estimate of one character at 12 px sans-serif
+constexpr double kRight = 160;    // room for the legend, at least
+constexpr double kCharWidth = 7;  // a generous estimate of one character at 12 px sans-serif
 constexpr double kTop = 40;
 constexpr double kBottom = 55;
 
 std::string escaped(const std::string& text) {
   std::string out;
   for (char c : text) {
-    if (c == '&') out += "&amp;";
-    else if (c == '<') out += "&lt;";
-    else if (c == '>') out += "&gt;";
-    else out += c;
+    if (c == '&')
+      out += "&amp;";
+    else if (c == '<')
+      out += "&lt;";
+    else if (c == '>')
+      out += "&gt;";
+    else
+      out += c;
   }
   return out;
 }
@@ -98,8 +102,8 @@ std::string to_svg(const Figure& figure) {
   }
   for (double y = std::ceil(y0 / step_y) * step_y; y <= y1 + 1e-9; y += step_y) {
     svg << "<line x1=\"" << kLeft << "\" y1=\"" << py(y) << "\" x2=\"" << kLeft + plot_w << "\" y2=\"" << py(y)
-        << "\" stroke=\"#e4e4e4\"/>\n<text x=\"" << kLeft - 6 << "\" y=\"" << py(y) + 4
-        << "\" text-anchor=\"end\">" << number(y) << "</text>\n";
+        << "\" stroke=\"#e4e4e4\"/>\n<text x=\"" << kLeft - 6 << "\" y=\"" << py(y) + 4 << "\" text-anchor=\"end\">"
+        << number(y) << "</text>\n";
   }
   svg << "<rect x=\"" << kLeft << "\" y=\"" << kTop << "\" width=\"" << plot_w << "\" height=\"" << plot_h
       << "\" fill=\"none\" stroke=\"#333\"/>\n";
@@ -108,8 +112,8 @@ std::string to_svg(const Figure& figure) {
   svg << "<text transform=\"translate(18," << kTop + plot_h / 2 << ") rotate(-90)\" text-anchor=\"middle\">"
       << escaped(figure.y_label) << "</text>\n";
   // Series, clipped to the frame.
-  svg << "<clipPath id=\"frame\"><rect x=\"" << kLeft << "\" y=\"" << kTop << "\" width=\"" << plot_w
-      << "\" height=\"" << plot_h << "\"/></clipPath>\n<g clip-path=\"url(#frame)\">\n";
+  svg << "<clipPath id=\"frame\"><rect x=\"" << kLeft << "\" y=\"" << kTop << "\" width=\"" << plot_w << "\" height=\""
+      << plot_h << "\"/></clipPath>\n<g clip-path=\"url(#frame)\">\n";
   for (const auto& series : figure.series) {
     if (series.markers) {
       for (const auto& [x, y] : series.points) {

@@ -3,10 +3,10 @@
 #include <stdexcept>
 
 #include "urs/agent/agent.hpp"
-#include "urs/bridge/provider_port.hpp"
 #include "urs/corba_agent/corba_proxy.hpp"
 #include "urs/planet/call_adapter.hpp"
 #include "urs/planet/client.hpp"
+#include "urs/rt_call/provider_port.hpp"
 #include "urs/rtc/naming.hpp"
 #include "urs/rtc/orb.hpp"
 #include "urs/rtc/tools.hpp"
@@ -86,7 +86,7 @@ std::unique_ptr<RemoteService> rt_provider(rtc::Orb& orb, rtc::NamingClient& nam
   RTC::PortService_var port = rtc::find_port(component, port_address.substr(colon + 1));
   if (CORBA::is_nil(port)) throw std::runtime_error(port_address + ": no such port");
   const std::string wanted = schema::repository_id(interface);
-  for (const auto& provided : bridge::offered_by(port)) {
+  for (const auto& provided : rt_call::offered_by(port)) {
     CORBA::Object_var target = orb.string_to_object(provided.ior);
     if (target->_is_a(wanted.c_str())) return std::make_unique<RtProvider>(orb, target, interface, port_address);
   }

@@ -8,6 +8,7 @@
 
 #include <memory>
 
+#include "urs/call/recorder.hpp"
 #include "urs/rtc/component.hpp"
 #include "urs/rtc/manager.hpp"
 
@@ -15,7 +16,8 @@ namespace urs::rtc_manager {
 
 // Diagnostic: the diagnostic service agent hosted generically (urs::corba_agent): provider port
 // "diagnostic" offering URS::Diagnostic (instance "diagnostic"); config keys as for any hosted agent.
-std::unique_ptr<rtc::Component> make_diagnostic(const YAML::Node& config, const rtc::ComponentEnv& env);
+// Its calls are counted in `calls` when given (metrics).
+rtc::ComponentFactory diagnostic_factory(call::CallRecorder* calls);
 // DiagnosticCaller: consumer port "diagnostic" requiring URS::Diagnostic (instance "diagnostic");
 // while active it calls echo at its rate and counts the replies.
 std::unique_ptr<rtc::Component> make_diagnostic_caller(const YAML::Node& config, const rtc::ComponentEnv& env);

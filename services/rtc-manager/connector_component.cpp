@@ -18,8 +18,8 @@ namespace {
 class ConnectorComponent : public rtc::Component {
  public:
   ConnectorComponent(YAML::Node config, rtc::Orb& orb, std::string naming_address)
-      : rtc::Component({"Connector", "Connects service ports found in the naming service, by rules", "1.0.0",
-                        "URSLink", "Utility"}),
+      : rtc::Component({"Connector", "Connects service ports found in the naming service, by rules", "1.0.0", "URSLink",
+                        "Utility"}),
         config_(std::move(config)),
         orb_(orb),
         naming_address_(std::move(naming_address)) {

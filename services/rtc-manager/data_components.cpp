@@ -115,8 +115,8 @@ class SinkComponent : public rtc::Component {
       spdlog::debug("{}: count {} (t={}.{:09})", instance_name(), value.data, value.tm.sec, value.tm.nsec);
     });
     pose_port_.on_receive([this](const RTC::TimedPose2D& value) {
-      spdlog::debug("{}: pose x={:.3f} y={:.3f} heading={:.3f} (t={}.{:09})", instance_name(),
-                    value.data.position.x, value.data.position.y, value.data.heading, value.tm.sec, value.tm.nsec);
+      spdlog::debug("{}: pose x={:.3f} y={:.3f} heading={:.3f} (t={}.{:09})", instance_name(), value.data.position.x,
+                    value.data.position.y, value.data.heading, value.tm.sec, value.tm.nsec);
     });
     add_port(count_port_);
     add_port(pose_port_);
@@ -129,8 +129,7 @@ class SinkComponent : public rtc::Component {
 
  private:
   RTC::ReturnCode_t report() {
-    spdlog::info("{}: received {} counts and {} poses", instance_name(), count_port_.received(),
-                 pose_port_.received());
+    spdlog::info("{}: received {} counts and {} poses", instance_name(), count_port_.received(), pose_port_.received());
     return RTC::RTC_OK;
   }
 

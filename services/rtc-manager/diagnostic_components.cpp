@@ -29,8 +29,7 @@ constexpr const char* kInterface = "URS::Diagnostic";
 class DiagnosticCallerComponent : public rtc::Component {
  public:
   explicit DiagnosticCallerComponent(std::string text)
-      : Component({"DiagnosticCaller", "URS::Diagnostic consumer on a service port", "1.0.0", "URSLink",
-                   "Diagnostic"}),
+      : Component({"DiagnosticCaller", "URS::Diagnostic consumer on a service port", "1.0.0", "URSLink", "Diagnostic"}),
         text_(std::move(text)),
         port_("diagnostic"),
         consumer_(port_.require("diagnostic", kInterface)) {}
@@ -99,12 +98,12 @@ class DiagnosticCallerComponent : public rtc::Component {
 
 }  // namespace
 
-std::unique_ptr<rtc::Component> make_diagnostic(const YAML::Node& config, const rtc::ComponentEnv& env) {
+rtc::ComponentFactory diagnostic_factory(call::CallRecorder* calls) {
   const auto make_agent = [](const YAML::Node& params) {
     if (params && !params.IsNull()) throw util::ConfigError("config.params: Diagnostic takes no parameters");
     return std::make_shared<diagnostic::DiagnosticAgent>();
   };
-  return corba_agent::agent_component_factory("Diagnostic", make_agent)(config, env);
+  return corba_agent::agent_component_factory("Diagnostic", make_agent, calls);
 }
 
 std::unique_ptr<rtc::Component> make_diagnostic_caller(const YAML::Node& config, const rtc::ComponentEnv&) {

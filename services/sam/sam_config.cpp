@@ -57,54 +57,54 @@ SamConfig load_sam_config(const std::string& path, const std::string& host,
     errors.push_back("agents: a non-empty list of agents is required");
   } else {
     std::set<std::string> names;
-    util::for_each_map(agents, "agents", "name and type", {"name", "type", "deadline_ms", "properties", "params"},
-                       errors, [&](const YAML::Node& node, const std::string& where) {
-      AgentConfig agent;
-      if (!node["name"] || !read_scalar(node["name"], where + ".name", agent.name, errors) || agent.name.empty()) {
-        if (!node["name"]) errors.push_back(where + ".name: missing");
-      } else {
-        agent.name = substitute(agent.name, host);
-        if (!names.insert(agent.name).second) {
-          errors.push_back(where + ".name: '" + agent.name + "' is used by another agent");
-        }
-      }
-      if (!node["type"]) {
-        errors.push_back(where + ".type: missing (known: " + join(types.known) + ")");
-      } else if (read_scalar(node["type"], where + ".type", agent.type, errors) &&
-                 types.known.count(agent.type) == 0) {
-        const std::string problem =
-            where + ".type: unknown agent type '" + agent.type + "' (known: " + join(types.known) + ")";
-        if (refused.empty()) {
-          errors.push_back(problem);
-        } else {
-          spdlog::error("--config '{}': {}; agent '{}' not hosted (refused plug-in(s): {})", path, problem,
-                        agent.name, join(refused));
-          dropped.insert(where);
-        }
-      }
-      if (node["deadline_ms"]) read_scalar(node["deadline_ms"], where + ".deadline_ms", agent.deadline_ms, errors);
-      if (node["properties"]) {
-        if (!node["properties"].IsMap()) {
-          errors.push_back(where + ".properties: must be a map of strings");
-        } else {
-          for (const auto& kv : node["properties"]) {
-            std::string value;
-            if (read_scalar(kv.second, where + ".properties." + kv.first.as<std::string>(), value, errors)) {
-              agent.properties[kv.first.as<std::string>()] = substitute(value, host);
+    util::for_each_map(
+        agents, "agents", "name and type", {"name", "type", "deadline_ms", "properties", "params"}, errors,
+        [&](const YAML::Node& node, const std::string& where) {
+          AgentConfig agent;
+          if (!node["name"] || !read_scalar(node["name"], where + ".name", agent.name, errors) || agent.name.empty()) {
+            if (!node["name"]) errors.push_back(where + ".name: missing");
+          } else {
+            agent.name = substitute(agent.name, host);
+            if (!names.insert(agent.name).second) {
+              errors.push_back(where + ".name: '" + agent.name + "' is used by another agent");
             }
           }
-        }
-      }
-      agent.params = node["params"] ? node["params"] : YAML::Node(YAML::NodeType::Map);
-      if (dropped.count(where) == 0) config.agents.push_back(std::move(agent));
-    });
+          if (!node["type"]) {
+            errors.push_back(where + ".type: missing (known: " + join(types.known) + ")");
+          } else if (read_scalar(node["type"], where + ".type", agent.type, errors) &&
+                     types.known.count(agent.type) == 0) {
+            const std::string problem =
+                where + ".type: unknown agent type '" + agent.type + "' (known: " + join(types.known) + ")";
+            if (refused.empty()) {
+              errors.push_back(problem);
+            } else {
+              spdlog::error("--config '{}': {}; agent '{}' not hosted (refused plug-in(s): {})", path, problem,
+                            agent.name, join(refused));
+              dropped.insert(where);
+            }
+          }
+          if (node["deadline_ms"]) read_scalar(node["deadline_ms"], where + ".deadline_ms", agent.deadline_ms, errors);
+          if (node["properties"]) {
+            if (!node["properties"].IsMap()) {
+              errors.push_back(where + ".properties: must be a map of strings");
+            } else {
+              for (const auto& kv : node["properties"]) {
+                std::string value;
+                if (read_scalar(kv.second, where + ".properties." + kv.first.as<std::string>(), value, errors)) {
+                  agent.properties[kv.first.as<std::string>()] = substitute(value, host);
+                }
+              }
+            }
+          }
+          agent.params = node["params"] ? node["params"] : YAML::Node(YAML::NodeType::Map);
+          if (dropped.count(where) == 0) config.agents.push_back(std::move(agent));
+        });
   }
   util::throw_if_errors(errors, "--config '" + path + "'");
   return config;
 }
 
-SamConfig load_sam_config(const std::string& path, const std::set<std::string>& known_types,
-                          const std::string& host) {
+SamConfig load_sam_config(const std::string& path, const std::set<std::string>& known_types, const std::string& host) {
   return load_sam_config(path, host, [&known_types](const SamConfig&) { return AgentTypes{known_types, {}}; });
 }
 

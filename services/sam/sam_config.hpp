@@ -41,8 +41,7 @@ struct SamConfig {
 
 // Parses and validates `path`. Throws urs::util::ConfigError listing EVERY problem found, each
 // with its key path and value (e.g. "agents[1].type: unknown agent type 'foo' (known: diagnostic)").
-SamConfig load_sam_config(const std::string& path, const std::set<std::string>& known_types,
-                          const std::string& host);
+SamConfig load_sam_config(const std::string& path, const std::set<std::string>& known_types, const std::string& host);
 
 // What the SAM can host once the plug-ins are loaded.
 struct AgentTypes {

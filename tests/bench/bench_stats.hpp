@@ -133,9 +133,9 @@ struct Row {
   std::string path;
   std::string payload;
   Summary summary;
-  std::string baseline;  // name of the row this one is compared with ("" for baselines)
-  double goal_ratio = 0; // goal: median <= goal_ratio x baseline median (0 = none)
-  int group = 0;         // rows of one group > 0 were measured in turns (measure_interleaved)
+  std::string baseline;   // name of the row this one is compared with ("" for baselines)
+  double goal_ratio = 0;  // goal: median <= goal_ratio x baseline median (0 = none)
+  int group = 0;          // rows of one group > 0 were measured in turns (measure_interleaved)
 };
 
 }  // namespace urs::bench

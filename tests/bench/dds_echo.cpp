@@ -9,7 +9,7 @@
 #include <string>
 
 #include "Diagnostic.pb.h"
-#include "urs/bridge/dds_link.hpp"
+#include "urs/federation/dds_link.hpp"
 #include "urs/util/cli.hpp"
 
 int main(int argc, char** argv) {
@@ -22,17 +22,19 @@ int main(int argc, char** argv) {
   URS::Diagnostic_blob_Reply big;
   big.set_result(std::string(921600, 'x'));
   const std::string big_reply = big.SerializeAsString();
-  urs::bridge::DdsOptions options;
+  urs::federation::DdsOptions options;
   options.domain = static_cast<uint32_t>(std::stoul(argv[1]));
   options.space = "dds-b";
   options.bridge = "b";
   options.udp_only = true;
-  if (argc == 4) options.security = urs::bridge::security_from_folder(argv[3], options.space);
+  if (argc == 4) options.security = urs::federation::security_from_folder(argv[3], options.space);
   // Answered inside the handler, on the DDS listener thread: the link writes the reply from its
   // replier thread (a reply written on the listener thread could deadlock Fast DDS 2.9).
-  urs::bridge::DdsLink link(options, [] {}, [&](urs::call::Request request, urs::call::Responder responder) {
-    responder.reply(urs::call::Reply::success(request.operation == "blob" ? big_reply : request.payload));
-  });
+  urs::federation::DdsLink link(
+      options, [] {},
+      [&](urs::call::Request request, urs::call::Responder responder) {
+        responder.reply(urs::call::Reply::success(request.operation == "blob" ? big_reply : request.payload));
+      });
   urs::util::write_file_atomically(argv[2], "ready\n");
   urs::util::wait_for_shutdown();
   return 0;

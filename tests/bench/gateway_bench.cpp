@@ -11,10 +11,10 @@
 // It reports what it measured; --quick (the test suite's smoke run) fails only if a client got
 // nothing or was dropped.
 
+#include <atomic>
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/beast/core.hpp>
 #include <boost/beast/websocket.hpp>
-#include <atomic>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -36,9 +36,7 @@ using namespace std::chrono_literals;
 
 namespace {
 
-double unix_now() {
-  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
-}
+double unix_now() { return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count(); }
 
 // VmRSS of a process, KiB (0 if unreadable).
 long rss_kib(pid_t pid) {
@@ -64,8 +62,9 @@ void run_client(uint16_t port, const std::atomic<bool>& stop, const std::atomic<
     net::io_context ioc;
     websocket::stream<tcp::socket> ws(ioc);
     ws.next_layer().connect(tcp::endpoint(net::ip::make_address("127.0.0.1"), port));
-    ws.set_option(websocket::stream_base::decorator(
-        [](websocket::request_type& req) { req.set(beast::http::field::sec_websocket_protocol, "foxglove.websocket.v1"); }));
+    ws.set_option(websocket::stream_base::decorator([](websocket::request_type& req) {
+      req.set(beast::http::field::sec_websocket_protocol, "foxglove.websocket.v1");
+    }));
     ws.handshake("127.0.0.1:" + std::to_string(port), "/");
     beast::flat_buffer buffer;
     // The /poses channel's id from the advertisement.
@@ -130,7 +129,8 @@ int main(int argc, char** argv) {
                    "  --quick          at most 8 s; fails only if a client got nothing or was dropped\n"
                    "  --json FILE, --markdown FILE   the figures, also written there\n"
                    "Reports per client the poses delivered (Hz), the latency from the localizer's sample to\n"
-                   "the client (median, p99, max) and the gateway's resident memory (means of the first and last tenths of the run).\n";
+                   "the client (median, p99, max) and the gateway's resident memory (means of the first and last "
+                   "tenths of the run).\n";
       return 0;
     }
     auto next = [&]() -> std::string {
@@ -138,13 +138,20 @@ int main(int argc, char** argv) {
       return argv[++i];
     };
     try {
-      if (a == "--clients") clients = std::stoi(next());
-      else if (a == "--seconds") seconds = std::stod(next());
-      else if (a == "--rate") rate = std::stod(next());
-      else if (a == "--quick") quick = true;
-      else if (a == "--json") json_path = next();
-      else if (a == "--markdown") markdown_path = next();
-      else throw std::invalid_argument("unknown argument " + a);
+      if (a == "--clients")
+        clients = std::stoi(next());
+      else if (a == "--seconds")
+        seconds = std::stod(next());
+      else if (a == "--rate")
+        rate = std::stod(next());
+      else if (a == "--quick")
+        quick = true;
+      else if (a == "--json")
+        json_path = next();
+      else if (a == "--markdown")
+        markdown_path = next();
+      else
+        throw std::invalid_argument("unknown argument " + a);
     } catch (const std::exception& e) {
       std::cerr << "urs-gateway-bench: " << e.what()
                 << "\nusage: urs-gateway-bench [--clients N] [--seconds S] [--rate HZ] [--quick] [--json FILE] "
@@ -163,7 +170,8 @@ int main(int argc, char** argv) {
   std::ofstream(dir + "/sam.yaml") << "agents:\n"
                                       "  - name: robot1.navigation\n    type: robot\n"
                                       "    params: {name: robot1, prefix: robot1.navigation, domain: "
-                                   << domains[0] << ", x: 1.5, y: 1.0}\n"
+                                   << domains[0]
+                                   << ", x: 1.5, y: 1.0}\n"
                                       "  - name: robot1.localizer\n    type: localizer\n"
                                       "    params: {robot: robot1, prefix: loc1, domain: "
                                    << domains[0] << ", rate: " << rate << "}\n";
@@ -175,9 +183,9 @@ int main(int argc, char** argv) {
     return 1;
   }
   const std::string camus = "127.0.0.1:" + urs::test::read_text(dir + "/server.port");
-  urs::test::Process sam({URS_SAM_BIN, "--space", "bench", "--server", camus, "--config", dir + "/sam.yaml",
-                          "--log-level", "warn"},
-                         dir + "/sam.log");
+  urs::test::Process sam(
+      {URS_SAM_BIN, "--space", "bench", "--server", camus, "--config", dir + "/sam.yaml", "--log-level", "warn"},
+      dir + "/sam.log");
   urs::test::Process gateway({URS_GATEWAY_BIN, "--space", "bench", "--server", camus, "--listen", "127.0.0.1:0",
                               "--port-file", dir + "/gateway.port", "--anonymous", "viewer", "--devices-domain",
                               std::to_string(domains[0]), "--robots", "robot1", "--log-level", "warn"},
@@ -197,14 +205,16 @@ int main(int argc, char** argv) {
   }
   // Until every client receives poses (discovery in the devices' domain), then measure.
   const bool ready = urs::test::wait_until(
-      [&] { return std::all_of(results.begin(), results.end(), [](const ClientResult& r) { return r.receiving.load(); }); },
+      [&] {
+        return std::all_of(results.begin(), results.end(), [](const ClientResult& r) { return r.receiving.load(); });
+      },
       30s);
   if (!ready) std::cerr << "urs-gateway-bench: not every client received a pose within 30 s; measuring anyway\n";
   measuring = true;
   std::vector<long> rss;
   const auto started = std::chrono::steady_clock::now();
-  const auto until = started + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                                   std::chrono::duration<double>(seconds));
+  const auto until =
+      started + std::chrono::duration_cast<std::chrono::steady_clock::duration>(std::chrono::duration<double>(seconds));
   while (std::chrono::steady_clock::now() < until) {
     rss.push_back(rss_kib(gateway.pid()));
     std::this_thread::sleep_for(1s);
@@ -244,13 +254,15 @@ int main(int argc, char** argv) {
   const long rss_peak = rss.empty() ? 0 : *std::max_element(rss.begin(), rss.end());
 
   std::ostringstream table;
-  table << "| clients | run | localizer | delivered per client (min / mean) | latency median | p99 | max | gateway RSS first tenth → last tenth (peak) | dropped |\n"
+  table << "| clients | run | localizer | delivered per client (min / mean) | latency median | p99 | max | gateway RSS "
+           "first tenth → last tenth (peak) | dropped |\n"
         << "|---|---|---|---|---|---|---|---|---|\n";
   char line[512];
-  std::snprintf(line, sizeof line,
-                "| %d | %.0f s | %.0f Hz | %.1f / %.1f Hz | %.1f ms | %.1f ms | %.1f ms | %.1f → %.1f MiB (%.1f MiB) | %d |\n",
-                clients, measured, rate, min_rate, sum_rate / clients, median, p99, max_latency, rss_start / 1024,
-                rss_end / 1024, static_cast<double>(rss_peak) / 1024, dropped);
+  std::snprintf(
+      line, sizeof line,
+      "| %d | %.0f s | %.0f Hz | %.1f / %.1f Hz | %.1f ms | %.1f ms | %.1f ms | %.1f → %.1f MiB (%.1f MiB) | %d |\n",
+      clients, measured, rate, min_rate, sum_rate / clients, median, p99, max_latency, rss_start / 1024, rss_end / 1024,
+      static_cast<double>(rss_peak) / 1024, dropped);
   table << line;
   std::cout << table.str();
   std::cout << "urs-gateway-bench: " << all.size() << " poses timed; goals >= 20 Hz per client, p99 <= 100 ms, "

@@ -7,8 +7,8 @@
 #include <condition_variable>
 #include <filesystem>
 #include <memory>
-#include <sstream>
 #include <mutex>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 
@@ -24,8 +24,8 @@ class GrpcClient {
   explicit GrpcClient(uint16_t port) {
     grpc::ChannelArguments arguments;
     arguments.SetInt(GRPC_ARG_USE_LOCAL_SUBCHANNEL_POOL, 1);
-    channel_ = grpc::CreateCustomChannel("127.0.0.1:" + std::to_string(port), grpc::InsecureChannelCredentials(),
-                                         arguments);
+    channel_ =
+        grpc::CreateCustomChannel("127.0.0.1:" + std::to_string(port), grpc::InsecureChannelCredentials(), arguments);
     stub_ = Echo::NewStub(channel_);
   }
 

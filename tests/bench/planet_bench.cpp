@@ -12,12 +12,15 @@
 //     Planet call's client → server → SAM costs with nothing parsed); gRPC unary calls (one hop,
 //     urs-grpc-echo in its own process), synchronous and through the callback API;
 //   - a Planet call client → urs-camus-server → urs-sam → agent, from the C++ client (also over
-//     TLS 1.3) and from the Python SDK's (python_echo_bench.py, a process of its own);
+//     TLS 1.3, and at 64 B with metrics on in the server and the SAM: a second space) and from
+//     the Python SDK's (python_echo_bench.py, a process of its own);
 //   - a direct omniORB call (static stubs) and the bridged paths both ways through urs-bridge;
 //   - a direct Fast DDS request/reply (a DdsLink here, urs-dds-echo in its own process), plain
 //     and with DDS-Security, and the cross-space paths both ways through two bridges linked by
 //     DDS over UDP, plain and with DDS-Security (a second pair of bridges on a link of its own,
-//     the PKI made by deploy/pki.sh at start).
+//     the PKI made by deploy/pki.sh at start), over the TCP link on loopback (a third pair), and
+//     kr → jp at 64 B with metrics on in every process it crosses (a fourth pair, on the second
+//     space's server, calling an rtc-manager of its own).
 // The paths a goal compares are measured in turns (measure_interleaved) and their ratio taken
 // repetition by repetition, with its spread. Also throughput with 1 and 4 clients (Planet against
 // gRPC, bridged against direct omniORB, in turns), a sustained image stream, discovery across
@@ -39,23 +42,23 @@
 
 #include "Diagnostic.pb.h"
 #include "bench_stats.hpp"
-#include "grpc_client.hpp"
-#include "pinning.hpp"
-#include "process_cost.hpp"
-#include "raw_tcp.hpp"
+#include "camus.pb.h"
+#include "certificates.hpp"
 #include "corba_stub.hpp"
 #include "dds_domain.hpp"
+#include "grpc_client.hpp"
 #include "naming_service.hpp"
-#include "urs/bridge/dds_link.hpp"
-#include "urs/bridge/provider_port.hpp"
+#include "pinning.hpp"
+#include "process.hpp"
+#include "process_cost.hpp"
+#include "raw_tcp.hpp"
+#include "urs/federation/dds_link.hpp"
+#include "urs/planet/call_adapter.hpp"
+#include "urs/planet/client.hpp"
+#include "urs/rt_call/provider_port.hpp"
 #include "urs/rtc/naming.hpp"
 #include "urs/rtc/orb.hpp"
 #include "urs/rtc/tools.hpp"
-#include "camus.pb.h"
-#include "certificates.hpp"
-#include "process.hpp"
-#include "urs/planet/call_adapter.hpp"
-#include "urs/planet/client.hpp"
 #include "urs/schema/schema.hpp"
 #include "urs/util/cli.hpp"
 
@@ -67,28 +70,36 @@ using urs::bench::Summary;
 
 // ---- a CAMUS space of real processes ------------------------------------------------------
 
+// The flag that turns a program's metrics endpoint on (docs/operations.md, "Monitoring"), on a free port.
+const std::vector<std::string> kMetricsOn{"--metrics-listen", "127.0.0.1:0"};
+
 class Space {
  public:
   // With `tls`, the server speaks TLS 1.3 (certificates made in `dir`) and the SAM verifies it.
-  explicit Space(const std::string& dir, bool tls = false) : dir_(dir), tls_(tls) {
+  // With `metrics`, the server and the SAM serve their metrics (kMetricsOn).
+  explicit Space(const std::string& dir, bool tls = false, bool metrics = false)
+      : dir_(dir), tls_(tls), metrics_(metrics) {
     std::ofstream(dir_ + "/sam.yaml") << "agents:\n  - {name: diag, type: diagnostic}\n";
     if (tls_) {
       urs::test::make_ca(dir_, "ca");
       urs::test::make_leaf(dir_, "server", "bench", "ca", "IP:127.0.0.1");
     }
     start_server(0);
-    std::vector<std::string> argv{URS_SAM_BIN, "--space", "bench", "--server", address(), "--config",
-                                  dir_ + "/sam.yaml", "--log-level", "warn"};
+    std::vector<std::string> argv{URS_SAM_BIN, "--space",          "bench",       "--server", address(),
+                                  "--config",  dir_ + "/sam.yaml", "--log-level", "warn"};
     if (tls_) argv.insert(argv.end(), {"--tls-ca", ca_file()});
+    if (metrics_) argv.insert(argv.end(), kMetricsOn.begin(), kMetricsOn.end());
     sam_ = std::make_unique<urs::test::Process>(urs::bench::server_command(argv), dir_ + "/sam.log");
   }
   std::string ca_file() const { return dir_ + "/ca.pem"; }
   void start_server(int port) {
     std::filesystem::remove(dir_ + "/port");
-    std::vector<std::string> argv{URS_SERVER_BIN, "--space", "bench", "--listen",
-                                  "127.0.0.1:" + std::to_string(port), "--data-dir", dir_ + "/data",
-                                  "--port-file", dir_ + "/port", "--log-level", "warn"};
+    std::vector<std::string> argv{
+        URS_SERVER_BIN, "--space",      "bench",       "--listen",     "127.0.0.1:" + std::to_string(port),
+        "--data-dir",   dir_ + "/data", "--port-file", dir_ + "/port", "--log-level",
+        "warn"};
     if (tls_) argv.insert(argv.end(), {"--tls-cert", dir_ + "/server.pem", "--tls-key", dir_ + "/server.key"});
+    if (metrics_) argv.insert(argv.end(), kMetricsOn.begin(), kMetricsOn.end());
     server_ = std::make_unique<urs::test::Process>(urs::bench::server_command(argv), dir_ + "/server.log");
     if (!urs::test::wait_until([&] { return std::filesystem::exists(dir_ + "/port"); }, 10s)) {
       throw std::runtime_error("server did not start: " + server_->log());
@@ -103,6 +114,7 @@ class Space {
  private:
   std::string dir_;
   bool tls_ = false;
+  bool metrics_ = false;
   int port_ = 0;
   std::unique_ptr<urs::test::Process> server_;
   std::unique_ptr<urs::test::Process> sam_;
@@ -123,7 +135,9 @@ std::unique_ptr<urs::planet::Client> connect(uint16_t port, urs::planet::Role ro
 }
 
 void expect_ok(const urs::planet::CallResult& r, const char* what) {
-  if (!r.ok()) throw std::runtime_error(std::string(what) + ": " + std::string(urs::planet::status_name(r.status)) + ": " + r.message);
+  if (!r.ok())
+    throw std::runtime_error(std::string(what) + ": " + std::string(urs::planet::status_name(r.status)) + ": " +
+                             r.message);
 }
 
 void expect_ok(const urs::call::Reply& r, const char* what) { expect_ok(urs::planet::to_call_result(r), what); }
@@ -133,7 +147,7 @@ long rss_kib(pid_t pid) { return urs::test::resident_kib(pid); }
 // A server process (under server_command) that writes DIR/NAME.ready once it serves, which its
 // `argv` names; returned once that file exists. Its output goes to DIR/NAME.log.
 std::unique_ptr<urs::test::Process> start_until_ready(const std::string& dir, const std::string& name,
-                                                     const std::vector<std::string>& argv) {
+                                                      const std::vector<std::string>& argv) {
   auto process = std::make_unique<urs::test::Process>(urs::bench::server_command(argv), dir + "/" + name + ".log");
   if (!urs::test::wait_until([&] { return std::filesystem::exists(dir + "/" + name + ".ready"); }, 30s)) {
     throw std::runtime_error(name + " did not start: " + process->log());
@@ -143,7 +157,7 @@ std::unique_ptr<urs::test::Process> start_until_ready(const std::string& dir, co
 
 // A real process started from a YAML configuration, up once its ready file exists.
 std::unique_ptr<urs::test::Process> start_with_config(const std::string& dir, const std::string& name,
-                                                     const std::string& yaml, std::vector<std::string> argv) {
+                                                      const std::string& yaml, std::vector<std::string> argv) {
   std::ofstream(dir + "/" + name + ".yaml") << yaml;
   argv.insert(argv.end(), {"--config", dir + "/" + name + ".yaml", "--ready-file", dir + "/" + name + ".ready",
                            "--log-level", "warn"});
@@ -156,7 +170,7 @@ CORBA::Object_ptr provider(urs::rtc::Orb& orb, urs::rtc::NamingClient& naming, c
   CORBA::Object_var object = naming.resolve(path);
   RTC::RTObject_var rtc = RTC::RTObject::_narrow(object);
   RTC::PortService_var service = urs::rtc::find_port(rtc, port);
-  const auto offered = urs::bridge::offered_by(service);
+  const auto offered = urs::rt_call::offered_by(service);
   if (offered.empty()) throw std::runtime_error(path + ":" + port + " offers nothing");
   return orb.string_to_object(offered.front().ior);
 }
@@ -181,8 +195,9 @@ double throughput(int clients, int per_client, MakeCall make_call) {
 // its own (/usr/bin/python3 with python3-protobuf), its summary read from the JSON it prints.
 urs::bench::Summary python_client_echo(const std::string& dir, uint16_t port, bool quick) {
   const std::string log = dir + "/python-bench.log";
-  const std::string command = "/usr/bin/python3 '" URS_PYTHON_ECHO_BENCH "' --json --server 127.0.0.1:" +
-                              std::to_string(port) + (quick ? " --quick" : "") + " 2>'" + log + "'";
+  const std::string command =
+      "/usr/bin/python3 '" URS_PYTHON_ECHO_BENCH "' --json --server 127.0.0.1:" + std::to_string(port) +
+      (quick ? " --quick" : "") + " 2>'" + log + "'";
   FILE* pipe = ::popen(command.c_str(), "r");
   if (pipe == nullptr) throw std::runtime_error("cannot run " + command);
   std::string out;
@@ -221,11 +236,16 @@ int main(int argc, char** argv) {
   std::vector<std::string> only;
   for (int i = 1; i < argc; ++i) {
     std::string a = argv[i];
-    if (a == "--quick") quick = true;
-    else if (a == "--json" && i + 1 < argc) json_path = argv[++i];
-    else if (a == "--markdown" && i + 1 < argc) markdown_path = argv[++i];
-    else if (a == "--only" && i + 1 < argc) only.push_back(argv[++i]);
-    else if (a == "--pin") urs::bench::pinning() = true;
+    if (a == "--quick")
+      quick = true;
+    else if (a == "--json" && i + 1 < argc)
+      json_path = argv[++i];
+    else if (a == "--markdown" && i + 1 < argc)
+      markdown_path = argv[++i];
+    else if (a == "--only" && i + 1 < argc)
+      only.push_back(argv[++i]);
+    else if (a == "--pin")
+      urs::bench::pinning() = true;
     else {
       std::cerr << "usage: urs-bench [--quick] [--pin] [--only TEXT]... [--json FILE] [--markdown FILE]\n";
       return 2;
@@ -243,10 +263,12 @@ int main(int argc, char** argv) {
   std::vector<Row> rows;
   std::vector<std::pair<std::string, std::string>> extras;  // name, value
   auto wanted = [&only](const std::string& label) {
-    return std::all_of(only.begin(), only.end(), [&](const std::string& t) { return label.find(t) != std::string::npos; });
+    return std::all_of(only.begin(), only.end(),
+                       [&](const std::string& t) { return label.find(t) != std::string::npos; });
   };
   // A row measured by `run` (a Summary), unless --only leaves it out.
-  auto add_row = [&](const std::string& path, const std::string& payload, auto&& run, std::string baseline, double goal) {
+  auto add_row = [&](const std::string& path, const std::string& payload, auto&& run, std::string baseline,
+                     double goal) {
     if (wanted(path + " | " + payload)) rows.push_back({path, payload, run(), std::move(baseline), goal});
   };
   // Paths measured in turns (measure_interleaved), each compared with its baseline repetition by
@@ -300,7 +322,8 @@ int main(int argc, char** argv) {
     for (size_t i = 0, m = 0; i < paths.size(); ++i) {
       if (!needed[i]) continue;
       summaries[i] = measured[m++];
-      if (!paths[i].path.empty()) rows.push_back({paths[i].path, payload, summaries[i], paths[i].baseline, paths[i].goal, groups});
+      if (!paths[i].path.empty())
+        rows.push_back({paths[i].path, payload, summaries[i], paths[i].baseline, paths[i].goal, groups});
     }
     for (const auto& sum : sums) {
       if (!std::all_of(sum.parts.begin(), sum.parts.end(), [&](size_t part) { return needed[part]; })) continue;
@@ -317,16 +340,22 @@ int main(int argc, char** argv) {
     urs::bench::GrpcEchoProcess grpc_echo(urs::bench::server_command({URS_GRPC_ECHO_BIN}), dir);
     Space space(dir);
     auto client = connect(space.port());
-    if (!urs::test::wait_until([&] {
-          URS::Diagnostic_echo_Request probe;
-          return client->call("diag", "echo", probe.SerializeAsString(), 500ms).ok();
-        }, 10s)) {
+    if (!urs::test::wait_until(
+            [&] {
+              URS::Diagnostic_echo_Request probe;
+              return client->call("diag", "echo", probe.SerializeAsString(), 500ms).ok();
+            },
+            10s)) {
       throw std::runtime_error("diag never became callable: " + space.sam().log());
     }
     // The same path with every connection TLS 1.3.
     std::filesystem::create_directories(dir + "/tls");
     Space tls_space(dir + "/tls", /*tls=*/true);
     auto tls_client = connect(tls_space.port(), urs::planet::CLIENT, tls_space.ca_file());
+    // The same path with metrics on in the server and the SAM (the space above has them off).
+    std::filesystem::create_directories(dir + "/metrics");
+    Space metrics_space(dir + "/metrics", /*tls=*/false, /*metrics=*/true);
+    auto metrics_client = connect(metrics_space.port());
 
     URS::Diagnostic_echo_Request echo_req;
     echo_req.set_text(std::string(64, 'x'));
@@ -336,6 +365,9 @@ int main(int argc, char** argv) {
     const std::string blob_payload = blob_req.SerializeAsString();
     if (!urs::test::wait_until([&] { return tls_client->call("diag", "echo", echo_payload, 500ms).ok(); }, 10s)) {
       throw std::runtime_error("diag over TLS never became callable: " + tls_space.sam().log());
+    }
+    if (!urs::test::wait_until([&] { return metrics_client->call("diag", "echo", echo_payload, 500ms).ok(); }, 10s)) {
+      throw std::runtime_error("diag with metrics on never became callable: " + metrics_space.sam().log());
     }
 
     // One request, one reply, on each path of one space, in turns: the wire (one hop, and two hops
@@ -374,14 +406,19 @@ int main(int argc, char** argv) {
         paths.push_back({"Planet call over TLS 1.3 client→server→SAM→SA",
                          [&] { expect_ok(tls_client->call("diag", "echo", echo_payload, 5s), "echo"); },
                          kPlanet + "|" + size, 1.2});
+        paths.push_back({"Planet call, metrics on in server and SAM: client→server→SAM→SA",
+                         [&] { expect_ok(metrics_client->call("diag", "echo", echo_payload, 5s), "echo"); },
+                         kPlanet + "|" + size, 1.05});
       }
       // The Planet call's round again, its goal against the one-hop gRPC call.
-      add_group(size, paths,
-                {{"Planet call (two hops) against gRPC unary (one hop)", {4}, kGrpcSync + "|" + size, big_payload ? 0 : 1.0}},
-                big_payload ? 3 : warmup, big_payload ? big_iterations : iterations);
+      add_group(
+          size, paths,
+          {{"Planet call (two hops) against gRPC unary (one hop)", {4}, kGrpcSync + "|" + size, big_payload ? 0 : 1.0}},
+          big_payload ? 3 : warmup, big_payload ? big_iterations : iterations);
     }
-    add_row("Planet call, Python client (urslink)→server→SAM→SA", "64 B",
-            [&] { return python_client_echo(dir, space.port(), quick); }, kPlanet + "|64 B", 0);
+    add_row(
+        "Planet call, Python client (urslink)→server→SAM→SA", "64 B",
+        [&] { return python_client_echo(dir, space.port(), quick); }, kPlanet + "|64 B", 0);
     close(raw_fd);
     close(relay_fd);
 
@@ -401,30 +438,38 @@ int main(int argc, char** argv) {
       std::vector<double> planet_rate, sync_rate, async_rate, against_async;
       for (int r = 0; r < repetitions; ++r) {
         planet_rate.push_back(throughput(clients, per_client, [&](int c) {
-          return [cl = planets[static_cast<size_t>(c)].get(), &echo_payload] { expect_ok(cl->call("diag", "echo", echo_payload, 5s), "echo"); };
+          return [cl = planets[static_cast<size_t>(c)].get(), &echo_payload] {
+            expect_ok(cl->call("diag", "echo", echo_payload, 5s), "echo");
+          };
         }));
         sync_rate.push_back(throughput(clients, per_client, [&](int c) {
           return [cl = grpcs[static_cast<size_t>(2 * c)].get(), &grpc_small] { cl->call(grpc_small); };
         }));
-        async_rate.push_back(throughput(clients, 1, [&](int c) {
-          return [cl = grpcs[static_cast<size_t>(2 * c + 1)].get(), &grpc_small, per_client] { cl->chain_async(grpc_small, per_client); };
-        }) * per_client);
+        async_rate.push_back(throughput(clients, 1,
+                                        [&](int c) {
+                                          return [cl = grpcs[static_cast<size_t>(2 * c + 1)].get(), &grpc_small,
+                                                  per_client] { cl->chain_async(grpc_small, per_client); };
+                                        }) *
+                             per_client);
         against_async.push_back(planet_rate.back() / async_rate.back());
       }
       char value[256];
-      std::snprintf(value, sizeof(value),
-                    "Planet %.0f calls/s, gRPC synchronous %.0f, gRPC asynchronous %.0f; Planet/gRPC async %.2f (%.2f – %.2f)%s",
-                    urs::bench::percentile(planet_rate, 0.5), urs::bench::percentile(sync_rate, 0.5),
-                    urs::bench::percentile(async_rate, 0.5), urs::bench::percentile(against_async, 0.5),
-                    *std::min_element(against_async.begin(), against_async.end()),
-                    *std::max_element(against_async.begin(), against_async.end()),
-                    clients == 4 ? (urs::bench::percentile(against_async, 0.5) >= 1.0 ? " (goal >= 1: met)" : " (goal >= 1: missed)") : "");
+      std::snprintf(
+          value, sizeof(value),
+          "Planet %.0f calls/s, gRPC synchronous %.0f, gRPC asynchronous %.0f; Planet/gRPC async %.2f (%.2f – %.2f)%s",
+          urs::bench::percentile(planet_rate, 0.5), urs::bench::percentile(sync_rate, 0.5),
+          urs::bench::percentile(async_rate, 0.5), urs::bench::percentile(against_async, 0.5),
+          *std::min_element(against_async.begin(), against_async.end()),
+          *std::max_element(against_async.begin(), against_async.end()),
+          clients == 4
+              ? (urs::bench::percentile(against_async, 0.5) >= 1.0 ? " (goal >= 1: met)" : " (goal >= 1: missed)")
+              : "");
       extras.push_back({label, value});
     }
 
     // ---- the RT side, a bridge in the space, and two spaces linked over DDS -------------------
-    // The spaces' link, plain and secured; the direct DDS rows', plain and secured.
-    const urs::test::DdsDomains domains(4);
+    // The spaces' link, plain and secured; the direct DDS rows', plain and secured; the link over TCP.
+    const urs::test::DdsDomains domains(6);
     const int domain = static_cast<int>(domains[0]);
     // One federation made by deploy/pki.sh for every secured row: kr and jp call each other over
     // the secured link, dds-a calls dds-b (the direct rows).
@@ -436,13 +481,14 @@ int main(int argc, char** argv) {
                         {"member", pki, "dds-a", "--calls", "dds-b"},
                         {"member", pki, "dds-b"}});
     urs::test::NamingService naming(dir + "/naming");
-    auto manager = start_with_config(dir, "rtc", "components:\n  - type: Diagnostic\n",
-                                     {URS_RTC_MANAGER_BIN, "--space", "bench", "--naming", naming.address(),
-                                      "--host", "benchhost"});
+    auto manager = start_with_config(
+        dir, "rtc", "components:\n  - type: Diagnostic\n",
+        {URS_RTC_MANAGER_BIN, "--space", "bench", "--naming", naming.address(), "--host", "benchhost"});
     auto bridge = start_with_config(
         dir, "bridge",
         "name: bridge-bench\n"
-        "rt_to_camus: {poll_ms: 100, providers: [{match: \"benchhost.host_cxt/Diagnostic0.rtc\", name: rt.diag, deadline_ms: 30000}]}\n"
+        "rt_to_camus: {poll_ms: 100, providers: [{match: \"benchhost.host_cxt/Diagnostic0.rtc\", name: rt.diag, "
+        "deadline_ms: 30000}]}\n"
         "camus_to_rt: {poll_ms: 100, services: [{match: diag, instance: camus_diag, deadline_ms: 30000}]}\n",
         {URS_BRIDGE_BIN, "--space", "bench", "--server", space.address(), "--naming", naming.address(), "--host",
          "benchhost"});
@@ -451,8 +497,8 @@ int main(int argc, char** argv) {
         dir, "bridge-jp",
         "name: bridge-jp\n"
         "rt_to_camus: {poll_ms: 100, providers: [{match: \"benchhost.host_cxt/Diagnostic0.rtc\", name: rt.diag},\n"
-        "                                        {match: \"disc*\", name: \"{instance}@{host}\"}]}\n" + dds +
-            ", import: {allow: [kr/diag]}}\n",
+        "                                        {match: \"disc*\", name: \"{instance}@{host}\"}]}\n" +
+            dds + ", import: {allow: [kr/diag]}}\n",
         {URS_BRIDGE_BIN, "--space", "jp", "--naming", naming.address(), "--host", "jphost"});
     auto bridge_kr = start_with_config(dir, "bridge-kr", "name: bridge-kr\n" + dds + "}\n",
                                        {URS_BRIDGE_BIN, "--space", "kr", "--server", space.address()});
@@ -473,11 +519,63 @@ int main(int argc, char** argv) {
         "name: secured-bridge-kr\n" + secured_dds +
             ", export: {allow: [diag]}, import: {as_camus: \"{space}-secured/{service}\"}, state: {import: false}}\n",
         {URS_BRIDGE_BIN, "--space", "kr", "--server", space.address()});
-    auto callable = [&](const std::string& service) {
-      return urs::test::wait_until([&] { return client->call(service, "echo", echo_payload, 500ms).ok(); }, 30s);
+    // The same two spaces over the TCP link (docs/sites.md) on loopback, on a domain of its own: jp
+    // listens, kr connects; imports named apart (jp-tcp/rt.diag in kr, kr_diag under host jptcp).
+    const std::string tcp_port = std::to_string(urs::test::free_tcp_port());
+    const std::string tcp_dds = "dds: {domain: " + std::to_string(domains[4]) + ", lease_ms: 3000, transport: tcp";
+    auto tcp_jp = start_with_config(
+        dir, "tcp-bridge-jp",
+        "name: tcp-bridge-jp\n"
+        "rt_to_camus: {poll_ms: 100, providers: [{match: \"benchhost.host_cxt/Diagnostic0.rtc\", name: rt.diag}]}\n" +
+            tcp_dds + ", tcp: {listen: " + tcp_port + ", public: 127.0.0.1}, import: {allow: [kr/diag]}}\n",
+        {URS_BRIDGE_BIN, "--space", "jp", "--naming", naming.address(), "--host", "jptcp"});
+    auto tcp_kr = start_with_config(dir, "tcp-bridge-kr",
+                                    "name: tcp-bridge-kr\n" + tcp_dds + ", tcp: {connect: [\"127.0.0.1:" + tcp_port +
+                                        "\"]}, export: {allow: [diag]}, import: {as_camus: \"{space}-tcp/{service}\"}, "
+                                        "state: {import: false}}\n",
+                                    {URS_BRIDGE_BIN, "--space", "kr", "--server", space.address()});
+    // The plain link's path again with metrics on in every process it crosses: the metrics space's
+    // server (above), a pair of bridges on a link of its own (domain above) and an rtc-manager of
+    // its own under host benchmetrics; imports named apart (jp-metrics/rt.diag in kr's metrics
+    // space, kr_diag under host jpmetrics in jp).
+    std::vector<std::string> metrics_manager_argv{URS_RTC_MANAGER_BIN, "--space", "bench",       "--naming",
+                                                  naming.address(),    "--host",  "benchmetrics"};
+    metrics_manager_argv.insert(metrics_manager_argv.end(), kMetricsOn.begin(), kMetricsOn.end());
+    auto metrics_manager =
+        start_with_config(dir, "metrics-rtc", "components:\n  - type: Diagnostic\n", metrics_manager_argv);
+    const std::string metrics_dds = "dds: {domain: " + std::to_string(domains[5]) + ", lease_ms: 3000, udp_only: true";
+    std::vector<std::string> metrics_jp_argv{URS_BRIDGE_BIN,   "--space", "jp",       "--naming",
+                                             naming.address(), "--host",  "jpmetrics"};
+    metrics_jp_argv.insert(metrics_jp_argv.end(), kMetricsOn.begin(), kMetricsOn.end());
+    auto metrics_jp = start_with_config(dir, "metrics-bridge-jp",
+                                        "name: metrics-bridge-jp\n"
+                                        "rt_to_camus: {poll_ms: 100, providers: [{match: "
+                                        "\"benchmetrics.host_cxt/Diagnostic0.rtc\", name: rt.diag}]}\n" +
+                                            metrics_dds + ", import: {allow: [kr/diag]}}\n",
+                                        metrics_jp_argv);
+    std::vector<std::string> metrics_kr_argv{URS_BRIDGE_BIN, "--space", "kr", "--server", metrics_space.address()};
+    metrics_kr_argv.insert(metrics_kr_argv.end(), kMetricsOn.begin(), kMetricsOn.end());
+    auto metrics_kr = start_with_config(
+        dir, "metrics-bridge-kr",
+        "name: metrics-bridge-kr\n" + metrics_dds + ", import: {as_camus: \"{space}-metrics/{service}\"}}\n",
+        metrics_kr_argv);
+    auto callable = [&](const std::string& service, std::chrono::seconds within = 30s) {
+      return urs::test::wait_until([&] { return client->call(service, "echo", echo_payload, 500ms).ok(); }, within);
     };
+    if (!urs::test::wait_until(
+            [&] { return metrics_client->call("jp-metrics/rt.diag", "echo", echo_payload, 500ms).ok(); }, 30s)) {
+      throw std::runtime_error("jp-metrics/rt.diag never became callable over the link with metrics on: " +
+                               metrics_kr->log() + metrics_jp->log());
+    }
     if (!callable("rt.diag") || !callable("jp/rt.diag")) {
       throw std::runtime_error("the bridged services never became callable: " + bridge->log() + bridge_kr->log());
+    }
+    // A first link over TCP may take Fast DDS's connection retries past 20 s on a loaded machine,
+    // and on one host it sometimes never forms (docs/sites.md, Limits): its rows are then left out.
+    const bool tcp_linked = callable("jp-tcp/rt.diag", 60s);
+    if (!tcp_linked) {
+      extras.push_back(
+          {"the link over TCP on loopback", "did not link within 60 s: its rows are left out (docs/sites.md, Limits)"});
     }
     if (!callable("jp-secured/rt.diag")) {
       throw std::runtime_error("jp-secured/rt.diag never became callable over the secured link: " + secured_kr->log() +
@@ -487,14 +585,18 @@ int main(int argc, char** argv) {
     urs::rtc::NamingClient names(orb, naming.address());
     CORBA::Object_var direct_object = provider(orb, names, "benchhost.host_cxt/Diagnostic0.rtc", "diagnostic");
     urs::bench::DiagnosticStub direct(direct_object);
-    if (!urs::test::wait_until([&] {
-          CORBA::Object_var bound = names.try_resolve("benchhost.host_cxt/camus_diag.rtc");
-          CORBA::Object_var kr_bound = names.try_resolve("jphost.host_cxt/kr_diag.rtc");
-          CORBA::Object_var secured_bound = names.try_resolve("jpsecured.host_cxt/kr_diag.rtc");
-          return !CORBA::is_nil(bound) && !CORBA::is_nil(kr_bound) && !CORBA::is_nil(secured_bound);
-        }, 30s)) {
+    if (!urs::test::wait_until(
+            [&] {
+              CORBA::Object_var bound = names.try_resolve("benchhost.host_cxt/camus_diag.rtc");
+              CORBA::Object_var kr_bound = names.try_resolve("jphost.host_cxt/kr_diag.rtc");
+              CORBA::Object_var secured_bound = names.try_resolve("jpsecured.host_cxt/kr_diag.rtc");
+              CORBA::Object_var tcp_bound = names.try_resolve("jptcp.host_cxt/kr_diag.rtc");
+              return !CORBA::is_nil(bound) && !CORBA::is_nil(kr_bound) && !CORBA::is_nil(secured_bound) &&
+                     (!tcp_linked || !CORBA::is_nil(tcp_bound));
+            },
+            30s)) {
       throw std::runtime_error("the RTCs standing for diag never appeared: " + bridge->log() + bridge_jp->log() +
-                               secured_jp->log());
+                               secured_jp->log() + tcp_jp->log());
     }
     CORBA::Object_var imported_object = provider(orb, names, "benchhost.host_cxt/camus_diag.rtc", "diagnostic");
     urs::bench::DiagnosticStub imported(imported_object);
@@ -502,32 +604,38 @@ int main(int argc, char** argv) {
     urs::bench::DiagnosticStub remote(remote_object);
     CORBA::Object_var secured_remote_object = provider(orb, names, "jpsecured.host_cxt/kr_diag.rtc", "diagnostic");
     urs::bench::DiagnosticStub secured_remote(secured_remote_object);
+    CORBA::Object_var tcp_remote_object = tcp_linked ? provider(orb, names, "jptcp.host_cxt/kr_diag.rtc", "diagnostic")
+                                                     : CORBA::Object::_duplicate(remote_object);
+    urs::bench::DiagnosticStub tcp_remote(tcp_remote_object);  // the plain link's stub if none (never called then)
 
     // Direct Fast DDS request/reply: a DdsLink here and one in urs-dds-echo answering at once (UDP
     // only, between processes as the bridges are).
     auto dds_echo =
         start_until_ready(dir, "dds-echo", {URS_DDS_ECHO_BIN, std::to_string(domains[1]), dir + "/dds-echo.ready"});
-    urs::bridge::DdsOptions a_options;
+    urs::federation::DdsOptions a_options;
     a_options.domain = domains[1];
     a_options.space = "dds-a";
     a_options.bridge = "a";
     a_options.udp_only = true;
-    urs::bridge::DdsLink dds_a(a_options, [] {}, [](urs::call::Request, urs::call::Responder) {});
+    urs::federation::DdsLink dds_a(
+        a_options, [] {}, [](urs::call::Request, urs::call::Responder) {});
     expect_ok(dds_a.call("dds-b", "echo", "echo", echo_payload, 5s), "direct DDS");
     // The same with DDS-Security (the federation above, data encrypted), on a domain of its own.
     auto secured_echo = start_until_ready(
         dir, "secured-echo", {URS_DDS_ECHO_BIN, std::to_string(domains[2]), dir + "/secured-echo.ready", pki});
-    urs::bridge::DdsOptions secured_options = a_options;
+    urs::federation::DdsOptions secured_options = a_options;
     secured_options.domain = domains[2];
-    secured_options.security = urs::bridge::security_from_folder(pki, "dds-a");
-    urs::bridge::DdsLink secured_a(secured_options, [] {}, [](urs::call::Request, urs::call::Responder) {});
+    secured_options.security = urs::federation::security_from_folder(pki, "dds-a");
+    urs::federation::DdsLink secured_a(
+        secured_options, [] {}, [](urs::call::Request, urs::call::Responder) {});
     const auto handshake_start = std::chrono::steady_clock::now();
     if (!urs::test::wait_until([&] { return secured_a.call("dds-b", "echo", "echo", echo_payload, 1s).ok(); }, 30s)) {
       throw std::runtime_error("the secured DDS echo never answered: " + secured_echo->log());
     }
     char handshake[96];
-    std::snprintf(handshake, sizeof(handshake), "%.0f ms (authentication, then the first call's writer matched)",
-                  std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - handshake_start).count());
+    std::snprintf(
+        handshake, sizeof(handshake), "%.0f ms (authentication, then the first call's writer matched)",
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - handshake_start).count());
     extras.push_back({"DDS-Security: joining until the first call is answered", handshake});
 
     const std::string text(64, 'x');
@@ -539,11 +647,17 @@ int main(int argc, char** argv) {
       const std::string& payload = big_payload ? blob_payload : echo_payload;
       auto stub_call = [&](urs::bench::DiagnosticStub& stub) {
         return [&stub, big_payload, &text] {
-          if (big_payload) stub.blob(921600); else stub.echo(text);
+          if (big_payload)
+            stub.blob(921600);
+          else
+            stub.echo(text);
         };
       };
       auto planet_call = [&](const std::string& service) {
         return [&, service] { expect_ok(client->call(service, op, payload, 10s), service.c_str()); };
+      };
+      auto metrics_call = [&](const std::string& service) {
+        return [&, service] { expect_ok(metrics_client->call(service, op, payload, 10s), service.c_str()); };
       };
       // In turns: the native paths, the same Planet call as above (its round is needed in this
       // group for the sums), the bridged and the cross-space paths, plain and secured.
@@ -562,14 +676,26 @@ int main(int argc, char** argv) {
            {"Fast DDS request/reply, UDP, DDS-Security encrypted (direct)",
             [&] { expect_ok(secured_a.call("dds-b", "x", op, payload, 10s), "secured DDS"); }, kDds + at, secured_goal},
            {"", planet_call("diag"), "", 0},  // the Planet call's round of this group (no row of its own)
-           {"bridged RTC→CAMUS: client→server→bridge→RTC", planet_call("rt.diag"), kBridgeHops + at, big_payload ? 0 : 1.15},
+           {"bridged RTC→CAMUS: client→server→bridge→RTC", planet_call("rt.diag"), kBridgeHops + at,
+            big_payload ? 0 : 1.15},
            {"bridged SA→RT: stub→bridge→server→SAM→SA", stub_call(imported), kBridgeHops + at, 0},
            {kCrossToJp, planet_call("jp/rt.diag"), kHops + at, 1.2},
            {kCrossToKr, stub_call(remote), kHops + at, 1.2},
            {"cross-space, DDS-Security encrypted: kr client→server→bridge-kr→DDS→bridge-jp→RTC",
             planet_call("jp-secured/rt.diag"), kCrossToJp + at, secured_goal},
            {"cross-space, DDS-Security encrypted: jp stub→bridge-jp→DDS→bridge-kr→server→SAM→SA",
-            stub_call(secured_remote), kCrossToKr + at, secured_goal}},
+            stub_call(secured_remote), kCrossToKr + at, secured_goal},
+           {tcp_linked ? "cross-space, the link over TCP: kr client→server→bridge-kr→TCP→bridge-jp→RTC" : "",
+            planet_call("jp-tcp/rt.diag"), tcp_linked ? kCrossToJp + at : "", 1.2},
+           // Not at 921,600 B: a reply that large from the connecting site to the listening one
+           // takes 160-240 ms and once stalled past the call's 10 s deadline (docs/sites.md, Limits).
+           {big_payload || !tcp_linked
+                ? ""
+                : "cross-space, the link over TCP: jp stub→bridge-jp→TCP→bridge-kr→server→SAM→SA",
+            stub_call(tcp_remote), big_payload || !tcp_linked ? "" : kCrossToKr + at, 1.2},
+           // At 64 B only, what metrics cost the call (docs/operations.md, "Monitoring").
+           {big_payload ? "" : "cross-space, metrics on in every process: kr client→server→bridge-kr→DDS→bridge-jp→RTC",
+            metrics_call("jp-metrics/rt.diag"), big_payload ? "" : kCrossToJp + at, 1.05}},
           // The native hops each bridged path traverses, added up repetition by repetition.
           {{kBridgeHops, {3, 0}, "", 0}, {kHops, {3, 1, 0}, "", 0}}, w, n);
     }
@@ -581,9 +707,8 @@ int main(int argc, char** argv) {
       const std::string text(64, 'x');
       auto cost_per_call = [&](const std::string& path, const std::vector<std::pair<std::string, pid_t>>& processes,
                                const std::function<void()>& once, bool big = false) {
-        const std::string label =
-            std::string(big ? "cost per 921,600-byte call" : "cost per 64-byte call") +
-            " (voluntary context switches, CPU): " + path;
+        const std::string label = std::string(big ? "cost per 921,600-byte call" : "cost per 64-byte call") +
+                                  " (voluntary context switches, CPU): " + path;
         if (!wanted(label)) return;
         const int n = big ? (quick ? 20 : 500) : (quick ? 200 : 5000);
         for (int i = 0; i < 50; ++i) once();
@@ -609,18 +734,30 @@ int main(int argc, char** argv) {
       cost_per_call("Fast DDS request/reply, UDP (direct)", {{"urs-dds-echo", dds_echo->pid()}},
                     [&] { expect_ok(dds_a.call("dds-b", "x", "echo", echo_payload, 10s), "DDS"); });
       cost_per_call(kPlanet, {{"server", server}, {"SAM", sam}}, echo_to("diag"));
-      cost_per_call(kPlanet, {{"server", server}, {"SAM", sam}},
-                    [&] { expect_ok(client->call("diag", "blob", blob_payload, 10s), "diag blob"); }, true);
+      cost_per_call("Planet call, metrics on in server and SAM: client→server→SAM→SA",
+                    {{"server", metrics_space.server().pid()}, {"SAM", metrics_space.sam().pid()}},
+                    [&] { expect_ok(metrics_client->call("diag", "echo", echo_payload, 10s), "diag"); });
+      cost_per_call(
+          kPlanet, {{"server", server}, {"SAM", sam}},
+          [&] { expect_ok(client->call("diag", "blob", blob_payload, 10s), "diag blob"); }, true);
       cost_per_call("bridged RTC→CAMUS: client→server→bridge→RTC",
                     {{"server", server}, {"bridge", bridge->pid()}, {"rtc-manager", rtc}}, echo_to("rt.diag"));
       cost_per_call("bridged SA→RT: stub→bridge→server→SAM→SA",
                     {{"bridge", bridge->pid()}, {"server", server}, {"SAM", sam}}, [&] { imported.echo(text); });
-      cost_per_call("cross-space: kr client→server→bridge-kr→DDS→bridge-jp→RTC",
-                    {{"server", server}, {"bridge-kr", bridge_kr->pid()}, {"bridge-jp", bridge_jp->pid()}, {"rtc-manager", rtc}},
-                    echo_to("jp/rt.diag"));
-      cost_per_call("cross-space: jp stub→bridge-jp→DDS→bridge-kr→server→SAM→SA",
-                    {{"bridge-jp", bridge_jp->pid()}, {"bridge-kr", bridge_kr->pid()}, {"server", server}, {"SAM", sam}},
-                    [&] { remote.echo(text); });
+      cost_per_call(
+          "cross-space: kr client→server→bridge-kr→DDS→bridge-jp→RTC",
+          {{"server", server}, {"bridge-kr", bridge_kr->pid()}, {"bridge-jp", bridge_jp->pid()}, {"rtc-manager", rtc}},
+          echo_to("jp/rt.diag"));
+      cost_per_call("cross-space, metrics on in every process: kr client→server→bridge-kr→DDS→bridge-jp→RTC",
+                    {{"server", metrics_space.server().pid()},
+                     {"bridge-kr", metrics_kr->pid()},
+                     {"bridge-jp", metrics_jp->pid()},
+                     {"rtc-manager", metrics_manager->pid()}},
+                    [&] { expect_ok(metrics_client->call("jp-metrics/rt.diag", "echo", echo_payload, 10s), "echo"); });
+      cost_per_call(
+          "cross-space: jp stub→bridge-jp→DDS→bridge-kr→server→SAM→SA",
+          {{"bridge-jp", bridge_jp->pid()}, {"bridge-kr", bridge_kr->pid()}, {"server", server}, {"SAM", sam}},
+          [&] { remote.echo(text); });
     }
 
     // Throughput, direct omniORB and bridged RTC→CAMUS, 1 and 4 clients, in turns.
@@ -640,7 +777,9 @@ int main(int argc, char** argv) {
           return [stub = stubs[static_cast<size_t>(c)].get(), &text] { stub->echo(text); };
         }));
         bridged.push_back(throughput(clients, per, [&](int c) {
-          return [cl = planets[static_cast<size_t>(c)].get(), &echo_payload] { expect_ok(cl->call("rt.diag", "echo", echo_payload, 5s), "echo"); };
+          return [cl = planets[static_cast<size_t>(c)].get(), &echo_payload] {
+            expect_ok(cl->call("rt.diag", "echo", echo_payload, 5s), "echo");
+          };
         }));
         share.push_back(bridged.back() / corba.back());
       }
@@ -648,7 +787,8 @@ int main(int argc, char** argv) {
       char value[200];
       std::snprintf(value, sizeof(value), "%.0f calls/s bridged vs %.0f direct omniORB: %.0f%% (%.0f – %.0f%%)%s",
                     urs::bench::percentile(bridged, 0.5), urs::bench::percentile(corba, 0.5), 100 * median_share,
-                    100 * *std::min_element(share.begin(), share.end()), 100 * *std::max_element(share.begin(), share.end()),
+                    100 * *std::min_element(share.begin(), share.end()),
+                    100 * *std::max_element(share.begin(), share.end()),
                     clients == 4 ? (median_share >= 0.35 ? " (goal >= 35%: met)" : " (goal >= 35%: missed)") : "");
       extras.push_back({"throughput RTC→CAMUS, " + std::to_string(clients) + " client(s), 64 B", value});
     }
@@ -674,8 +814,9 @@ int main(int argc, char** argv) {
       for (int i = 0; i < (quick ? 1 : 5); ++i) {
         const std::string host = "disc" + std::to_string(i);
         const auto t0 = std::chrono::steady_clock::now();
-        auto newcomer = start_with_config(dir, host, "components:\n  - type: Diagnostic\n",
-                                          {URS_RTC_MANAGER_BIN, "--space", "jp", "--naming", naming.address(), "--host", host});
+        auto newcomer =
+            start_with_config(dir, host, "components:\n  - type: Diagnostic\n",
+                              {URS_RTC_MANAGER_BIN, "--space", "jp", "--naming", naming.address(), "--host", host});
         const std::string service = "jp/Diagnostic0@" + host;
         if (!urs::test::wait_until([&] { return client->call(service, "echo", echo_payload, 200ms).ok(); }, 30s)) {
           throw std::runtime_error(service + " never became callable: " + bridge_jp->log() + bridge_kr->log());
@@ -689,7 +830,8 @@ int main(int argc, char** argv) {
     }
 
     if (wanted("RSS bridge-kr offering 1,000 services over DDS")) {  // and the other RSS lines
-      extras.push_back({"RSS urs-bridge in the space (1 service each way)", std::to_string(rss_kib(bridge->pid())) + " KiB"});
+      extras.push_back(
+          {"RSS urs-bridge in the space (1 service each way)", std::to_string(rss_kib(bridge->pid())) + " KiB"});
       extras.push_back({"RSS bridge-kr idle (1 service offered)", std::to_string(rss_kib(bridge_kr->pid())) + " KiB"});
 
       // Memory idle, then with 1,000 registered services.
@@ -709,12 +851,15 @@ int main(int argc, char** argv) {
             ++done;
           });
         }
-        if (!urs::test::wait_until([&] { return done.load() == 1000; }, 30s)) throw std::runtime_error("registrations did not complete");
-        extras.push_back({"RSS urs-camus-server, 1,000 services", std::to_string(rss_kib(space.server().pid())) + " KiB"});
+        if (!urs::test::wait_until([&] { return done.load() == 1000; }, 30s))
+          throw std::runtime_error("registrations did not complete");
+        extras.push_back(
+            {"RSS urs-camus-server, 1,000 services", std::to_string(rss_kib(space.server().pid())) + " KiB"});
         // bridge-kr offers them all to the other spaces: each described by the registry and
         // announced on DDS with its interface description (bridge-jp imports only kr/diag).
         std::this_thread::sleep_for(quick ? 3s : 6s);
-        extras.push_back({"RSS bridge-kr offering 1,000 services over DDS", std::to_string(rss_kib(bridge_kr->pid())) + " KiB (goal <= 65536 KiB)"});
+        extras.push_back({"RSS bridge-kr offering 1,000 services over DDS",
+                          std::to_string(rss_kib(bridge_kr->pid())) + " KiB (goal <= 65536 KiB)"});
       }
     }
 
@@ -728,7 +873,8 @@ int main(int argc, char** argv) {
         space.start_server(port);
         auto probe = connect(space.port());
         URS::Diagnostic_echo_Request ping;
-        if (!urs::test::wait_until([&] { return probe->call("diag", "echo", ping.SerializeAsString(), 200ms).ok(); }, 10s)) {
+        if (!urs::test::wait_until([&] { return probe->call("diag", "echo", ping.SerializeAsString(), 200ms).ok(); },
+                                   10s)) {
           throw std::runtime_error("diag not callable after a server restart");
         }
         recoveries.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());

@@ -145,23 +145,26 @@ class RawListener {
   std::thread thread_;
 };
 
+// Answers the messages of one connection until it closes: a 4-byte message with that many bytes,
+// any other with itself.
+inline void serve_echo(int fd) {
+  std::string message;
+  std::string blob;
+  while (recv_message(fd, message)) {
+    const std::string* reply = &message;
+    if (message.size() == 4) {
+      uint32_t size = 0;
+      std::memcpy(&size, message.data(), 4);
+      blob.assign(ntohl(size), 'x');
+      reply = &blob;
+    }
+    if (!send_message(fd, reply->data(), static_cast<uint32_t>(reply->size()))) break;
+  }
+}
+
 class RawEcho {
  public:
-  RawEcho()
-      : listener_([](int fd) {
-          std::string message;
-          std::string blob;
-          while (recv_message(fd, message)) {
-            const std::string* reply = &message;
-            if (message.size() == 4) {
-              uint32_t size = 0;
-              std::memcpy(&size, message.data(), 4);
-              blob.assign(ntohl(size), 'x');
-              reply = &blob;
-            }
-            if (!send_message(fd, reply->data(), static_cast<uint32_t>(reply->size()))) break;
-          }
-        }) {}
+  RawEcho() : listener_(serve_echo) {}
   uint16_t port() const { return listener_.port(); }
 
  private:

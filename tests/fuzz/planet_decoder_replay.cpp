@@ -60,8 +60,7 @@ std::vector<std::pair<std::string, std::string>> seeds() {
   Frame ping;
   ping.mutable_ping()->set_nonce(9);
   out.emplace_back("mixed_stream_sliced7",
-                   std::string(1, '\7') + encode_frame(request) + encode_frame(event) +
-                       encode_frame(ping));
+                   std::string(1, '\7') + encode_frame(request) + encode_frame(event) + encode_frame(ping));
 
   // A 2,000-byte request chunked at 512 bytes, interleaved with another one and a small frame.
   urs::planet::Outbox outbox(urs::planet::kMinChunkBytes);

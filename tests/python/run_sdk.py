@@ -44,6 +44,14 @@ class Failed(Exception):
     pass
 
 
+def cli(argv):
+    """Runs the urs CLI with its stderr after its stdout, less the "trace <id>" line `urs call` and
+    `urs rtc call` print there (docs/operations.md, "Following one call"), so a reply stays JSON."""
+    run = subprocess.run(argv, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, timeout=60)
+    run.stdout = re.sub(r"^trace [0-9a-f]{32}\n", "", run.stdout, flags=re.M)
+    return run
+
+
 def expect(condition, what, seen=None):
     if not condition:
         raise Failed(what + ("" if seen is None else "; seen: %r" % (seen,)))
@@ -128,8 +136,7 @@ class Space:
         return None
 
     def urs(self, *argv, token="client"):
-        return subprocess.run([self.args.cli_bin, "--server", self.server, "--token-file", self.tokens[token]]
-                              + list(argv), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, timeout=60)
+        return cli([self.args.cli_bin, "--server", self.server, "--token-file", self.tokens[token]] + list(argv))
 
     def urs_ok(self, *argv):
         run = self.urs(*argv)
@@ -495,8 +502,7 @@ def check_rt_consumer(space):
     idl = os.path.join(EXAMPLE, "Thermostat.idl")
 
     def rtc(*argv):
-        return subprocess.run([space.args.cli_bin, "rtc", "--naming", naming] + list(argv), stdout=subprocess.PIPE,
-                              stderr=subprocess.STDOUT, text=True, timeout=60)
+        return cli([space.args.cli_bin, "rtc", "--naming", naming] + list(argv))
     expect(wait_for(lambda: rtc("call", port, "_get_room", "--idl", idl).returncode == 0, 40),
            "the bridge offers thermo to RT consumers", rtc("call", port, "_get_room", "--idl", idl).stdout)
     run = rtc("call", port, "setTarget", '{"celsius": 24.5}', "--idl", idl)

@@ -19,7 +19,6 @@ import argparse
 import json
 import os
 import shutil
-import subprocess
 import sys
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -82,8 +81,7 @@ class Federation:
         self.domain_lock.close()
 
     def rtc(self, *argv):
-        return subprocess.run([self.args.cli_bin, "rtc", "--naming", self.naming] + list(argv),
-                              stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, timeout=60)
+        return run_sdk.cli([self.args.cli_bin, "rtc", "--naming", self.naming] + list(argv))
 
 
 def reply_of(run):

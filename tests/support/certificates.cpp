@@ -34,8 +34,19 @@ void make_leaf(const std::string& dir, const std::string& name, const std::strin
   request.insert(request.end(), kNewKey.begin(), kNewKey.end());
   request.insert(request.end(), {"-subj", "/CN=" + cn, "-keyout", base + ".key", "-out", base + ".csr"});
   openssl(request);
-  std::vector<std::string> sign{"x509", "-req", "-in", base + ".csr", "-CA", dir + "/" + ca + ".pem", "-CAkey",
-                                dir + "/" + ca + ".key", "-CAcreateserial", "-days", "2", "-out", base + ".pem"};
+  std::vector<std::string> sign{"x509",
+                                "-req",
+                                "-in",
+                                base + ".csr",
+                                "-CA",
+                                dir + "/" + ca + ".pem",
+                                "-CAkey",
+                                dir + "/" + ca + ".key",
+                                "-CAcreateserial",
+                                "-days",
+                                "2",
+                                "-out",
+                                base + ".pem"};
   if (!san.empty()) {
     std::ofstream(base + ".ext") << "subjectAltName=" << san << "\n";
     sign.insert(sign.end(), {"-extfile", base + ".ext"});

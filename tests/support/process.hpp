@@ -25,7 +25,7 @@ class Process {
   void signal(int sig);
   // Waits for exit up to `timeout`; returns the exit code (128+signal if killed), or -1 on timeout.
   int wait(std::chrono::milliseconds timeout);
-  void kill9();  // SIGKILL and reap
+  void kill9();             // SIGKILL and reap
   std::string log() const;  // what the process printed so far
 
  private:

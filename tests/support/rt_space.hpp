@@ -91,14 +91,14 @@ class RtSpaceTest : public ::testing::Test {
     const std::string ready = dir_ + "/" + name + ".ready";
     std::ofstream(config) << config_yaml;
     std::filesystem::remove(ready);
-    std::vector<std::string> argv{URS_RTC_MANAGER_BIN, "--space", "lab", "--naming", naming_->address(),
-                                  "--host", host, "--config", config, "--ready-file", ready,
-                                  "--log-level", "debug"};
+    std::vector<std::string> argv{
+        URS_RTC_MANAGER_BIN, "--space", "lab",          "--naming", naming_->address(), "--host", host,
+        "--config",          config,    "--ready-file", ready,      "--log-level",      "debug"};
     argv.insert(argv.end(), extra_args.begin(), extra_args.end());
     managers_[name] = std::make_unique<Process>(argv, dir_ + "/" + name + ".log");
     Process& process = *managers_[name];
-    const bool up = wait_until([&] { return std::filesystem::exists(ready) || !process.running(); },
-                               std::chrono::seconds(20));
+    const bool up =
+        wait_until([&] { return std::filesystem::exists(ready) || !process.running(); }, std::chrono::seconds(20));
     EXPECT_TRUE(up && std::filesystem::exists(ready)) << name << " did not come up:\n" << process.log();
     return std::filesystem::exists(ready) ? read_text(ready) : std::string();
   }

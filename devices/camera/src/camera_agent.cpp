@@ -118,8 +118,8 @@ CameraAgent::CameraAgent(CameraParams params, std::shared_ptr<PoseSource> poses)
         // Checked before readiness: a bad argument is the caller's mistake whatever the camera's state.
         const int encoding = req.encoding();
         if (encoding != URC::IMAGE_ENCODING_RAW_RGB8 && encoding != URC::IMAGE_ENCODING_PNG) {
-          return invalid_argument("encoding", encoding_name(encoding) +
-                                                  " is not supported: the simulated camera delivers RAW_RGB8 or PNG");
+          return invalid_argument(
+              "encoding", encoding_name(encoding) + " is not supported: the simulated camera delivers RAW_RGB8 or PNG");
         }
         std::string reason;
         const auto pose = ready(reason);
@@ -161,8 +161,8 @@ std::optional<Pose> CameraAgent::ready(std::string& reason) const {
 }
 
 URC::Image CameraAgent::capture(const Pose& pose, URC::ImageEncoding encoding) const {
-  const auto now = std::chrono::duration_cast<std::chrono::nanoseconds>(
-      std::chrono::system_clock::now().time_since_epoch()).count();
+  const auto now =
+      std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch()).count();
   RgbFrame frame = params_.scene->render(pose);
   URC::Image image;
   image.mutable_stamp()->set_sec(now / 1'000'000'000);

@@ -13,9 +13,9 @@ namespace urs::camera {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-constexpr int kQuietModules = 4;       // QR quiet zone, modules on each side
-constexpr double kOnWall = 1e-6;       // m, how far off a wall plane a marker may be
-constexpr double kNearest = 0.05;      // m, points closer to the camera plane are not drawn
+constexpr int kQuietModules = 4;   // QR quiet zone, modules on each side
+constexpr double kOnWall = 1e-6;   // m, how far off a wall plane a marker may be
+constexpr double kNearest = 0.05;  // m, points closer to the camera plane are not drawn
 
 // Surface colours, R G B.
 constexpr std::array<double, 3> kFloor{120, 104, 88};
@@ -143,8 +143,8 @@ std::array<double, 3> Scene::shade(const Ray& ray, double row, bool& on_plate) c
                       symbol.dark[static_cast<size_t>(line) * symbol.modules + col];
     return scaled(dark ? kModule : kPlate, dimming(ray.distance));
   }
-  static constexpr std::array<std::array<double, 3>, 4> kWalls{{
-      {196, 186, 160}, {178, 192, 200}, {200, 180, 176}, {184, 196, 172}}};  // west, east, south, north
+  static constexpr std::array<std::array<double, 3>, 4> kWalls{
+      {{196, 186, 160}, {178, 192, 200}, {200, 180, 176}, {184, 196, 172}}};  // west, east, south, north
   return scaled(kWalls[static_cast<size_t>(ray.wall)], dimming(ray.distance));
 }
 
@@ -211,8 +211,8 @@ std::vector<MarkerView> Scene::views(const Pose& pose) const {
     if (in_front) {
       auto length = [](const PixelXY& p, const PixelXY& r) { return std::hypot(p.x - r.x, p.y - r.y); };
       const auto& c = view.corners;
-      view.module_px = std::min({length(c[0], c[1]), length(c[3], c[2]), length(c[0], c[3]), length(c[1], c[2])}) /
-                       symbol.modules;
+      view.module_px =
+          std::min({length(c[0], c[1]), length(c[3], c[2]), length(c[0], c[3]), length(c[1], c[2])}) / symbol.modules;
     }
     if (view.in_image && view.module_px >= kLegibleModulePx) {
       view.legibility = Legibility::kLegible;

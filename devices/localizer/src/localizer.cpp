@@ -3,8 +3,8 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "urs/devices/robot_motion.hpp"
 #include "urs/devices/params.hpp"
+#include "urs/devices/robot_motion.hpp"
 #include "urs/devices/sim_loop.hpp"
 #include "urs/util/number.hpp"
 #include "urs/world/world.hpp"
@@ -15,9 +15,9 @@ using agent::CallContext;
 using agent::Outcome;
 
 LocalizerConfig parse_localizer_config(const YAML::Node& params) {
-  ParamReader p("localizer", params,
-                {"name", "robot", "prefix", "domain", "time_scale", "rate", "noise_xy", "noise_theta", "frame",
-                 "seed"});
+  ParamReader p(
+      "localizer", params,
+      {"name", "robot", "prefix", "domain", "time_scale", "rate", "noise_xy", "noise_theta", "frame", "seed"});
   LocalizerConfig c;
   c.name = p.text("name", c.name);
   c.robot = p.text("robot", c.robot);
@@ -64,8 +64,7 @@ LocalizerAgent::~LocalizerAgent() { stop(); }
 void LocalizerAgent::start(agent::EventSink& events) {
   events_ = &events;
   world_ = std::make_unique<world::World>(config_.domain, "urs-localizer-" + config_.name);
-  world_->subscribe(world::Channel::ground_truth, config_.robot,
-                    [this](const world::PoseSample& s) { on_truth(s); });
+  world_->subscribe(world::Channel::ground_truth, config_.robot, [this](const world::PoseSample& s) { on_truth(s); });
   loop_->start(1 / config_.rate, config_.time_scale, [this] { measure(); });
 }
 
@@ -99,8 +98,7 @@ void LocalizerAgent::measure() {
     pose.set_y(fix.y);
     pose.set_theta(fix.theta);
     for (double c : fix.covariance) pose.add_covariance(c);
-    const auto ns =
-        std::chrono::duration_cast<std::chrono::nanoseconds>(fix.stamp.time_since_epoch()).count();
+    const auto ns = std::chrono::duration_cast<std::chrono::nanoseconds>(fix.stamp.time_since_epoch()).count();
     pose.mutable_stamp()->set_sec(ns / 1'000'000'000);
     pose.mutable_stamp()->set_nsec(static_cast<uint32_t>(ns % 1'000'000'000));
     pose.set_frame(config_.frame);

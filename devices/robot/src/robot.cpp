@@ -96,14 +96,13 @@ RobotAgent::RobotAgent(RobotConfig config)
         rep.mutable_result()->set_theta(estimate_.pose().theta);
         return Outcome::ok();
       });
-  on<URC::Navigation_stop_Request, URC::Navigation_stop_Reply>(
-      "stop", [this](const auto&, auto&, const CallContext&) {
-        return change([&](Pending& pending) {
-          target_.reset();
-          if (state_ == URC::NAVIGATION_STATE_MOVING) set_state(URC::NAVIGATION_STATE_STOPPED, pending);
-          return Outcome::ok();
-        });
-      });
+  on<URC::Navigation_stop_Request, URC::Navigation_stop_Reply>("stop", [this](const auto&, auto&, const CallContext&) {
+    return change([&](Pending& pending) {
+      target_.reset();
+      if (state_ == URC::NAVIGATION_STATE_MOVING) set_state(URC::NAVIGATION_STATE_STOPPED, pending);
+      return Outcome::ok();
+    });
+  });
   on<URC::Navigation_setSpeed_Request, URC::Navigation_setSpeed_Reply>(
       "setSpeed", [this](const auto& req, auto&, const CallContext&) {
         const double max_mm = config_.limits.max_speed * 1000;
@@ -147,8 +146,9 @@ void RobotAgent::start(agent::EventSink& events) {
   events_ = &events;
   world_ = std::make_unique<world::World>(config_.domain, "urs-robot-" + config_.name);
   if (config_.feedback == RobotConfig::Feedback::localizer) {
-    world_->subscribe(world::Channel::localizer, config_.name,
-                      [this](const world::PoseSample& s) { on_fix(Pose2{s.x, s.y, s.theta}); });
+    world_->subscribe(world::Channel::localizer, config_.name, [this](const world::PoseSample& s) {
+      on_fix(Pose2{s.x, s.y, s.theta});
+    });
   }
   loop_->start(kControlPeriod, config_.time_scale, [this] { tick(); });
 }

@@ -32,12 +32,12 @@ Velocity go_to_goal(const Pose2& at, double tx, double ty, double cruise, const 
   const double bearing = wrap_angle(std::atan2(dy, dx) - at.theta);
   Velocity cmd;
   // Turn rate that can still be braked to zero within the remaining angle.
-  const double turn = std::min({limits.max_turn_rate, std::sqrt(2 * limits.max_turn_accel * std::abs(bearing)),
-                                kTurnGain * std::abs(bearing)});
+  const double turn = std::min(
+      {limits.max_turn_rate, std::sqrt(2 * limits.max_turn_accel * std::abs(bearing)), kTurnGain * std::abs(bearing)});
   cmd.w = std::copysign(turn, bearing);
   if (std::abs(bearing) < kTurnInPlace) {
-    const double speed = std::min({cruise, limits.max_speed, std::sqrt(2 * limits.max_accel * distance),
-                                   kSpeedGain * distance});
+    const double speed =
+        std::min({cruise, limits.max_speed, std::sqrt(2 * limits.max_accel * distance), kSpeedGain * distance});
     cmd.v = speed * std::cos(bearing);
   }
   return cmd;

@@ -107,8 +107,8 @@ std::optional<std::vector<int16_t>> EspeakEngine::synthesize(const std::string& 
   if (status != ENS_OK) throw std::runtime_error("espeak-ng rate: " + status_text(status));
   std::vector<int16_t> samples;
   Utterance utterance{&samples, &keep_going};
-  status = espeak_ng_Synthesize(text.c_str(), text.size() + 1, 0, POS_CHARACTER, 0, espeakCHARS_UTF8, nullptr,
-                                &utterance);
+  status =
+      espeak_ng_Synthesize(text.c_str(), text.size() + 1, 0, POS_CHARACTER, 0, espeakCHARS_UTF8, nullptr, &utterance);
   if (utterance.aborted) {
     espeak_ng_Cancel();  // drops what the aborted utterance left in the engine
     return std::nullopt;

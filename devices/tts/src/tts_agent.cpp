@@ -40,7 +40,8 @@ class TtsAgent : public agent::TypedAgent {
         engine_(EspeakEngine::instance()),
         voice_(params_.voice) {
     on<URC::TextToSpeech_speak_Request, URC::TextToSpeech_speak_Reply>(
-        "speak", [this](const auto& req, auto& rep, const CallContext&) { return speak(req.text(), *rep.mutable_result()); });
+        "speak",
+        [this](const auto& req, auto& rep, const CallContext&) { return speak(req.text(), *rep.mutable_result()); });
     on<URC::TextToSpeech_getAvailableVoices_Request, URC::TextToSpeech_getAvailableVoices_Reply>(
         "getAvailableVoices", [this](const auto&, auto& rep, const CallContext&) {
           for (const auto& v : engine_.voices()) {
@@ -141,13 +142,14 @@ class TtsAgent : public agent::TypedAgent {
     std::lock_guard lock(mutex_);
     if (events_ == nullptr) return;
     auto published = events_->publish(params_.topic_prefix + "/spoken", event);
-    if (!published.ok()) spdlog::warn("tts: event {}/spoken not published: {}", params_.topic_prefix, published.message);
+    if (!published.ok())
+      spdlog::warn("tts: event {}/spoken not published: {}", params_.topic_prefix, published.message);
   }
 
   void cancel_all(const std::string& details) {
     std::lock_guard lock(mutex_);
-    spdlog::info("tts: cancelling {} waiting utterance(s){}: {}", queue_.size(), busy_ ? " and the one in progress" : "",
-                 details);
+    spdlog::info("tts: cancelling {} waiting utterance(s){}: {}", queue_.size(),
+                 busy_ ? " and the one in progress" : "", details);
     ++generation_;  // the utterance in progress sees it at its next audio block
     answer_queued(details);
   }

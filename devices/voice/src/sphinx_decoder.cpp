@@ -1,9 +1,9 @@
 #include "sphinx_decoder.hpp"
 
 #include <pocketsphinx.h>
+#include <spdlog/spdlog.h>
 #include <sphinxbase/ckd_alloc.h>
 #include <sphinxbase/err.h>
-#include <spdlog/spdlog.h>
 
 #include <cstdarg>
 #include <cstdio>

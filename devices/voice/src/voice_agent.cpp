@@ -95,7 +95,8 @@ URC::RecognitionResult to_result(const Hypothesis& hypothesis) {
   const auto now = std::chrono::system_clock::now().time_since_epoch();
   const auto sec = std::chrono::duration_cast<std::chrono::seconds>(now);
   result.mutable_stamp()->set_sec(sec.count());
-  result.mutable_stamp()->set_nsec(static_cast<uint32_t>(std::chrono::duration_cast<std::chrono::nanoseconds>(now - sec).count()));
+  result.mutable_stamp()->set_nsec(
+      static_cast<uint32_t>(std::chrono::duration_cast<std::chrono::nanoseconds>(now - sec).count()));
   return result;
 }
 
@@ -131,11 +132,11 @@ class VoiceAgent : public agent::TypedAgent {
           return recognize_wav(bytes, "path", ctx, *rep.mutable_result());
         });
     on<URC::VoiceRecognition_startStream_Request, URC::VoiceRecognition_startStream_Reply>(
-        "startStream", [this](const auto& req, auto& rep, const CallContext& ctx) {
-          return start_stream(req.format(), ctx, rep);
-        });
+        "startStream",
+        [this](const auto& req, auto& rep, const CallContext& ctx) { return start_stream(req.format(), ctx, rep); });
     on<URC::VoiceRecognition_feedStream_Request, URC::VoiceRecognition_feedStream_Reply>(
-        "feedStream", [this](const auto& req, auto&, const CallContext&) { return feed_stream(req.stream(), req.pcm()); });
+        "feedStream",
+        [this](const auto& req, auto&, const CallContext&) { return feed_stream(req.stream(), req.pcm()); });
     on<URC::VoiceRecognition_finishStream_Request, URC::VoiceRecognition_finishStream_Reply>(
         "finishStream", [this](const auto& req, auto& rep, const CallContext&) {
           return finish_stream(req.stream(), *rep.mutable_result());
@@ -242,12 +243,13 @@ class VoiceAgent : public agent::TypedAgent {
       return invalid_argument("pcm", e.what());
     }
     if (samples.size() % stream->channels != 0) {
-      return invalid_argument("pcm", "holds a partial frame: " + std::to_string(stream->channels) +
-                                         " interleaved samples make a frame");
+      return invalid_argument(
+          "pcm", "holds a partial frame: " + std::to_string(stream->channels) + " interleaved samples make a frame");
     }
     const std::size_t frames = samples.size() / stream->channels;
     if (static_cast<double>(stream->frames + frames) / stream->sample_rate > params_.max_audio_s) {
-      return invalid_argument("pcm", "the stream would exceed max_audio_s (" + std::to_string(params_.max_audio_s) + " s)");
+      return invalid_argument("pcm",
+                              "the stream would exceed max_audio_s (" + std::to_string(params_.max_audio_s) + " s)");
     }
     stream->frames += frames;
     stream->last_fed = Clock::now();
@@ -334,7 +336,8 @@ class VoiceAgent : public agent::TypedAgent {
     std::lock_guard lock(mutex_);
     if (events_ != nullptr) {
       auto published = events_->publish(params_.topic_prefix + "/recognized", results.Get(0));
-      if (!published.ok()) spdlog::warn("voice: event {}/recognized not published: {}", params_.topic_prefix, published.message);
+      if (!published.ok())
+        spdlog::warn("voice: event {}/recognized not published: {}", params_.topic_prefix, published.message);
     }
     return Outcome::ok();
   }
@@ -351,10 +354,18 @@ class VoiceAgent : public agent::TypedAgent {
 }  // namespace
 
 const std::vector<std::string>& default_robot_commands() {
-  static const std::vector<std::string> commands{
-      "go forward", "go back",        "turn left",        "turn right",      "stop",
-      "go to the kitchen", "go to the living room", "come here", "speak louder", "speak softer",
-      "what time is it",   "follow me"};
+  static const std::vector<std::string> commands{"go forward",
+                                                 "go back",
+                                                 "turn left",
+                                                 "turn right",
+                                                 "stop",
+                                                 "go to the kitchen",
+                                                 "go to the living room",
+                                                 "come here",
+                                                 "speak louder",
+                                                 "speak softer",
+                                                 "what time is it",
+                                                 "follow me"};
   return commands;
 }
 
@@ -406,8 +417,9 @@ std::shared_ptr<agent::ServiceAgent> make_voice_agent(const YAML::Node& node) {
     if (params.mode == RecognitionMode::grammar) {
       const auto unknown = decoder->unknown_words(words_of(params.commands));
       if (!unknown.empty()) {
-        throw ParamError("voice", {{"commands", "words not in the dictionary: " +
-                                                   util::join(std::set<std::string>(unknown.begin(), unknown.end()))}});
+        throw ParamError("voice",
+                         {{"commands", "words not in the dictionary: " +
+                                           util::join(std::set<std::string>(unknown.begin(), unknown.end()))}});
       }
       decoder->use_grammar(jsgf);
     }

@@ -47,8 +47,10 @@ int main(int argc, char** argv) {
   urs::agent::serve_requests(client, host);
   for (const auto& service : host.services()) {
     client.register_service(urs::agent::registration(service), [name = service.name](urs::planet::CallResult result) {
-      if (result.ok()) spdlog::info("registered service {}", name);
-      else spdlog::error("registering {} failed: {}", name, result.message);
+      if (result.ok())
+        spdlog::info("registered service {}", name);
+      else
+        spdlog::error("registering {} failed: {}", name, result.message);
     });
   }
   client.start();

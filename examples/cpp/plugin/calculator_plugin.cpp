@@ -62,7 +62,8 @@ extern "C" URS_PLUGIN_EXPORT int urs_plugin_register(urs::agent::PluginRegistry&
   registry.add({"calculator", "Calculator",
                 [](const YAML::Node& params) {
                   // A bad value throws YAML's exception naming it: the host refuses the entry with it.
-                  const std::string label = params && params["label"] ? params["label"].as<std::string>() : "calculator";
+                  const std::string label =
+                      params && params["label"] ? params["label"].as<std::string>() : "calculator";
                   return std::make_shared<CalculatorAgent>(label);
                 },
                 "PluginExample::Calculator: divide, calls, label"});

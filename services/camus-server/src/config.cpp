@@ -3,11 +3,15 @@
 #include <spdlog/common.h>
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <charconv>
 #include <filesystem>
+#include <set>
 #include <vector>
 
 #include "urs/camus_server/registry.hpp"
+#include "urs/metrics/flags.hpp"
+#include "urs/util/program_flags.hpp"
 
 namespace urs::camus_server {
 
@@ -24,11 +28,91 @@ uint64_t parse_number(const std::string& flag, const std::string& text, uint64_t
   return value;
 }
 
+// A limit per credential left at its default follows the limits around it: at most its
+// server-wide limit, at least its per-session limit. Then a limit per credential above its
+// server-wide limit, or per session above per credential, is a mistake: every one is reported at
+// once. `given` says which flags were given.
+void check_shares(SemanticLimits& limits, const std::set<std::string>& given) {
+  struct Fit {
+    const char* flag;
+    uint64_t SemanticLimits::*field;
+    uint64_t SemanticLimits::*at_least;
+    uint64_t SemanticLimits::*at_most;
+  };
+  const Fit fits[] = {
+      {"--max-subscriptions-per-credential", &SemanticLimits::max_subscriptions_per_credential,
+       &SemanticLimits::max_subscriptions_per_session, &SemanticLimits::max_subscriptions},
+      {"--max-pending-calls-per-credential", &SemanticLimits::max_pending_calls_per_credential,
+       &SemanticLimits::max_pending_calls_per_session, &SemanticLimits::max_pending_calls},
+      {"--event-queue-per-credential", &SemanticLimits::event_queue_per_credential,
+       &SemanticLimits::event_queue_per_session, &SemanticLimits::event_queue},
+      {"--event-queue-bytes-per-credential", &SemanticLimits::event_queue_bytes_per_credential, nullptr,
+       &SemanticLimits::event_queue_bytes},
+      {"--max-buffered-bytes-per-credential", &SemanticLimits::max_buffered_bytes_per_credential,
+       &SemanticLimits::max_reassembly_bytes, &SemanticLimits::max_buffered_bytes},
+      {"--max-sessions-per-credential", &SemanticLimits::max_sessions_per_credential, nullptr,
+       &SemanticLimits::max_connections},
+      {"--max-resumable-sessions-per-credential", &SemanticLimits::max_resumable_sessions_per_credential, nullptr,
+       &SemanticLimits::max_resumable_sessions},
+  };
+  for (const Fit& fit : fits) {
+    if (given.count(fit.flag) != 0) continue;
+    uint64_t& value = limits.*fit.field;
+    if (fit.at_least != nullptr) value = std::max(value, limits.*fit.at_least);
+    if (fit.field == &SemanticLimits::max_buffered_bytes_per_credential) {
+      value = std::max(value, limits.max_send_queue_bytes);
+    }
+    value = std::min(value, limits.*fit.at_most);
+  }
+  struct Pair {
+    const char* part_flag;
+    uint64_t part;
+    const char* whole_flag;
+    uint64_t whole;
+  };
+  const Pair pairs[] = {
+      {"--max-subscriptions-per-session", limits.max_subscriptions_per_session, "--max-subscriptions-per-credential",
+       limits.max_subscriptions_per_credential},
+      {"--max-subscriptions-per-credential", limits.max_subscriptions_per_credential, "--max-subscriptions",
+       limits.max_subscriptions},
+      {"--max-pending-calls-per-session", limits.max_pending_calls_per_session, "--max-pending-calls-per-credential",
+       limits.max_pending_calls_per_credential},
+      {"--max-pending-calls-per-credential", limits.max_pending_calls_per_credential, "--max-pending-calls",
+       limits.max_pending_calls},
+      {"--event-queue-per-session", limits.event_queue_per_session, "--event-queue-per-credential",
+       limits.event_queue_per_credential},
+      {"--event-queue-per-credential", limits.event_queue_per_credential, "--event-queue", limits.event_queue},
+      {"--event-queue-bytes-per-credential", limits.event_queue_bytes_per_credential, "--event-queue-bytes",
+       limits.event_queue_bytes},
+      {"--max-reassembly-bytes", limits.max_reassembly_bytes, "--max-buffered-bytes-per-credential",
+       limits.max_buffered_bytes_per_credential},
+      {"--max-message-bytes", limits.max_message_bytes, "--max-reassembly-bytes", limits.max_reassembly_bytes},
+      {"--max-send-queue-bytes", limits.max_send_queue_bytes, "--max-buffered-bytes-per-credential",
+       limits.max_buffered_bytes_per_credential},
+      {"--max-buffered-bytes-per-credential", limits.max_buffered_bytes_per_credential, "--max-buffered-bytes",
+       limits.max_buffered_bytes},
+      {"--max-sessions-per-credential", limits.max_sessions_per_credential, "--max-connections",
+       limits.max_connections},
+      {"--max-resumable-sessions-per-credential", limits.max_resumable_sessions_per_credential,
+       "--max-resumable-sessions", limits.max_resumable_sessions},
+  };
+  std::vector<std::string> errors;
+  for (const Pair& pair : pairs) {
+    if (pair.part > pair.whole) {
+      errors.push_back(std::string(pair.part_flag) + ": " + std::to_string(pair.part) + " is above " + pair.whole_flag +
+                       " (" + std::to_string(pair.whole) + ")");
+    }
+  }
+  if (errors.empty()) return;
+  std::string message = errors.front();
+  for (size_t i = 1; i < errors.size(); ++i) message += "; " + errors[i];
+  throw util::ConfigError(message);
+}
+
 }  // namespace
 
 std::optional<ServerConfig> parse_command_line(int argc, const char* const* argv, std::ostream& out) {
-  CLI::App app{"CAMUS server: service registry, routing, events, context and tasks over Planet",
-               "urs-camus-server"};
+  CLI::App app{"CAMUS server: service registry, routing, events, context and tasks over Planet", "urs-camus-server"};
   std::string space;
   std::string listen;
   std::string token_file;
@@ -61,30 +145,55 @@ std::optional<ServerConfig> parse_command_line(int argc, const char* const* argv
        "a number of levels", ""},
       {"--max-subscriptions-per-session", "subscriptions one connection may hold",
        &SemanticLimits::max_subscriptions_per_session, 1, 1'000'000, "a number", ""},
+      {"--max-subscriptions-per-credential", "subscriptions all connections of one credential may hold",
+       &SemanticLimits::max_subscriptions_per_credential, 1, 10'000'000, "a number", ""},
       {"--max-subscriptions", "subscriptions of all connections together", &SemanticLimits::max_subscriptions, 1,
        10'000'000, "a number", ""},
       {"--max-pending-calls-per-session", "calls one connection may have waiting for a reply",
        &SemanticLimits::max_pending_calls_per_session, 1, 1'000'000, "a number", ""},
+      {"--max-pending-calls-per-credential", "calls all connections of one credential may have waiting",
+       &SemanticLimits::max_pending_calls_per_credential, 1, 10'000'000, "a number", ""},
       {"--max-pending-calls", "calls waiting for a reply, server-wide", &SemanticLimits::max_pending_calls, 1,
        10'000'000, "a number", ""},
       {"--max-deadline-ms", "largest deadline_ms a call may ask for", &SemanticLimits::max_deadline_ms, 1,
        uint64_t{1} << 40, "a number of milliseconds", ""},
       {"--event-queue", "publishes and subscribes waiting for the event bus before RESOURCE_EXHAUSTED",
        &SemanticLimits::event_queue, 1, 10'000'000, "a number", ""},
+      {"--event-queue-per-credential", "of those, from one credential", &SemanticLimits::event_queue_per_credential, 1,
+       10'000'000, "a number", ""},
       {"--event-queue-per-session", "of those, from one session", &SemanticLimits::event_queue_per_session, 1,
        10'000'000, "a number", ""},
       {"--event-queue-bytes", "bytes of those", &SemanticLimits::event_queue_bytes, 65536, uint64_t{1} << 40,
        "a number of bytes", ""},
+      {"--event-queue-bytes-per-credential", "of those bytes, from one credential",
+       &SemanticLimits::event_queue_bytes_per_credential, 65536, uint64_t{1} << 40, "a number of bytes", ""},
       {"--max-hello-bytes", "largest frame accepted before the handshake (the Hello; no chunks)",
        &SemanticLimits::max_hello_bytes, 512, 65536, "a number of bytes", ""},
+      {"--max-message-bytes", "largest message a peer may send (chunked), announced in Welcome",
+       &SemanticLimits::max_message_bytes, 65536, (uint64_t{1} << 31) - 1, "a number of bytes", ""},
       {"--max-reassembly-bytes", "per session: buffers of chunked messages in progress",
        &SemanticLimits::max_reassembly_bytes, 1 << 20, uint64_t{1} << 40, "a number of bytes", ""},
+      {"--max-send-queue-bytes", "per session: frames waiting for a peer that reads slowly (more: the session closes)",
+       &SemanticLimits::max_send_queue_bytes, 1 << 20, uint64_t{1} << 40, "a number of bytes", ""},
       {"--max-buffered-bytes", "all sessions: reassembly buffers and send queues together",
        &SemanticLimits::max_buffered_bytes, 1 << 20, uint64_t{1} << 44, "a number of bytes", ""},
-      {"--max-connections", "open connections, handshaking ones included", &SemanticLimits::max_connections, 1,
-       1'000'000, "a number", ""},
+      {"--max-buffered-bytes-per-credential", "of those, the sessions of one credential",
+       &SemanticLimits::max_buffered_bytes_per_credential, 1 << 20, uint64_t{1} << 44, "a number of bytes", ""},
+      {"--max-connections",
+       "open connections, handshaking ones included (lowered at start to what the file descriptor limit allows)",
+       &SemanticLimits::max_connections, 1, 1'000'000, "a number", ""},
       {"--max-connections-per-address", "of those, from one source address",
        &SemanticLimits::max_connections_per_address, 1, 1'000'000, "a number", ""},
+      {"--max-sessions-per-credential", "open sessions of one credential", &SemanticLimits::max_sessions_per_credential,
+       1, 1'000'000, "a number", ""},
+      {"--max-resumable-sessions", "closed sessions kept resumable", &SemanticLimits::max_resumable_sessions, 1,
+       10'000'000, "a number", ""},
+      {"--max-resumable-sessions-per-credential", "of those, of one credential",
+       &SemanticLimits::max_resumable_sessions_per_credential, 1, 10'000'000, "a number", ""},
+      {"--reserved-percent",
+       "percent of every server-wide limit that client credentials cannot use: kept for sam and operator sessions "
+       "and the server's own work",
+       &SemanticLimits::reserved_percent, 0, 90, "a percentage", ""},
   };
   for (auto& limit : limit_flags) {
     limit.text = std::to_string(defaults.*limit.field);
@@ -106,6 +215,10 @@ std::optional<ServerConfig> parse_command_line(int argc, const char* const* argv
   app.add_option("--default-deadline-ms", default_deadline, "deadline of calls that give none (default 10000)");
   app.add_option("--event-retention", retention, "events kept for resuming subscribers (default 100000)");
   app.add_option("--log-level", log_level, std::string("log level: ") + util::kLogLevels + " (default info)");
+  std::string log_format = "text";
+  util::add_log_format_flag(app, log_format);
+  std::string metrics_listen;
+  metrics::add_metrics_flag(app, metrics_listen);
   util::TlsConfig tls;
   util::add_tls_server_flags(app, tls);
   bool allow_plaintext_tokens = false;
@@ -136,8 +249,9 @@ std::optional<ServerConfig> parse_command_line(int argc, const char* const* argv
     }
   }
   if (!token_file.empty() && token_role.empty()) {
-    throw util::ConfigError("--token-file needs --token-role (client, sam or operator): the role of the one "
-                            "credential it holds");
+    throw util::ConfigError(
+        "--token-file needs --token-role (client, sam or operator): the role of the one "
+        "credential it holds");
   }
   if (auto why = planet::Credentials::name_problem(token_name); !why.empty()) {
     throw util::ConfigError("--token-name: '" + token_name + "' is not valid: " + why);
@@ -145,13 +259,18 @@ std::optional<ServerConfig> parse_command_line(int argc, const char* const* argv
   for (const auto& limit : limit_flags) {
     config.limits.*limit.field = parse_number(limit.flag, limit.text, limit.min, limit.max, limit.what);
   }
+  std::set<std::string> given;
+  for (const auto& limit : limit_flags) {
+    if (app.count(limit.flag) > 0) given.insert(limit.flag);
+  }
+  check_shares(config.limits, given);
   config.heartbeat_ms =
       static_cast<uint32_t>(parse_number("--heartbeat-ms", heartbeat, 10, 3'600'000, "a number of milliseconds"));
   config.heartbeat_timeout_ms = static_cast<uint32_t>(
       parse_number("--heartbeat-timeout-ms", heartbeat_timeout, 10, 3'600'000, "a number of milliseconds"));
   if (config.heartbeat_timeout_ms <= config.heartbeat_ms) {
-    throw util::ConfigError("--heartbeat-timeout-ms: '" + heartbeat_timeout +
-                            "' must be longer than --heartbeat-ms (" + heartbeat + ")");
+    throw util::ConfigError("--heartbeat-timeout-ms: '" + heartbeat_timeout + "' must be longer than --heartbeat-ms (" +
+                            heartbeat + ")");
   }
   config.default_deadline_ms = static_cast<uint32_t>(
       parse_number("--default-deadline-ms", default_deadline, 1, 86'400'000, "a number of milliseconds"));
@@ -161,12 +280,18 @@ std::optional<ServerConfig> parse_command_line(int argc, const char* const* argv
     throw util::ConfigError("--log-level: '" + log_level + "' is not one of " + util::kLogLevels);
   }
   config.log_level = log_level;
+  if (log_format != "text" && log_format != "json") {
+    throw util::ConfigError("--log-format: '" + log_format + "' is not one of " + util::kLogFormats);
+  }
+  config.log_format = log_format;
+  if (!metrics_listen.empty()) util::parse_endpoint(metrics_listen, "--metrics-listen");
+  config.metrics_listen = metrics_listen;
   if (!data_dir.empty()) {
     std::error_code ec;
     std::filesystem::create_directories(data_dir, ec);
     if (ec || !std::filesystem::is_directory(data_dir)) {
-      throw util::ConfigError("--data-dir: '" + data_dir + "' cannot be created: " +
-                              (ec ? ec.message() : std::string("not a directory")));
+      throw util::ConfigError("--data-dir: '" + data_dir +
+                              "' cannot be created: " + (ec ? ec.message() : std::string("not a directory")));
     }
   }
   config.data_dir = data_dir;

@@ -11,10 +11,12 @@ namespace gp = google::protobuf;
 
 namespace {
 
-Error not_found(const std::string& key) { return make_error(planet::NOT_FOUND, "no context entry '" + key + "'"); }
+Error not_found(const std::string& key) {
+  return make_error(planet::NOT_FOUND, "no context entry " + quote_prefix(key));
+}
 
 Error storage_error(const std::string& key, const SqliteError& e) {
-  return make_error(planet::INTERNAL, "context entry '" + key + "' not stored: " + e.what());
+  return make_error(planet::INTERNAL, "context entry " + quote_prefix(key) + " not stored: " + e.what());
 }
 
 constexpr size_t kMaxOriginBytes = 200;
@@ -93,11 +95,11 @@ Result<camus::ContextEntry> ContextStore::set(const camus::ContextSetRequest& re
     return make_error(planet::BAD_ARGUMENTS, "context key " + quote_prefix(key) + " is not valid: " + why);
   }
   if (auto why = origin_problem(request.source()); !why.empty()) {
-    return make_error(planet::BAD_ARGUMENTS, "context entry '" + key + "': source is not valid: " + why);
+    return make_error(planet::BAD_ARGUMENTS, "context entry " + quote_prefix(key) + ": source is not valid: " + why);
   }
   if (!request.has_value() || request.value().kind_case() == gp::Value::KIND_NOT_SET) {
     return make_error(planet::BAD_ARGUMENTS,
-                      "context entry '" + key + "': value is missing (use Delete to remove an entry)");
+                      "context entry " + quote_prefix(key) + ": value is missing (use Delete to remove an entry)");
   }
   std::lock_guard<std::mutex> lock(mutex_);
   const int64_t now = clock_.now_unix_ns();
@@ -250,7 +252,8 @@ agent::Outcome ContextAgent::invoke(const gp::MethodDescriptor& method, const gp
     fill_reply(reply, out);
     return agent::Outcome::ok();
   }
-  return agent::Outcome::error(call::Status::UNKNOWN_OPERATION, "interface urs.camus.Context has no operation '" + op + "'");
+  return agent::Outcome::error(call::Status::UNKNOWN_OPERATION,
+                               "interface urs.camus.Context has no operation '" + op + "'");
 }
 
 }  // namespace urs::camus_server

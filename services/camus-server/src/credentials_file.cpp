@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "urs/util/cli.hpp"
+#include "urs/util/files.hpp"
 #include "urs/util/secret.hpp"
 #include "urs/util/yaml_config.hpp"
 
@@ -12,13 +13,19 @@ namespace urs::camus_server {
 
 namespace {
 
+// The token in the token file `path`, read as a server re-reads files (util::read_regular_file:
+// a regular file of at most 1 MiB, never blocking).
+std::string read_token(const std::string& path) {
+  return util::token_from_text(util::read_regular_file(path, util::kMaxReloadFileBytes), path);
+}
+
 // The token in `path` (relative to `base`), hashed; appends an error and returns "" if unreadable.
 std::string hash_token_file(const std::string& path, const std::string& base, const std::string& where,
                             std::vector<std::string>& errors) {
   std::filesystem::path file(path);
   if (file.is_relative() && !base.empty()) file = std::filesystem::path(base) / file;
   try {
-    return util::sha256_hex(util::read_token_file(file.string()));
+    return util::sha256_hex(read_token(file.string()));
   } catch (const util::ConfigError& e) {
     errors.push_back(where + ": " + e.what());
     return {};
@@ -26,7 +33,14 @@ std::string hash_token_file(const std::string& path, const std::string& base, co
 }
 
 void read_file(const std::string& path, std::vector<planet::Credential>& out, std::vector<std::string>& errors) {
-  const YAML::Node root = util::load_yaml_file(path, "--credentials");
+  YAML::Node root;
+  try {
+    root = YAML::Load(util::read_regular_file(path, util::kMaxReloadFileBytes));
+  } catch (const util::ConfigError& e) {
+    throw util::ConfigError(std::string("--credentials: ") + e.what());
+  } catch (const YAML::Exception& e) {
+    throw util::ConfigError("--credentials: '" + path + "' is not valid YAML: " + e.what());
+  }
   if (!root.IsMap()) {
     errors.push_back("the file must be a map with the key 'credentials'");
     return;
@@ -99,14 +113,15 @@ std::shared_ptr<const planet::Credentials> load_credentials(const CredentialSour
   }
   if (!sources.token_file.empty()) {
     if (sources.token_role == planet::ROLE_UNSPECIFIED) {
-      throw util::ConfigError("--token-file needs --token-role (client, sam or operator): the role of the one "
-                              "credential it holds");
+      throw util::ConfigError(
+          "--token-file needs --token-role (client, sam or operator): the role of the one "
+          "credential it holds");
     }
     planet::Credential single;
     single.name = sources.token_name;
     single.role = sources.token_role;
     try {
-      single.token_sha256 = util::sha256_hex(util::read_token_file(sources.token_file));
+      single.token_sha256 = util::sha256_hex(read_token(sources.token_file));
     } catch (const util::ConfigError& e) {
       throw util::ConfigError(std::string("--token-file: ") + e.what());
     }
@@ -115,8 +130,8 @@ std::shared_ptr<const planet::Credentials> load_credentials(const CredentialSour
   try {
     return std::make_shared<const planet::Credentials>(std::move(credentials));
   } catch (const std::invalid_argument& e) {
-    std::string from = sources.credentials_file.empty() ? "--token-file"
-                                                        : "--credentials '" + sources.credentials_file + "'";
+    std::string from =
+        sources.credentials_file.empty() ? "--token-file" : "--credentials '" + sources.credentials_file + "'";
     if (!sources.credentials_file.empty() && !sources.token_file.empty()) from += " with --token-file";
     throw util::ConfigError(from + ": " + e.what());
   }

@@ -7,19 +7,31 @@
 #include <iterator>
 #include <utility>
 
+#include "urs/util/trace.hpp"
+
 namespace urs::camus_server {
 
 namespace {
 constexpr uint64_t kInternalOwnerBit = 1ull << 63;
 constexpr uint64_t kConnectionBudgetBit = 1ull << 62;  // subscribes count per connection, publishes per session
+
+uint64_t reserved(size_t total, unsigned percent) { return uint64_t{total} * percent / 100; }
+
+planet::FairShare::Limits limits(size_t total, const char* total_name, size_t per_credential,
+                                 const char* per_credential_name, unsigned percent, const char* what) {
+  return planet::FairShare::Limits{total,      per_credential,      reserved(total, percent),
+                                   total_name, per_credential_name, "reserved_percent " + std::to_string(percent),
+                                   what};
 }
+}  // namespace
 
 struct EventBus::Job {
   enum class Kind { Publish, Subscribe, Unsubscribe, DropOwner, Flush };
   Kind kind = Kind::Flush;
-  size_t bytes = 0;      // counted against event_queue_bytes (with `counted`)
-  bool counted = false;  // an operation of a session, counted against event_queue
-  uint64_t budget = 0;   // whose share of event_queue_per_session it uses
+  size_t bytes = 0;            // counted against event_queue_bytes (with `counted`)
+  bool counted = false;        // an operation of a peer, counted against event_queue
+  planet::ShareHolder holder;  // whose share of event_queue it uses
+  uint64_t budget = 0;         // whose share of event_queue_per_session it uses (0: none)
   // Publish
   PublishInput input;
   PublishAckFn publish_ack;
@@ -34,12 +46,30 @@ struct EventBus::Job {
 };
 
 EventBus::EventBus(const std::string& db_path, EventBusOptions options, const Clock& clock)
-    : options_(options), clock_(clock), db_(db_path, Durability::Normal) {
+    : options_(options),
+      clock_(clock),
+      db_(db_path, Durability::Normal),
+      queued_(limits(options.event_queue, "event_queue", options.event_queue_per_credential,
+                     "event_queue_per_credential", options.reserved_percent, "operations queued")),
+      queued_bytes_(limits(options.event_queue_bytes, "event_queue_bytes", options.event_queue_bytes_per_credential,
+                           "event_queue_bytes_per_credential", options.reserved_percent, "bytes queued")),
+      peer_subscriptions_(limits(options.max_subscriptions, "max_subscriptions",
+                                 options.max_subscriptions_per_credential, "max_subscriptions_per_credential",
+                                 options.reserved_percent, "subscriptions")),
+      publisher_order_(limits(options.max_publishers, "max_publishers", options.max_publishers_per_credential,
+                              "max_publishers_per_credential", options.reserved_percent, "publishing sessions")) {
   if (options_.retention == 0) options_.retention = 1;
   db_.exec(
       "CREATE TABLE IF NOT EXISTS events (seq INTEGER PRIMARY KEY, topic TEXT NOT NULL, payload BLOB, "
       "content_type TEXT, source TEXT, time_ns INTEGER);"
       "CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value INTEGER);");
+  {
+    // A log written before events carried their trace gets the column (empty for its events).
+    bool has_trace = false;
+    Statement columns(db_, "SELECT name FROM pragma_table_info('events')");
+    while (columns.step()) has_trace = has_trace || columns.column_text(0) == "traceparent";
+    if (!has_trace) db_.exec("ALTER TABLE events ADD COLUMN traceparent TEXT");
+  }
   uint64_t last = 0;
   {
     Statement max_seq(db_, "SELECT COALESCE(MAX(seq), 0), COALESCE(MIN(seq), 0) FROM events");
@@ -79,46 +109,48 @@ bool EventBus::enqueue(Job job) {
   std::unique_lock<std::mutex> lock(mutex_);
   planet::Status status = planet::OK;
   std::string why;
+  const bool per_session = job.counted && job.budget != 0;
   if (stopping_) {
     status = planet::UNAVAILABLE;
     why = "server is shutting down";
-  } else if (job.counted && queued_ >= options_.event_queue) {
-    status = planet::RESOURCE_EXHAUSTED;
-    why = "the event bus is behind: " + std::to_string(queued_) + " operations are queued (event_queue " +
-          std::to_string(options_.event_queue) + "); retry later";
-  } else if (job.counted && queued_by_session_[job.budget] >= options_.event_queue_per_session) {
+  } else if (per_session && queued_by_session_[job.budget] >= options_.event_queue_per_session) {
+    refusals_.count("event_queue_per_session");
     status = planet::RESOURCE_EXHAUSTED;
     why = "the event bus is behind: this session has " + std::to_string(queued_by_session_[job.budget]) +
           " operations queued (event_queue_per_session " + std::to_string(options_.event_queue_per_session) +
           "); retry later";
-  } else if (job.counted && queued_bytes_ + job.bytes > options_.event_queue_bytes) {
-    status = planet::RESOURCE_EXHAUSTED;
-    why = "the event bus is behind: " + std::to_string(queued_bytes_) + " bytes are queued and this adds " +
-          std::to_string(job.bytes) + " (event_queue_bytes " + std::to_string(options_.event_queue_bytes) +
-          "); retry later";
+  } else if (job.counted) {
+    if (auto refusal = queued_.take(job.holder, 1); !refusal.empty()) {
+      status = planet::RESOURCE_EXHAUSTED;
+      why = "the event bus is behind: " + refusal;
+    } else if (refusal = queued_bytes_.take(job.holder, job.bytes); !refusal.empty()) {
+      queued_.give(job.holder, 1);
+      status = planet::RESOURCE_EXHAUSTED;
+      why = "the event bus is behind: " + refusal;
+    }
   }
   if (status == planet::OK) {
-    if (job.counted) {
-      ++queued_;
-      queued_bytes_ += job.bytes;
-      ++queued_by_session_[job.budget];
-    }
+    if (per_session) ++queued_by_session_[job.budget];
     queue_.push_back(std::move(job));
     ++enqueued_;
     wake_.notify_one();
     return true;
   }
-  if (job.counted && queued_by_session_[job.budget] == 0) queued_by_session_.erase(job.budget);
+  if (per_session && queued_by_session_[job.budget] == 0) queued_by_session_.erase(job.budget);
   lock.unlock();
   refuse(job, status, why);
   return false;
 }
 
 bool EventBus::publish(PublishInput input, PublishAckFn ack) {
+  // Only the server's own events (source kServerPeerName: no credential may take the name, no
+  // task owner has it) go on server topics, uncounted; everyone else follows the peers' rules.
+  const bool server = input.source == kServerPeerName;
   Job job;
   job.kind = Job::Kind::Publish;
   job.bytes = input.topic.size() + input.payload.size() + input.content_type.size();
-  job.counted = input.publisher != 0;
+  job.counted = !server;
+  job.holder = planet::ShareHolder{input.source, input.privileged};
   job.budget = input.publisher;
   job.input = std::move(input);
   job.publish_ack = std::move(ack);
@@ -129,11 +161,11 @@ bool EventBus::publish(PublishInput input, PublishAckFn ack) {
   }
   // The server's own topics are bounded by what it validates itself (service names, context keys).
   const TopicLimits unbounded{SIZE_MAX, SIZE_MAX};
-  if (auto why = topic_problem(in.topic, in.publisher != 0 ? options_.topics : unbounded); !why.empty()) {
+  if (auto why = topic_problem(in.topic, server ? unbounded : options_.topics); !why.empty()) {
     refuse(job, planet::BAD_ARGUMENTS, "the topic is not valid: " + why);
     return false;
   }
-  if (in.publisher != 0 && is_server_topic(in.topic)) {
+  if (!server && is_server_topic(in.topic)) {
     refuse(job, planet::PERMISSION_DENIED,
            "topics under '" + in.topic.substr(0, in.topic.find('/')) +
                "/' are published by the server alone (registry/, context/ and task/ are server topics)");
@@ -142,11 +174,14 @@ bool EventBus::publish(PublishInput input, PublishAckFn ack) {
   return enqueue(std::move(job));
 }
 
-void EventBus::subscribe(uint64_t owner, const planet::Subscribe& request, DeliverFn deliver, SubscribeAckFn ack) {
+void EventBus::subscribe(uint64_t owner, const planet::Subscribe& request, DeliverFn deliver, SubscribeAckFn ack,
+                         const planet::ShareHolder& subscriber) {
   Job job;
   job.kind = Job::Kind::Subscribe;
   job.counted = true;
   job.bytes = request.pattern().size();
+  job.holder = subscriber;
+  if (job.holder.credential.empty()) job.holder.credential = "session " + std::to_string(owner);
   job.budget = owner | kConnectionBudgetBit;
   job.owner = owner;
   job.subscription_id = request.subscription_id();
@@ -261,8 +296,9 @@ void EventBus::run() {
     std::lock_guard<std::mutex> lock(mutex_);
     for (const auto& job : jobs) {
       if (!job.counted) continue;
-      --queued_;
-      queued_bytes_ -= job.bytes;
+      queued_.give(job.holder, 1);
+      queued_bytes_.give(job.holder, job.bytes);
+      if (job.budget == 0) continue;
       auto share = queued_by_session_.find(job.budget);
       if (share != queued_by_session_.end() && --share->second == 0) queued_by_session_.erase(share);
     }
@@ -271,23 +307,24 @@ void EventBus::run() {
   }
 }
 
-void EventBus::remember_id(uint64_t publisher, uint64_t publish_id, uint64_t seq) {
+void EventBus::remember_id(const PublishInput& input, uint64_t seq) {
+  const uint64_t publisher = input.publisher;
+  const uint64_t publish_id = input.publish_id;
   auto [it, added] = publishers_.try_emplace(publisher);
   PublisherIds& ids = it->second;
-  if (added) {
-    publisher_order_.push_front(publisher);
-  } else {
-    publisher_order_.splice(publisher_order_.begin(), publisher_order_, ids.lru);
-  }
-  ids.lru = publisher_order_.begin();
   // Ids arrive increasing; one below `last` fills a gap (an id never accepted before).
   auto at = std::lower_bound(ids.recent.begin(), ids.recent.end(), std::make_pair(publish_id, uint64_t{0}));
   ids.recent.insert(at, {publish_id, seq});
   ids.last = std::max(ids.last, publish_id);
   while (ids.recent.size() > options_.dedupe_window) ids.recent.pop_front();
-  while (publishers_.size() > options_.max_publishers) {
-    publishers_.erase(publisher_order_.back());
-    publisher_order_.pop_back();
+  if (!added) {
+    publisher_order_.touch(publisher);
+    return;
+  }
+  // A new publishing session: one over its credential's share pushes out that credential's
+  // least recent; too many together push out the heaviest credential's.
+  for (uint64_t forgotten : publisher_order_.add(publisher, planet::ShareHolder{input.source, input.privileged})) {
+    publishers_.erase(forgotten);
   }
 }
 
@@ -314,8 +351,8 @@ void EventBus::process_publishes(std::vector<Job>& batch) {
   try {
     Transaction tx(db_);
     Statement insert(db_,
-                     "INSERT INTO events (seq, topic, payload, content_type, source, time_ns) "
-                     "VALUES (?, ?, ?, ?, ?, ?)");
+                     "INSERT INTO events (seq, topic, payload, content_type, source, time_ns, traceparent) "
+                     "VALUES (?, ?, ?, ?, ?, ?, ?)");
     for (size_t i = 0; i < batch.size(); ++i) {
       PublishInput& in = batch[i].input;
       Outcome& out = outcomes[i];
@@ -346,21 +383,23 @@ void EventBus::process_publishes(std::vector<Job>& batch) {
           .bind_blob(3, in.payload)
           .bind(4, in.content_type)
           .bind(5, in.source)
-          .bind(6, now);
+          .bind(6, now)
+          .bind(7, in.traceparent);
       insert.step();
       insert.reset();
       out.ack.set_seq(seq);
       out.deliver = true;
+      if (dedupe) {
+        remember_id(in, seq);
+        new_ids.emplace_back(in.publisher, in.publish_id);
+      }
       out.event.set_seq(seq);
       out.event.set_topic(std::move(in.topic));
       out.event.set_payload(std::move(in.payload));
       out.event.set_content_type(std::move(in.content_type));
       out.event.set_source(std::move(in.source));
       out.event.set_time_unix_ns(now);
-      if (dedupe) {
-        remember_id(in.publisher, in.publish_id, seq);
-        new_ids.emplace_back(in.publisher, in.publish_id);
-      }
+      out.event.set_traceparent(std::move(in.traceparent));
     }
     if (seq != last_seq_.load()) {
       Statement meta(db_, "INSERT OR REPLACE INTO meta (key, value) VALUES ('last_seq', ?)");
@@ -390,6 +429,7 @@ void EventBus::process_publishes(std::vector<Job>& batch) {
   } else if (seq > last_seq_.load()) {
     if (oldest_seq_.load() > seq) oldest_seq_ = last_seq_.load() + 1;  // log was empty
     if (seq > options_.retention) oldest_seq_ = std::max(oldest_seq_.load(), seq - options_.retention + 1);
+    published_ += seq - last_seq_.load();
     last_seq_ = seq;
   }
 
@@ -404,7 +444,7 @@ void EventBus::remove_subscription(std::map<SubKey, Subscription>::iterator it) 
   const uint64_t owner = it->first.first;
   index_.erase(it->second.pattern, it->first);
   if ((owner & kInternalOwnerBit) == 0) {
-    --session_subscriptions_;
+    peer_subscriptions_.give(it->second.subscriber, 1);
     auto count = per_owner_.find(owner);
     if (count != per_owner_.end() && --count->second == 0) per_owner_.erase(count);
   }
@@ -421,8 +461,37 @@ void EventBus::deliver_live(const planet::Event& event) {
     if (it == subscriptions_.end()) continue;
     planet::Event copy = event;
     copy.set_subscription_id(key.second);
-    if (!it->second.deliver(copy)) remove_subscription(it);
+    if (!hand(it->second.deliver, copy)) remove_subscription(it);
   }
+}
+
+bool EventBus::hand(const DeliverFn& deliver, const planet::Event& event) {
+  if (deliver(event)) {
+    delivered_.fetch_add(1, std::memory_order_relaxed);
+    return true;
+  }
+  dropped_.fetch_add(1, std::memory_order_relaxed);
+  return false;
+}
+
+EventBusStats EventBus::stats() const {
+  EventBusStats stats;
+  stats.published = published_.load();
+  stats.delivered = delivered_.load();
+  stats.dropped = dropped_.load();
+  stats.queued_bytes = queued_bytes_.used();
+  stats.subscriptions = subscription_count_.load();
+  planet::Refusals all;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stats.queued = queue_.size();
+    for (const auto& [limit, count] : refusals_.snapshot()) all.count(limit, count);
+  }
+  for (const auto* share : {&queued_, &queued_bytes_, &peer_subscriptions_}) {
+    for (const auto& [limit, count] : share->refusals()) all.count(limit, count);
+  }
+  stats.refusals = all.snapshot();
+  return stats;
 }
 
 void EventBus::process_subscribe(Job& job) {
@@ -442,11 +511,11 @@ void EventBus::process_subscribe(Job& job) {
     const size_t mine = per_owner_.count(job.owner) != 0 ? per_owner_[job.owner] : 0;
     std::string why;
     if (mine >= options_.max_subscriptions_per_session) {
+      refusals_.count("max_subscriptions_per_session");
       why = "this session already has " + std::to_string(mine) + " subscriptions (max_subscriptions_per_session " +
             std::to_string(options_.max_subscriptions_per_session) + ")";
-    } else if (session_subscriptions_ >= options_.max_subscriptions) {
-      why = "the server already holds " + std::to_string(session_subscriptions_) +
-            " subscriptions (max_subscriptions " + std::to_string(options_.max_subscriptions) + ")";
+    } else {
+      why = peer_subscriptions_.take(job.holder, 1);
     }
     if (!why.empty()) {
       ack.set_status(planet::RESOURCE_EXHAUSTED);
@@ -466,7 +535,7 @@ void EventBus::process_subscribe(Job& job) {
   if (replay && job.resume_after < last_seq_.load()) {
     try {
       Statement replay(db_,
-                       "SELECT seq, topic, payload, content_type, source, time_ns FROM events "
+                       "SELECT seq, topic, payload, content_type, source, time_ns, traceparent FROM events "
                        "WHERE seq > ? ORDER BY seq");
       replay.bind(1, static_cast<int64_t>(job.resume_after));
       while (replay.step()) {
@@ -480,7 +549,11 @@ void EventBus::process_subscribe(Job& job) {
         event.set_content_type(replay.column_text(3));
         event.set_source(replay.column_text(4));
         event.set_time_unix_ns(replay.column_int(5));
-        if (!job.deliver(event)) return;  // receiver gone
+        event.set_traceparent(replay.column_text(6));
+        if (!hand(job.deliver, event)) {  // receiver gone
+          if (!job.internal) peer_subscriptions_.give(job.holder, 1);
+          return;
+        }
       }
     } catch (const SqliteError& e) {
       spdlog::error("replay for subscription {} ({}) failed: {}", job.subscription_id, quote_prefix(pattern.text()),
@@ -488,28 +561,36 @@ void EventBus::process_subscribe(Job& job) {
     }
   }
   index_.insert(pattern, key);
-  subscriptions_.emplace(key, Subscription{pattern, std::move(job.deliver)});
+  subscriptions_.emplace(key, Subscription{pattern, std::move(job.deliver), job.holder});
   subscription_count_ = subscriptions_.size();
-  if (!job.internal) {
-    ++per_owner_[job.owner];
-    ++session_subscriptions_;
-  }
+  if (!job.internal) ++per_owner_[job.owner];
 }
 
-call::Reply BusEventSink::publish(const std::string& topic, const google::protobuf::Message& event) {
+call::Reply EventBus::publish_as(const std::string& source, const std::string& topic,
+                                 const google::protobuf::Message& event) {
   PublishInput input;
   input.topic = topic;
   input.payload = event.SerializeAsString();
   input.content_type = event.GetTypeName();
-  input.source = source_;
-  auto refusal = std::make_shared<std::string>();
-  bool accepted = bus_.publish(std::move(input), [refusal, topic](const planet::PublishAck& ack) {
+  input.source = source;
+  input.privileged = true;  // the server, or a task (defined and run by operators)
+  // The call being served on this thread caused it (util::TraceScope), if any.
+  if (const auto* trace = util::current_trace()) input.traceparent = trace->child().traceparent();
+  auto refusal = std::make_shared<planet::PublishAck>();
+  bool accepted = publish(std::move(input), [refusal, topic, source](const planet::PublishAck& ack) {
     if (ack.status() == planet::OK) return;
-    *refusal = ack.message();  // read below only when refused synchronously
-    spdlog::warn("internal event on '{}' not stored: {}", topic, ack.message());
+    *refusal = ack;  // read below only when refused synchronously
+    spdlog::warn("event on '{}' from {} not stored: {}", topic, source, ack.message());
   });
-  if (!accepted) return call::Reply::error(call::Status::UNAVAILABLE, *refusal);
+  if (!accepted) {
+    return call::Reply::error(call::status_from_number(refusal->status()).value_or(call::Status::INTERNAL),
+                              refusal->message());
+  }
   return call::Reply::success({});
+}
+
+call::Reply BusEventSink::publish(const std::string& topic, const google::protobuf::Message& event) {
+  return bus_.publish_as(source_, topic, event);
 }
 
 }  // namespace urs::camus_server

@@ -1,16 +1,19 @@
 // urs-camus-server: see docs/camus.md.
 //
-// Wiring only: parse the command line, build the components in dependency order, serve until
-// SIGINT/SIGTERM (re-reading the credentials on SIGHUP), then stop them in reverse order
-// (transport first, so nothing new arrives).
+// Wiring only: parse the command line, raise the descriptor limit, build the components in
+// dependency order, serve until SIGINT/SIGTERM (re-reading the credentials and certificates on
+// SIGHUP, on a thread of their own), then stop them in reverse order (transport first, so nothing
+// new arrives).
 
 #include <spdlog/spdlog.h>
 
+#include <atomic>
 #include <filesystem>
 #include <iostream>
 #include <memory>
 
 #include "container.hpp"
+#include "server_metrics.hpp"
 #include "urs/agent/agent.hpp"
 #include "urs/camus_server/config.hpp"
 #include "urs/camus_server/context_store.hpp"
@@ -22,8 +25,12 @@
 #include "urs/camus_server/task_manager.hpp"
 #include "urs/camus_server/tasks_agent.hpp"
 #include "urs/camus_server/timer.hpp"
+#include "urs/metrics/flags.hpp"
 #include "urs/planet/server.hpp"
 #include "urs/util/cli.hpp"
+#include "urs/util/heap.hpp"
+#include "urs/util/reload.hpp"
+#include "urs/util/service_manager.hpp"
 
 namespace cs = urs::camus_server;
 
@@ -31,6 +38,9 @@ namespace {
 
 constexpr const char* kProgram = "urs-camus-server";
 constexpr unsigned kContainerWorkers = 4;
+// How often the heap's free pages go back to the system: after a burst (a flood refused, many
+// subscriptions dropped) the memory it took is returned within this time.
+constexpr std::chrono::seconds kHeapTrimPeriod{10};
 
 std::string db_path(const cs::ServerConfig& config, const char* name) {
   if (config.data_dir.empty()) return {};  // in memory
@@ -41,21 +51,28 @@ cs::EventBusOptions bus_options(const cs::ServerConfig& config) {
   cs::EventBusOptions options;
   options.retention = config.event_retention;
   options.event_queue = config.limits.event_queue;
+  options.event_queue_per_credential = config.limits.event_queue_per_credential;
   options.event_queue_per_session = config.limits.event_queue_per_session;
   options.event_queue_bytes = config.limits.event_queue_bytes;
+  options.event_queue_bytes_per_credential = config.limits.event_queue_bytes_per_credential;
   options.topics = cs::TopicLimits{config.limits.max_topic_bytes, config.limits.max_topic_levels};
   options.max_subscriptions_per_session = config.limits.max_subscriptions_per_session;
+  options.max_subscriptions_per_credential = config.limits.max_subscriptions_per_credential;
   options.max_subscriptions = config.limits.max_subscriptions;
+  options.reserved_percent = static_cast<unsigned>(config.limits.reserved_percent);
   return options;
 }
 
-cs::RouterOptions router_options(const cs::ServerConfig& config) {
+cs::RouterOptions router_options(const cs::ServerConfig& config, urs::metrics::Metrics* metrics) {
   cs::RouterOptions options;
+  if (metrics != nullptr) options.calls = &metrics->served_calls("planet");
   options.space = config.space;
   options.default_deadline = std::chrono::milliseconds(config.default_deadline_ms);
   options.max_deadline_ms = config.limits.max_deadline_ms;
   options.max_pending_calls = config.limits.max_pending_calls;
+  options.max_pending_calls_per_credential = config.limits.max_pending_calls_per_credential;
   options.max_pending_calls_per_session = config.limits.max_pending_calls_per_session;
+  options.reserved_percent = static_cast<unsigned>(config.limits.reserved_percent);
   return options;
 }
 
@@ -63,7 +80,9 @@ cs::RouterOptions router_options(const cs::ServerConfig& config) {
 // order) never leaves a component pointing at a destroyed one. stop() orders the shutdown.
 class CamusServer {
  public:
-  CamusServer(const cs::ServerConfig& config, std::shared_ptr<const urs::planet::Authenticator> authenticator)
+  // With `metrics` (which outlives it), the server counts its calls and reports its components.
+  CamusServer(const cs::ServerConfig& config, std::shared_ptr<const urs::planet::Authenticator> authenticator,
+              urs::metrics::Metrics* metrics)
       : bus_(db_path(config, "events.db"), bus_options(config), clock_),
         sink_(bus_),
         registry_(config.space, sink_),
@@ -72,7 +91,7 @@ class CamusServer {
         registry_service_(registry_),
         container_(host_, config.space),
         builtins_(registry_service_, container_),
-        router_(router_options(config), registry_, builtins_, timers_),
+        router_(router_options(config, metrics), registry_, builtins_, timers_),
         invoker_(router_),
         tasks_(db_path(config, "tasks.db"), cs::TaskManagerOptions{config.tasks_dir, 64, 1000}, invoker_, bus_,
                context_, registry_, sink_, clock_),
@@ -94,14 +113,22 @@ class CamusServer {
     options.heartbeat_interval = std::chrono::milliseconds(config.heartbeat_ms);
     options.heartbeat_timeout = std::chrono::milliseconds(config.heartbeat_timeout_ms);
     options.max_hello_bytes = static_cast<uint32_t>(config.limits.max_hello_bytes);
+    options.max_message_bytes = config.limits.max_message_bytes;
     options.max_reassembly_bytes = config.limits.max_reassembly_bytes;  // ranges: checked by planet::Server
+    options.max_send_queue_bytes = config.limits.max_send_queue_bytes;
     options.max_buffered_bytes = config.limits.max_buffered_bytes;
+    options.max_buffered_bytes_per_credential = config.limits.max_buffered_bytes_per_credential;
     options.tls = config.tls;
     options.allow_plaintext_tokens = config.allow_plaintext_tokens;
     options.max_connections = config.limits.max_connections;
     options.max_connections_per_address = config.limits.max_connections_per_address;
+    options.max_sessions_per_credential = config.limits.max_sessions_per_credential;
+    options.max_resumable_sessions = config.limits.max_resumable_sessions;
+    options.max_resumable_sessions_per_credential = config.limits.max_resumable_sessions_per_credential;
+    options.reserved_percent = static_cast<unsigned>(config.limits.reserved_percent);
     server_ = std::make_unique<urs::planet::Server>(options, handler_);
     server_->start();
+    if (metrics != nullptr) cs::add_server_metrics(*metrics, *server_, router_, registry_, bus_);
   }
 
   ~CamusServer() { stop(); }
@@ -142,23 +169,60 @@ class CamusServer {
   std::unique_ptr<urs::planet::Server> server_;
 };
 
+// SIGHUP: the TLS files and the credentials, each kept as it was when the new one cannot be
+// loaded. Never throws.
+void reload(CamusServer& server, const cs::ServerConfig& config) {
+  if (config.tls.enabled) {
+    try {
+      server.reload_tls(config.tls);
+      spdlog::info("SIGHUP: TLS certificate, key and client CAs re-read (for new connections)");
+    } catch (const std::exception& e) {
+      spdlog::error("SIGHUP: TLS files not reloaded, the previous ones stay in force: {}", e.what());
+    }
+  }
+  if (!config.credentials.any()) {
+    spdlog::info("SIGHUP: no --credentials or --token-file to re-read");
+    return;
+  }
+  try {
+    auto reloaded = cs::load_credentials(config.credentials);
+    const size_t closed = server.set_authenticator(reloaded);
+    spdlog::info("SIGHUP: {} credential(s) loaded; {} session(s) closed for a changed or revoked credential",
+                 reloaded->all().size(), closed);
+  } catch (const std::exception& e) {
+    spdlog::error("SIGHUP: credentials not reloaded, the previous ones stay in force: {}", e.what());
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   urs::util::block_shutdown_signals(/*with_reload=*/true);  // before any thread starts: all inherit it
+  urs::util::use_few_arenas();
+  const uint64_t descriptors = urs::util::raise_descriptor_limit();
   std::optional<cs::ServerConfig> config;
   try {
     config = cs::parse_command_line(argc, argv, std::cout);
     if (!config) return 0;  // --help
-    urs::util::init_logging(kProgram, config->log_level);
+    urs::util::init_logging({kProgram, config->log_level, config->log_format, config->space});
   } catch (const urs::util::ConfigError& e) {
     std::cerr << kProgram << ": " << e.what() << "\n";
     return 2;
   }
 
   try {
+    auto metrics = urs::metrics::metrics_for(config->metrics_listen, kProgram, config->space);
     auto credentials = cs::load_credentials(config->credentials);
-    CamusServer server(*config, credentials);
+    CamusServer server(*config, credentials, metrics.get());
+    // Declared after the server, the endpoint (which reads it) is stopped before it goes.
+    std::atomic<bool> listening{true};
+    if (metrics) {
+      metrics->health().add("listening", [&listening] {
+        return listening ? std::string() : std::string("not listening: shutting down");
+      });
+    }
+    auto endpoint = urs::metrics::serve(config->metrics_listen, metrics.get());
+    urs::util::HeapTrimmer trimmer(kHeapTrimPeriod);
     if (credentials) {
       spdlog::info("{} credential(s) loaded", credentials->all().size());
     } else {
@@ -167,31 +231,16 @@ int main(int argc, char** argv) {
     }
     const std::string bound = config->listen.host + ":" + std::to_string(server.port());
     if (!config->port_file.empty()) urs::util::write_file_atomically(config->port_file, std::to_string(server.port()));
-    spdlog::info("space '{}': listening on {}{}", config->space, bound,
-                 config->data_dir.empty() ? " (no --data-dir: state is kept in memory only)" : "");
-    int sig = urs::util::wait_for_shutdown([&] {
-      if (config->tls.enabled) {
-        try {
-          server.reload_tls(config->tls);
-          spdlog::info("SIGHUP: TLS certificate, key and client CAs re-read (for new connections)");
-        } catch (const std::exception& e) {
-          spdlog::error("SIGHUP: TLS files not reloaded, the previous ones stay in force: {}", e.what());
-        }
-      }
-      if (!config->credentials.any()) {
-        spdlog::info("SIGHUP: no --credentials or --token-file to re-read");
-        return;
-      }
-      try {
-        auto reloaded = cs::load_credentials(config->credentials);
-        const size_t closed = server.set_authenticator(reloaded);
-        spdlog::info("SIGHUP: {} credential(s) loaded; {} session(s) closed for a changed or revoked credential",
-                     reloaded->all().size(), closed);
-      } catch (const urs::util::ConfigError& e) {
-        spdlog::error("SIGHUP: credentials not reloaded, the previous ones stay in force: {}", e.what());
-      }
-    });
+    urs::util::notify_ready();  // systemd (Type=notify): listening
+    spdlog::info("space '{}': listening on {}{} (file descriptor limit {}, raised to the hard limit)", config->space,
+                 bound, config->data_dir.empty() ? " (no --data-dir: state is kept in memory only)" : "", descriptors);
+    // SIGHUP re-reads on the reload thread; whatever a file is, it never stops the server nor
+    // delays its shutdown (the files are read with util::read_regular_file).
+    auto reloader = std::make_unique<urs::util::ReloadWorker>([&] { reload(server, *config); });
+    int sig = urs::util::wait_for_shutdown([&] { reloader->request(); });
     spdlog::info("signal {} received: shutting down", sig);
+    listening = false;
+    reloader.reset();  // a reload in progress ends first (it cannot block); none starts after
     server.stop();
     spdlog::info("stopped");
   } catch (const urs::util::ConfigError& e) {

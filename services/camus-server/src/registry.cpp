@@ -2,6 +2,8 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
+#include <iterator>
 #include <stdexcept>
 
 #include "urs/camus_server/topic_pattern.hpp"
@@ -14,18 +16,61 @@ std::string service_name_problem(const std::string& name) {
   if (name.empty()) return "it is empty";
   if (name.size() > 200) return "it is longer than 200 characters";
   for (char c : name) {
-    bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '.' ||
-              c == '_' || c == '-' || c == '@' || c == ':' || c == '/';
+    bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '.' || c == '_' ||
+              c == '-' || c == '@' || c == ':' || c == '/';
     if (!ok) return std::string("character '") + c + "' is not allowed (use letters, digits and . _ - @ : /)";
+  }
+  // A service is announced on registry/<name>: every level between slashes needs a character.
+  if (name.front() == '/' || name.back() == '/' || name.find("//") != std::string::npos) {
+    return "it has an empty level (a '/' at its start or end, or '//'): each part between slashes needs a character";
   }
   return {};
 }
 
 Registry::Registry(std::string space, agent::EventSink& events) : space_(std::move(space)), events_(events) {}
 
-void Registry::publish_locked(const camus::ServiceInfo& info) {
-  auto result = events_.publish("registry/" + info.name(), info);
-  if (!result.ok()) spdlog::warn("registry event for {} not published: {}", info.name(), result.message);
+std::vector<Registry::Provider>::iterator Registry::Entry::find(const planet::Session& session) {
+  return std::find_if(providers.begin(), providers.end(), [&](const Provider& p) {
+    return p.connection == session.id() || p.resumable == session.identity().session;
+  });
+}
+
+void Registry::refresh_locked(Entry& entry) {
+  if (entry.builtin()) return;
+  const camus::ProviderInfo& first = entry.providers.front().info;
+  entry.info.set_owner(first.owner());
+  entry.info.set_peer_name(first.peer_name());
+  *entry.info.mutable_properties() = first.properties();
+  entry.info.set_deadline_ms(first.deadline_ms());
+  entry.info.clear_providers();
+  for (const auto& provider : entry.providers) *entry.info.add_providers() = provider.info;
+}
+
+void Registry::publish_locked(const Entry& entry, const std::string& state, const std::string& change,
+                              const camus::ProviderInfo& provider) {
+  camus::ServiceInfo event = entry.info;
+  event.set_state(state);
+  event.set_change(change);
+  *event.mutable_changed_provider() = provider;
+  auto result = events_.publish("registry/" + event.name(), event);
+  if (!result.ok()) spdlog::warn("registry event for {} not published: {}", event.name(), result.message);
+}
+
+bool Registry::remove_provider_locked(std::map<std::string, Entry>::iterator it,
+                                      std::vector<Provider>::iterator provider, const std::string& last_change) {
+  Entry& entry = it->second;
+  const camus::ProviderInfo leaving = provider->info;
+  entry.providers.erase(provider);
+  if (!entry.providers.empty()) {
+    refresh_locked(entry);
+    publish_locked(entry, "available", "provider-removed", leaving);
+    return false;
+  }
+  Entry gone = std::move(entry);
+  services_.erase(it);
+  gone.info.clear_providers();
+  publish_locked(gone, "gone", last_change, leaving);
+  return true;
 }
 
 void Registry::add_builtin(const std::string& name, const gp::ServiceDescriptor& interface, uint32_t deadline_ms) {
@@ -49,18 +94,20 @@ Result<Done> Registry::register_service(const planet::SessionPtr& session, const
   const auto& info = request.service();
   const std::string& name = info.name();
   if (identity.role < planet::SAM) {
-    return make_error(planet::PERMISSION_DENIED, "registering services needs role sam; credential '" +
-                                                     identity.name + "' has role " + planet::role_word(identity.role));
+    return make_error(planet::PERMISSION_DENIED, "registering services needs role sam; credential '" + identity.name +
+                                                     "' has role " + planet::role_word(identity.role));
   }
   if (auto why = service_name_problem(name); !why.empty()) {
-    return make_error(planet::BAD_ARGUMENTS, "service name '" + name + "' is not valid: " + why);
+    return make_error(planet::BAD_ARGUMENTS, "service name " + quote_prefix(name) + " is not valid: " + why);
   }
   if (name.rfind("camus.", 0) == 0) {
     return make_error(planet::BAD_ARGUMENTS,
-                      "service name '" + name + "' is not valid: names starting with 'camus.' are reserved for the server");
+                      "service name " + quote_prefix(name) +
+                          " is not valid: names starting with 'camus.' are reserved for the server");
   }
   if (info.interface().empty()) {
-    return make_error(planet::BAD_ARGUMENTS, "service " + name + ": interface is empty (give the full Protobuf service name)");
+    return make_error(planet::BAD_ARGUMENTS,
+                      "service " + name + ": interface is empty (give the full Protobuf service name)");
   }
   std::shared_ptr<const InterfaceSchema> schema;
   if (!request.descriptor_set().empty()) {
@@ -78,25 +125,41 @@ Result<Done> Registry::register_service(const planet::SessionPtr& session, const
     schema = built.value();
   }
 
+  camus::ProviderInfo provider_info;
+  provider_info.set_owner(identity.name);
+  provider_info.set_peer_name(session->hello().peer_name());
+  provider_info.set_connection(session->id());
+  *provider_info.mutable_properties() = info.properties();
+  provider_info.set_deadline_ms(info.deadline_ms());
+
   std::lock_guard<std::mutex> lock(mutex_);
   auto it = services_.find(name);
+  std::string change = "registered";
   if (it != services_.end()) {
-    const Entry& existing = it->second;
-    bool same_session = existing.owner && existing.owner_session == session->id();
-    bool resumed = existing.owner && existing.owner_resumable == identity.session;
-    if (!same_session && !resumed) {
-      return make_error(planet::ALREADY_EXISTS,
-                        "service " + name + " is provided by " + existing.info.owner());
+    Entry& existing = it->second;
+    if (existing.builtin()) {
+      return make_error(planet::ALREADY_EXISTS, "service " + name + " is provided by " + existing.info.owner());
     }
+    auto mine = existing.find(*session);
+    const bool others = existing.providers.size() > (mine == existing.providers.end() ? 0 : 1);
+    if (mine == existing.providers.end() && existing.info.owner() != identity.name) {
+      return make_error(planet::ALREADY_EXISTS, "service " + name + " is provided by " + existing.info.owner() +
+                                                    "; only sessions of that credential may provide it too");
+    }
+    if (others && existing.info.interface() != info.interface()) {
+      return make_error(planet::ALREADY_EXISTS, "service " + name + " is provided by " + existing.info.owner() +
+                                                    " with interface " + existing.info.interface() +
+                                                    "; another provider must register the same interface, not " +
+                                                    quote_prefix(info.interface()));
+    }
+    if (others && schema && existing.schema && schema->descriptor_set() != existing.schema->descriptor_set()) {
+      return make_error(planet::ALREADY_EXISTS, "service " + name + " is provided by " + existing.info.owner() +
+                                                    " with another description of interface " + info.interface() +
+                                                    " (its descriptor_set differs); another provider must "
+                                                    "register the same one");
+    }
+    change = mine != existing.providers.end() ? "updated" : "provider-added";
   }
-  Entry entry;
-  entry.info = info;
-  entry.info.set_owner(identity.name);
-  entry.info.set_peer_name(session->hello().peer_name());
-  entry.info.set_state("available");
-  entry.owner = session;
-  entry.owner_session = session->id();
-  entry.owner_resumable = identity.session;
   if (!schema) {
     // Keep the interface known from an earlier registration, if any.
     auto known = interfaces_.find(info.interface());
@@ -104,32 +167,51 @@ Result<Done> Registry::register_service(const planet::SessionPtr& session, const
   } else {
     interfaces_[info.interface()] = schema;
   }
-  entry.schema = schema;
-  services_[name] = entry;
-  spdlog::info("service {} ({}) registered by {} (session {}, peer '{}')", name, info.interface(), identity.name,
-               identity.session, session->hello().peer_name());
-  publish_locked(entry.info);
+  Provider provider;
+  provider.session = session;
+  provider.connection = session->id();
+  provider.resumable = identity.session;
+  provider.info = provider_info;
+  if (it == services_.end()) it = services_.emplace(name, Entry{}).first;
+  Entry& entry = it->second;
+  if (change == "updated") {
+    *entry.find(*session) = std::move(provider);
+  } else {
+    entry.providers.push_back(std::move(provider));
+  }
+  // The service's own fields: name and interface as registered, state "available"; its
+  // description the one given (else the interface's known one), unless another provider's
+  // description is already the service's.
+  entry.info.set_name(name);
+  entry.info.set_interface(info.interface());
+  entry.info.set_state("available");
+  if (change != "provider-added" || !entry.schema) entry.schema = schema;
+  refresh_locked(entry);
+  spdlog::info("service {} ({}) {} by {} (session {}, peer '{}'; {} provider{})", name, info.interface(),
+               change == "registered" ? "registered"
+               : change == "updated"  ? "registered again"
+                                      : "also provided",
+               identity.name, identity.session, session->hello().peer_name(), entry.providers.size(),
+               entry.providers.size() == 1 ? "" : "s");
+  publish_locked(entry, "available", change, provider_info);
   return Done{};
 }
 
 Result<Done> Registry::unregister_service(const planet::Session& session, const std::string& name) {
   std::lock_guard<std::mutex> lock(mutex_);
   auto it = services_.find(name);
-  if (it == services_.end()) return make_error(planet::UNKNOWN_SERVICE, "no service named '" + name + "' in space " + space_);
-  const Entry& entry = it->second;
-  bool resumed = entry.owner_resumable == session.identity().session;
-  if (!entry.owner || (entry.owner_session != session.id() && !resumed)) {
-    return make_error(planet::PERMISSION_DENIED,
-                      "service " + name + " is provided by " + entry.info.owner() + "; only its provider may unregister it");
+  if (it == services_.end())
+    return make_error(planet::UNKNOWN_SERVICE, "no service named " + quote_prefix(name) + " in space " + space_);
+  Entry& entry = it->second;
+  auto mine = entry.find(session);
+  if (entry.builtin() || mine == entry.providers.end()) {
+    return make_error(planet::PERMISSION_DENIED, "service " + name + " is provided by " + entry.info.owner() +
+                                                     "; only its provider may unregister it");
   }
-  camus::ServiceInfo gone = entry.info;
-  gone.set_state("gone");
-  services_.erase(it);
-  spdlog::info("service {} unregistered by {}", name, session.identity().name);
-  publish_locked(gone);
+  spdlog::info("service {} unregistered by {} (peer '{}')", name, session.identity().name, session.hello().peer_name());
+  remove_provider_locked(it, mine, "unregistered");
   return Done{};
 }
-
 std::vector<camus::ServiceInfo> Registry::list(const std::string& pattern) const {
   std::lock_guard<std::mutex> lock(mutex_);
   std::vector<camus::ServiceInfo> out;
@@ -145,7 +227,8 @@ Result<camus::DescribeReply> Registry::describe(const camus::DescribeRequest& re
   if (!request.service().empty()) {
     auto it = services_.find(request.service());
     if (it == services_.end()) {
-      return make_error(planet::UNKNOWN_SERVICE, "no service named '" + request.service() + "' in space " + space_);
+      return make_error(planet::UNKNOWN_SERVICE,
+                        "no service named " + quote_prefix(request.service()) + " in space " + space_);
     }
     reply.set_interface(it->second.info.interface());
     if (!it->second.schema) {
@@ -180,9 +263,10 @@ std::optional<Route> Registry::route(const std::string& name) const {
   auto it = services_.find(name);
   if (it == services_.end()) return std::nullopt;
   Route route;
-  route.builtin = !it->second.owner;
-  route.owner = it->second.owner;
-  route.owner_name = it->second.info.owner();
+  route.builtin = it->second.builtin();
+  for (const auto& provider : it->second.providers) {
+    route.providers.push_back(RouteProvider{provider.session, provider.info.owner()});
+  }
   route.deadline_ms = it->second.info.deadline_ms();
   route.interface = it->second.info.interface();
   route.schema = it->second.schema;
@@ -193,16 +277,17 @@ std::vector<std::string> Registry::remove_session(uint64_t session_id) {
   std::lock_guard<std::mutex> lock(mutex_);
   std::vector<std::string> removed;
   for (auto it = services_.begin(); it != services_.end();) {
-    if (it->second.owner && it->second.owner_session == session_id) {
-      camus::ServiceInfo gone = it->second.info;
-      gone.set_state("gone");
-      removed.push_back(it->first);
-      spdlog::info("service {} gone: provider {} disconnected", it->first, gone.owner());
-      it = services_.erase(it);
-      publish_locked(gone);
-    } else {
-      ++it;
+    auto next = std::next(it);
+    auto& providers = it->second.providers;
+    auto mine =
+        std::find_if(providers.begin(), providers.end(), [&](const Provider& p) { return p.connection == session_id; });
+    if (mine != providers.end()) {
+      const std::string name = it->first;
+      spdlog::info("service {}: provider {} (peer '{}') disconnected", name, mine->info.owner(),
+                   mine->info.peer_name());
+      if (remove_provider_locked(it, mine, "disconnected")) removed.push_back(name);
     }
+    it = next;
   }
   return removed;
 }
@@ -229,9 +314,9 @@ bool parse_payload(const planet::Request& request, T& out) {
 }
 
 planet::CallResult bad_payload(const planet::Request& request, const gp::Descriptor& type) {
-  return planet::CallResult::error(planet::BAD_ARGUMENTS, "payload of " + request.service() + "." +
-                                                              request.operation() + " is not a valid " +
-                                                              type.full_name());
+  return planet::CallResult::error(
+      planet::BAD_ARGUMENTS,
+      "payload of " + request.service() + "." + request.operation() + " is not a valid " + type.full_name());
 }
 
 planet::CallResult from(const Result<Done>& result, const gp::Message& reply) {
@@ -256,8 +341,8 @@ planet::CallResult RegistryService::handle(const planet::SessionPtr& caller, con
     camus::UnregisterRequest in;
     if (!parse_payload(request, in)) return bad_payload(request, *in.GetDescriptor());
     if (!caller) {
-      return planet::CallResult::error(planet::PERMISSION_DENIED,
-                                       "only the provider may unregister " + in.name() + "; the caller is inside the server");
+      return planet::CallResult::error(planet::PERMISSION_DENIED, "only the provider may unregister " + in.name() +
+                                                                      "; the caller is inside the server");
     }
     return from(registry_.unregister_service(*caller, in.name()), camus::UnregisterReply());
   }

@@ -4,6 +4,7 @@
 
 #include "urs/camus_server/context_store.hpp"
 #include "urs/camus_server/tasks_agent.hpp"
+#include "urs/util/trace.hpp"
 
 namespace urs::camus_server {
 namespace {
@@ -76,14 +77,18 @@ void CamusSessionHandler::on_frame(const planet::SessionPtr& session, planet::Fr
       input.payload = std::move(*publish->mutable_payload());
       input.content_type = std::move(*publish->mutable_content_type());
       input.source = session->identity().name;
+      input.privileged = session->identity().role >= planet::SAM;
       input.publisher = session->identity().session;
       input.publish_id = publish->publish_id();
+      // A traceparent that is not valid is dropped, not stored or passed on.
+      if (auto trace = util::TraceContext::parse(publish->traceparent())) input.traceparent = trace->traceparent();
       bus_.publish(std::move(input), send_to(weak, &planet::Frame::mutable_publish_ack));
       return;
     }
     case planet::Frame::kSubscribe:
       bus_.subscribe(session->id(), frame.subscribe(), send_to(weak, &planet::Frame::mutable_event),
-                     send_to(weak, &planet::Frame::mutable_subscribe_ack));
+                     send_to(weak, &planet::Frame::mutable_subscribe_ack),
+                     planet::ShareHolder{session->identity().name, session->identity().role >= planet::SAM});
       return;
     case planet::Frame::kUnsubscribe:
       bus_.unsubscribe(session->id(), frame.unsubscribe().subscription_id());

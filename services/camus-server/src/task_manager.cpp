@@ -3,6 +3,7 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <filesystem>
 #include <optional>
 #include <thread>
 
@@ -12,6 +13,7 @@
 #include "task_steps.hpp"
 #include "task_store.hpp"
 #include "task_triggers.hpp"
+#include "urs/camus_server/topic_pattern.hpp"
 #include "urs/util/cli.hpp"
 
 namespace urs::camus_server {
@@ -35,15 +37,15 @@ std::optional<uint64_t> run_number(const std::string& run_id) {
 
 }  // namespace
 
-TaskManager::TaskManager(const std::string& db_path, TaskManagerOptions options, Invoker& invoker,
-                         EventSource& events, const ContextReader& context, const SchemaLookup& schemas,
-                         agent::EventSink& sink, const Clock& clock)
+TaskManager::TaskManager(const std::string& db_path, TaskManagerOptions options, Invoker& invoker, EventSource& events,
+                         const ContextReader& context, const SchemaLookup& schemas, agent::EventSink& sink,
+                         const Clock& clock)
     : options_(std::move(options)),
       events_(events),
       sink_(sink),
       clock_(clock),
       store_(std::make_unique<tasks::TaskStore>(db_path, options_.keep_finished)),
-      steps_(std::make_unique<tasks::StepRunner>(invoker, events, context, schemas, sink)),
+      steps_(std::make_unique<tasks::StepRunner>(invoker, events, context, schemas)),
       driver_(std::make_unique<tasks::RunDriver>(*store_, *steps_, events, sink, clock, [this] { notify_finished(); })),
       triggers_(std::make_unique<tasks::TaskTriggers>(
           events, [this](const std::string& task, const planet::Event& event) { on_trigger(task, event); })) {}
@@ -61,17 +63,19 @@ void TaskManager::start() {
     std::lock_guard<std::mutex> lock(mutex_);
     if (started_) return;
     started_ = true;
-    for (auto& [name, yaml] : store_->definitions()) {
-      auto spec = parse_task(yaml, name);
+    for (auto& stored : store_->definitions()) {
+      auto spec = parse_task(stored.yaml, stored.name);
       if (!spec.ok()) {
-        spdlog::error("stored task '{}' no longer parses and is ignored: {}", name, spec.message());
+        spdlog::error("stored task '{}' no longer parses and is ignored: {}", stored.name, spec.message());
         continue;
       }
-      definitions_[name] = Definition{yaml, spec.value()};
+      definitions_[stored.name] = Definition{stored.yaml, spec.value(), stored.owner};
     }
     if (!options_.tasks_dir.empty()) {
       for (const auto& file : tasks::read_task_dir(options_.tasks_dir)) {
-        auto defined = define_locked(file.spec, file.yaml);
+        // Owned by the file: a name with '/', which no credential can have.
+        const std::string owner = "tasks-dir/" + std::filesystem::path(file.path).filename().string();
+        auto defined = define_locked(file.spec, file.yaml, owner);
         if (!defined.ok()) throw util::ConfigError("--tasks-dir: '" + file.path + "': " + defined.message());
         spdlog::info("task '{}' defined from {}", file.spec.name, file.path);
       }
@@ -108,6 +112,7 @@ std::vector<std::shared_ptr<Run>> TaskManager::load_runs_locked() {
     run->number = stored.number;
     run->run_id = "r" + std::to_string(run->number);
     run->yaml = std::move(stored.yaml);
+    run->owner = std::move(stored.owner);
     run->state = std::move(stored.state);
     run->iteration = stored.iteration;
     run->watch_seq = stored.watch_seq;
@@ -153,34 +158,36 @@ void TaskManager::stop() {
   for (auto& run : active) run->thread.join();
 }
 
-Result<Done> TaskManager::define_locked(const TaskSpec& spec, const std::string& yaml) {
+Result<Done> TaskManager::define_locked(const TaskSpec& spec, const std::string& yaml, const std::string& owner) {
   try {
-    store_->put_definition(spec.name, yaml);
+    store_->put_definition(spec.name, yaml, owner);
   } catch (const SqliteError& e) {
     return make_error(planet::INTERNAL, "task '" + spec.name + "' not stored: " + e.what());
   }
-  definitions_[spec.name] = Definition{yaml, spec};
+  definitions_[spec.name] = Definition{yaml, spec, owner};
   if (started_ && !stopping_) triggers_->arm(spec);
   return Done{};
 }
 
-Result<camus::TaskDefinition> TaskManager::define(const std::string& name, const std::string& yaml) {
+Result<camus::TaskDefinition> TaskManager::define(const std::string& name, const std::string& yaml,
+                                                  const std::string& owner) {
   if (!name.empty()) {
     if (auto why = task_name_problem(name); !why.empty()) {
-      return make_error(planet::BAD_ARGUMENTS, "task name '" + name + "' is not valid: " + why);
+      return make_error(planet::BAD_ARGUMENTS, "task name " + quote_prefix(name) + " is not valid: " + why);
     }
   }
   auto spec = parse_task(yaml, name);
   if (!spec.ok()) return spec.error();
   if (!name.empty() && spec->name != name) {
-    return make_error(planet::BAD_ARGUMENTS,
-                      "task name '" + name + "' does not match the name '" + spec->name + "' in its YAML");
+    return make_error(planet::BAD_ARGUMENTS, "task name " + quote_prefix(name) + " does not match the name " +
+                                                 quote_prefix(spec->name) + " in its YAML");
   }
   std::lock_guard<std::mutex> lock(mutex_);
-  if (stopping_) return make_error(planet::UNAVAILABLE, "server is shutting down; task '" + spec->name + "' not defined");
-  auto defined = define_locked(spec.value(), yaml);
+  if (stopping_)
+    return make_error(planet::UNAVAILABLE, "server is shutting down; task '" + spec->name + "' not defined");
+  auto defined = define_locked(spec.value(), yaml, owner);
   if (!defined.ok()) return defined.error();
-  spdlog::info("task '{}' defined ({} steps)", spec->name, spec->steps.size());
+  spdlog::info("task '{}' defined by {} ({} steps)", spec->name, owner.empty() ? "?" : owner, spec->steps.size());
   camus::TaskDefinition out;
   out.set_name(spec->name);
   out.set_yaml(yaml);
@@ -201,7 +208,7 @@ void TaskManager::on_trigger(const std::string& task, const planet::Event& event
       return;
     }
   }
-  auto run = start_run_locked(def->second.spec, def->second.yaml, "event:" + event.topic());
+  auto run = start_run_locked(def->second.spec, def->second.yaml, "event:" + event.topic(), def->second.owner);
   if (!run.ok()) {
     spdlog::warn("event {} could not start task '{}': {}", event.topic(), task, run.message());
     return;
@@ -236,8 +243,9 @@ void TaskManager::reap_locked() {
 }
 
 Result<std::shared_ptr<Run>> TaskManager::start_run_locked(TaskSpec spec, const std::string& yaml,
-                                                           const std::string& trigger) {
-  if (stopping_) return make_error(planet::UNAVAILABLE, "server is shutting down; task '" + spec.name + "' not started");
+                                                           const std::string& trigger, const std::string& owner) {
+  if (stopping_)
+    return make_error(planet::UNAVAILABLE, "server is shutting down; task '" + spec.name + "' not started");
   reap_locked();
   size_t running = 0;
   for (const auto& [number, run] : runs_) {
@@ -246,13 +254,14 @@ Result<std::shared_ptr<Run>> TaskManager::start_run_locked(TaskSpec spec, const 
   }
   if (running >= options_.max_running) {
     return make_error(planet::UNAVAILABLE, "too many task runs in progress (" + std::to_string(running) +
-                                               "); cancel one or wait (limit " +
-                                               std::to_string(options_.max_running) + ")");
+                                               "); cancel one or wait (limit " + std::to_string(options_.max_running) +
+                                               ")");
   }
   auto run = std::make_shared<Run>();
   run->number = next_run_;
   run->run_id = "r" + std::to_string(run->number);
   run->yaml = yaml;
+  run->owner = owner;
   run->spec = std::move(spec);
   run->watch_seq = events_.last_seq();
   run->state.set_run_id(run->run_id);
@@ -282,7 +291,8 @@ void TaskManager::launch(const std::shared_ptr<Run>& run) {
   run->thread = std::thread([driver = driver_.get(), run] { driver->execute(run); });
 }
 
-Result<camus::TaskRun> TaskManager::run(const camus::TaskRunRequest& request, const std::string& trigger) {
+Result<camus::TaskRun> TaskManager::run(const camus::TaskRunRequest& request, const std::string& trigger,
+                                        const std::string& caller) {
   if (!request.name().empty() && !request.yaml().empty()) {
     return make_error(planet::BAD_ARGUMENTS, "Run takes a task name or an inline yaml, not both");
   }
@@ -296,18 +306,21 @@ Result<camus::TaskRun> TaskManager::run(const camus::TaskRunRequest& request, co
   }
   std::lock_guard<std::mutex> lock(mutex_);
   std::string yaml = request.yaml();
+  std::string owner = caller;
   TaskSpec spec;
   if (inline_spec) {
     spec = std::move(*inline_spec);
   } else {
     auto def = definitions_.find(request.name());
     if (def == definitions_.end()) {
-      return make_error(planet::NOT_FOUND, "no task named '" + request.name() + "' (define it first, or pass its yaml)");
+      return make_error(planet::NOT_FOUND,
+                        "no task named " + quote_prefix(request.name()) + " (define it first, or pass its yaml)");
     }
     spec = def->second.spec;
     yaml = def->second.yaml;
+    owner = def->second.owner;
   }
-  auto run = start_run_locked(std::move(spec), yaml, trigger);
+  auto run = start_run_locked(std::move(spec), yaml, trigger, owner);
   if (!run.ok()) return run.error();
   camus::TaskRun snapshot;
   {
@@ -337,7 +350,7 @@ Result<camus::TaskRun> TaskManager::status(const camus::TaskStatusRequest& reque
       std::lock_guard<std::mutex> run_lock(run->mutex);
       return run->state;
     }
-    if (request.name().empty()) return make_error(planet::NOT_FOUND, "no task run '" + request.run_id() + "'");
+    if (request.name().empty()) return make_error(planet::NOT_FOUND, "no task run " + quote_prefix(request.run_id()));
   }
   for (auto it = runs_.rbegin(); it != runs_.rend(); ++it) {
     std::lock_guard<std::mutex> run_lock(it->second->mutex);
@@ -345,11 +358,11 @@ Result<camus::TaskRun> TaskManager::status(const camus::TaskStatusRequest& reque
   }
   if (definitions_.count(request.name()) == 0) {
     if (request.run_id() == request.name()) {
-      return make_error(planet::NOT_FOUND, "no task run or task named '" + request.name() + "'");
+      return make_error(planet::NOT_FOUND, "no task run or task named " + quote_prefix(request.name()));
     }
-    return make_error(planet::NOT_FOUND, "no task named '" + request.name() + "'");
+    return make_error(planet::NOT_FOUND, "no task named " + quote_prefix(request.name()));
   }
-  return make_error(planet::NOT_FOUND, "task '" + request.name() + "' has not run yet");
+  return make_error(planet::NOT_FOUND, "task " + quote_prefix(request.name()) + " has not run yet");
 }
 
 Result<camus::TaskRun> TaskManager::cancel(const std::string& run_id, const std::string& by) {
@@ -357,15 +370,14 @@ Result<camus::TaskRun> TaskManager::cancel(const std::string& run_id, const std:
   {
     std::lock_guard<std::mutex> lock(mutex_);
     auto run = find_locked(run_id);
-    if (!run) return make_error(planet::NOT_FOUND, "no task run '" + run_id + "'");
+    if (!run) return make_error(planet::NOT_FOUND, "no task run " + quote_prefix(run_id));
     std::lock_guard<std::mutex> run_lock(run->mutex);
     if (run->state.state() != kRunning) return run->state;  // already over: nothing to do
     run->cancelled = true;
     uint32_t step = run->state.step();
-    std::string where = step < run->spec.steps.size()
-                            ? " at " + run->prefix() + "steps[" + std::to_string(step) + "] (" +
-                                  run->spec.steps[step].summary() + ")"
-                            : std::string();
+    std::string where = step < run->spec.steps.size() ? " at " + run->prefix() + "steps[" + std::to_string(step) +
+                                                            "] (" + run->spec.steps[step].summary() + ")"
+                                                      : std::string();
     run->state.set_state(kCancelled);
     run->state.set_message("cancelled by " + (by.empty() ? std::string("unknown") : by) + where);
     run->state.set_finished_unix_ns(clock_.now_unix_ns());

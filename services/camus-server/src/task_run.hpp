@@ -26,6 +26,10 @@ struct Run {
   std::string run_id;  // "r<number>"
   TaskSpec spec;
   std::string yaml;
+  std::string owner;  // whose name its publish steps carry (TaskManager); empty: "task:<task>/<run>"
+
+  // The source of the run's `publish` steps.
+  std::string publisher() const { return owner.empty() ? "task:" + spec.name + "/" + run_id : owner; }
 
   std::mutex mutex;  // guards what follows; the run's waits block on cv under it
   std::condition_variable cv;

@@ -8,6 +8,7 @@
 #include <regex>
 #include <set>
 
+#include "urs/camus_server/names.hpp"
 #include "urs/schema/json.hpp"
 #include "urs/util/json_text.hpp"
 
@@ -132,7 +133,7 @@ void check_keys(const YAML::Node& map, const std::string& path, const std::vecto
     if (!known) {
       std::string list;
       for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
-      problems.add(path + "." + key, item.first, "unknown key '" + key + "' (expected " + list + ")");
+      problems.add(path + "." + key, item.first, "unknown key " + quote_prefix(key) + " (expected " + list + ")");
     }
   }
 }
@@ -152,8 +153,8 @@ bool read_string(const YAML::Node& map, const std::string& key, const std::strin
   return true;
 }
 
-bool read_uint(const YAML::Node& map, const std::string& key, const std::string& path, bool required,
-               uint64_t min, uint64_t max, const std::string& unit, uint32_t& out, Problems& problems) {
+bool read_uint(const YAML::Node& map, const std::string& key, const std::string& path, bool required, uint64_t min,
+               uint64_t max, const std::string& unit, uint32_t& out, Problems& problems) {
   YAML::Node node = map[key];
   if (!node.IsDefined() || node.IsNull()) {
     if (required) problems.add(path, map, "missing '" + key + "'");
@@ -240,7 +241,7 @@ void parse_wait_context(const YAML::Node& body, const std::string& path, TaskSte
   check_keys(body, path, {"key", "equals", "exists", "timeout_ms"}, problems);
   if (read_string(body, "key", path, true, wait.key, problems)) {
     if (auto why = topic_problem(wait.key); !why.empty()) {
-      problems.add(path + ".key", body["key"], "context key '" + wait.key + "' is not valid: " + why);
+      problems.add(path + ".key", body["key"], "context key " + quote_prefix(wait.key) + " is not valid: " + why);
     }
   }
   YAML::Node equals = body["equals"];
@@ -279,7 +280,12 @@ void parse_publish(const YAML::Node& body, const std::string& path, TaskStep& st
   check_keys(body, path, {"topic", "type", "payload"}, problems);
   if (read_string(body, "topic", path, true, publish.topic, problems)) {
     if (auto why = topic_problem(publish.topic); !why.empty()) {
-      problems.add(path + ".topic", body["topic"], "topic '" + publish.topic + "' is not valid: " + why);
+      problems.add(path + ".topic", body["topic"], "topic " + quote_prefix(publish.topic) + " is not valid: " + why);
+    } else if (is_server_topic(publish.topic)) {
+      // A task publishes as its owner, who may not speak as the server.
+      problems.add(path + ".topic", body["topic"],
+                   "topics under '" + publish.topic.substr(0, publish.topic.find('/')) +
+                       "/' are published by the server alone (registry/, context/ and task/ are server topics)");
     }
   }
   read_string(body, "type", path, true, publish.type, problems);
@@ -304,8 +310,8 @@ std::string task_name_problem(const std::string& name) {
   if (name.empty()) return "it is empty";
   if (name.size() > 100) return "it is longer than 100 characters";
   for (char c : name) {
-    bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '.' || c == '_' ||
-              c == '-';
+    bool ok =
+        (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '.' || c == '_' || c == '-';
     if (!ok) return std::string("character '") + c + "' is not allowed (use letters, digits and . _ -)";
   }
   return {};

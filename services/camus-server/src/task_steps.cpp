@@ -5,6 +5,7 @@
 #include <chrono>
 
 #include "urs/camus_server/event_match.hpp"
+#include "urs/camus_server/topic_pattern.hpp"
 
 namespace urs::camus_server::tasks {
 
@@ -14,19 +15,18 @@ namespace {
 std::string status_text(planet::Status status) { return planet::Status_Name(status); }
 }  // namespace
 
-StepRunner::StepRunner(Invoker& invoker, EventSource& events, const ContextReader& context,
-                       const SchemaLookup& schemas, agent::EventSink& sink)
-    : invoker_(invoker), events_(events), context_(context), schemas_(schemas), sink_(sink) {}
+StepRunner::StepRunner(Invoker& invoker, EventSource& events, const ContextReader& context, const SchemaLookup& schemas)
+    : invoker_(invoker), events_(events), context_(context), schemas_(schemas) {}
 
 StepEnd StepRunner::run(const std::shared_ptr<Run>& run, const TaskStep& step, std::string& failure) {
   if (const auto* call_step = std::get_if<CallStep>(&step.action)) return call(run, *call_step, failure);
   if (const auto* wait = std::get_if<WaitEventStep>(&step.action)) return wait_event(run, *wait, failure);
   if (const auto* ctx = std::get_if<WaitContextStep>(&step.action)) return wait_context(run, *ctx, failure);
-  if (const auto* publish_step = std::get_if<PublishStep>(&step.action)) return publish(*publish_step, failure);
+  if (const auto* publish_step = std::get_if<PublishStep>(&step.action)) return publish(*run, *publish_step, failure);
   return sleep(run, std::get<SleepStep>(step.action));
 }
 
-StepEnd StepRunner::publish(const PublishStep& step, std::string& failure) {
+StepEnd StepRunner::publish(const Run& run, const PublishStep& step, std::string& failure) {
   // The type as the space knows it now: interfaces come and go with their providers.
   auto schema = schemas_.schema_with_message(step.type);
   const gp::Descriptor* type = schema ? schema->find_message(step.type) : nullptr;
@@ -42,7 +42,8 @@ StepEnd StepRunner::publish(const PublishStep& step, std::string& failure) {
   gp::DynamicMessageFactory factory;
   std::unique_ptr<gp::Message> event(factory.GetPrototype(type)->New());
   event->ParseFromString(encoded.value());
-  const call::Reply published = sink_.publish(step.topic, *event);
+  // As the task's owner, under a peer's rules: only the server speaks as the server.
+  const call::Reply published = events_.publish_as(run.publisher(), step.topic, *event);
   if (!published.ok()) {
     failure = std::string(call::status_name(published.status)) + ": " + published.message;
     return StepEnd::kFailed;
@@ -57,7 +58,7 @@ StepEnd StepRunner::call(const std::shared_ptr<Run>& run, const CallStep& step, 
     const gp::MethodDescriptor* method = schema->service().FindMethodByName(step.operation);
     if (method == nullptr) {
       failure = status_text(planet::UNKNOWN_OPERATION) + ": interface " + schema->interface_name() +
-                " has no operation '" + step.operation + "'";
+                " has no operation " + quote_prefix(step.operation);
       return StepEnd::kFailed;
     }
     auto encoded = schema->json_to_payload(*method->input_type(), step.args_json);
@@ -150,12 +151,13 @@ StepEnd StepRunner::wait_context(const std::shared_ptr<Run>& run, const WaitCont
     failure = status_text(planet::BAD_ARGUMENTS) + ": " + pattern.message();
     return StepEnd::kFailed;
   }
-  uint64_t handle = events_.subscribe_internal(pattern.value(), events_.last_seq(), [run, changes](const planet::Event&) {
-    std::lock_guard<std::mutex> lock(run->mutex);
-    ++*changes;
-    run->cv.notify_all();
-    return true;
-  });
+  uint64_t handle =
+      events_.subscribe_internal(pattern.value(), events_.last_seq(), [run, changes](const planet::Event&) {
+        std::lock_guard<std::mutex> lock(run->mutex);
+        ++*changes;
+        run->cv.notify_all();
+        return true;
+      });
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(step.timeout_ms);
   StepEnd end = StepEnd::kNext;
   for (;;) {
@@ -165,8 +167,8 @@ StepEnd StepRunner::wait_context(const std::shared_ptr<Run>& run, const WaitCont
       seen = *changes;
     }
     auto entry = context_.get(step.key);
-    bool satisfied = step.has_equals ? (entry.ok() && values_equal(entry->value(), step.equals))
-                                     : (entry.ok() == step.exists);
+    bool satisfied =
+        step.has_equals ? (entry.ok() && values_equal(entry->value(), step.equals)) : (entry.ok() == step.exists);
     if (satisfied) break;
     std::unique_lock<std::mutex> lock(run->mutex);
     auto ready = [&] { return *changes != seen || run->stop_requested(); };
@@ -177,8 +179,8 @@ StepEnd StepRunner::wait_context(const std::shared_ptr<Run>& run, const WaitCont
     }
     if (!woke) {
       std::string want = step.has_equals ? "to equal the given value" : (step.exists ? "to exist" : "to be absent");
-      failure = status_text(planet::DEADLINE_EXCEEDED) + ": context entry '" + step.key + "' did not come " + want +
-                " within " + std::to_string(step.timeout_ms) + " ms";
+      failure = status_text(planet::DEADLINE_EXCEEDED) + ": context entry " + quote_prefix(step.key) +
+                " did not come " + want + " within " + std::to_string(step.timeout_ms) + " ms";
       end = StepEnd::kFailed;
       break;
     }

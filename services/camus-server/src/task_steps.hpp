@@ -20,8 +20,7 @@ namespace urs::camus_server::tasks {
 class StepRunner {
  public:
   // Every reference must outlive the runner.
-  StepRunner(Invoker& invoker, EventSource& events, const ContextReader& context, const SchemaLookup& schemas,
-             agent::EventSink& sink);
+  StepRunner(Invoker& invoker, EventSource& events, const ContextReader& context, const SchemaLookup& schemas);
 
   // Runs `step` of `run`; on kFailed, `failure` says why ("STATUS: ...").
   StepEnd run(const std::shared_ptr<Run>& run, const TaskStep& step, std::string& failure);
@@ -31,13 +30,12 @@ class StepRunner {
   StepEnd wait_event(const std::shared_ptr<Run>& run, const WaitEventStep& step, std::string& failure);
   StepEnd wait_context(const std::shared_ptr<Run>& run, const WaitContextStep& step, std::string& failure);
   StepEnd sleep(const std::shared_ptr<Run>& run, const SleepStep& step);
-  StepEnd publish(const PublishStep& step, std::string& failure);
+  StepEnd publish(const Run& run, const PublishStep& step, std::string& failure);
 
   Invoker& invoker_;
   EventSource& events_;
   const ContextReader& context_;
   const SchemaLookup& schemas_;
-  agent::EventSink& sink_;
 };
 
 }  // namespace urs::camus_server::tasks

@@ -22,14 +22,20 @@ class TaskStore {
   // Throws SqliteError.
   TaskStore(const std::string& db_path, size_t keep_finished);
 
-  // (name, yaml) of every stored definition, by name.
-  std::vector<std::pair<std::string, std::string>> definitions();
+  struct StoredDefinition {
+    std::string name;
+    std::string yaml;
+    std::string owner;  // empty in stores written before owners were kept
+  };
+  // Every stored definition, by name.
+  std::vector<StoredDefinition> definitions();
   // Throws SqliteError.
-  void put_definition(const std::string& name, const std::string& yaml);
+  void put_definition(const std::string& name, const std::string& yaml, const std::string& owner);
 
   struct StoredRun {
     uint64_t number = 0;
     std::string yaml;
+    std::string owner;
     camus::TaskRun state;
     uint32_t iteration = 0;
     uint64_t watch_seq = 0;

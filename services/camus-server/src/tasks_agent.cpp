@@ -21,7 +21,7 @@ agent::Outcome TasksAgent::invoke(const gp::MethodDescriptor& method, const gp::
   if (op == "Define") {
     camus::TaskDefinition storage;
     const auto& in = message_as(request, storage);
-    auto defined = manager_.define(in.name(), in.yaml());
+    auto defined = manager_.define(in.name(), in.yaml(), ctx.caller.name);
     if (!defined.ok()) return refused(defined);
     camus::TaskDefineReply out;
     *out.mutable_task() = defined.value();
@@ -30,7 +30,8 @@ agent::Outcome TasksAgent::invoke(const gp::MethodDescriptor& method, const gp::
   }
   if (op == "Run") {
     camus::TaskRunRequest storage;
-    return answer(manager_.run(message_as(request, storage), ctx.caller.known() ? "call:" + ctx.caller.name : "call"));
+    return answer(manager_.run(message_as(request, storage), ctx.caller.known() ? "call:" + ctx.caller.name : "call",
+                               ctx.caller.name));
   }
   if (op == "Status") {
     camus::TaskStatusRequest storage;
@@ -44,7 +45,8 @@ agent::Outcome TasksAgent::invoke(const gp::MethodDescriptor& method, const gp::
     fill_reply(reply, manager_.list());
     return agent::Outcome::ok();
   }
-  return agent::Outcome::error(call::Status::UNKNOWN_OPERATION, "interface urs.camus.Tasks has no operation '" + op + "'");
+  return agent::Outcome::error(call::Status::UNKNOWN_OPERATION,
+                               "interface urs.camus.Tasks has no operation '" + op + "'");
 }
 
 }  // namespace urs::camus_server

@@ -11,24 +11,33 @@ Scheduler::TimerId TimerThread::schedule_after(std::chrono::milliseconds delay, 
   TimerId id = next_id_++;
   if (stopping_) return id;  // dropped, like every pending timer at stop()
   auto due = std::chrono::steady_clock::now() + delay;
-  bool earliest = heap_.empty() || due < heap_.top().first;
-  heap_.emplace(due, id);
-  callbacks_.emplace(id, std::move(callback));
+  bool earliest = order_.empty() || due < order_.begin()->first;
+  order_.emplace(due, id);
+  timers_.emplace(id, Timer{due, std::move(callback)});
   if (earliest) wake_.notify_one();
   return id;
 }
 
 bool TimerThread::cancel(TimerId id) {
   std::lock_guard<std::mutex> lock(mutex_);
-  // The heap entry stays until it comes due; run() skips ids without a callback.
-  return callbacks_.erase(id) > 0;
+  auto it = timers_.find(id);
+  if (it == timers_.end()) return false;
+  order_.erase({it->second.due, id});
+  timers_.erase(it);
+  return true;
+}
+
+size_t TimerThread::pending() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return timers_.size();
 }
 
 void TimerThread::stop() {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     stopping_ = true;
-    callbacks_.clear();
+    order_.clear();
+    timers_.clear();
     wake_.notify_all();
   }
   if (thread_.joinable()) thread_.join();
@@ -37,22 +46,19 @@ void TimerThread::stop() {
 void TimerThread::run() {
   std::unique_lock<std::mutex> lock(mutex_);
   while (!stopping_) {
-    if (heap_.empty()) {
+    if (order_.empty()) {
       wake_.wait(lock);
       continue;
     }
-    auto [due, id] = heap_.top();
-    if (callbacks_.count(id) == 0) {  // cancelled
-      heap_.pop();
-      continue;
-    }
+    auto [due, id] = *order_.begin();
     if (std::chrono::steady_clock::now() < due) {
       wake_.wait_until(lock, due);
-      continue;  // re-examine: woken early, a new earlier timer, or stop
+      continue;  // re-examine: woken early, a new earlier timer, a cancel, or stop
     }
-    heap_.pop();
-    Callback callback = std::move(callbacks_[id]);
-    callbacks_.erase(id);
+    order_.erase(order_.begin());
+    auto timer = timers_.find(id);
+    Callback callback = std::move(timer->second.callback);
+    timers_.erase(timer);
     lock.unlock();
     callback();
     lock.lock();

@@ -87,7 +87,8 @@ Result<TopicPattern> TopicPattern::parse(const std::string& text, const TopicLim
     if (level == "*") {
       pattern.exact_ = false;
     } else if (level.find_first_of("*#") != std::string_view::npos) {
-      return invalid(where + " ('" + std::string(level) + "') mixes a wildcard with text; '*' and '#' must be a whole level");
+      return invalid(where + " ('" + std::string(level) +
+                     "') mixes a wildcard with text; '*' and '#' must be a whole level");
     }
     pattern.levels_.emplace_back(level);
   }

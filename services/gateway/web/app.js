@@ -129,7 +129,9 @@ function connect() {
   state.client = client;
   client.onopen = (info) => {
     state.role = (info.metadata && info.metadata.role) || "viewer";
-    $("connection").textContent = "live";
+    // A gateway playing a recording (urs play) says so: what is shown is not live.
+    const playback = info.metadata && info.metadata.playback === "true";
+    $("connection").textContent = playback ? "playing a recording" : "live";
     $("connection").className = "badge online";
     $("role").textContent = state.role;
     $("role").title = roleExplained();
@@ -216,7 +218,14 @@ function addLog(row) {
   markDirty("log");
 }
 
-function onContext(entry) {
+// A google.protobuf.Value travels as its JSON text (docs/dashboard.md, "Schema rules").
+function jsonText(text) {
+  if (typeof text !== "string") return text;
+  try { return JSON.parse(text); } catch (error) { return text; }
+}
+
+function onContext(message) {
+  const entry = Object.assign({}, message, { value: jsonText(message.value) });
   const key = entry.space + "/" + entry.key;
   if (entry.removed) state.context.delete(key); else state.context.set(key, entry);
   addLog({ t: entry.stamp, space: entry.space, kind: "context", name: entry.key, source: entry.source,
@@ -224,7 +233,8 @@ function onContext(entry) {
   addSpaceOption(entry.space);
 }
 
-function onEvent(event) {
+function onEvent(message) {
+  const event = Object.assign({}, message, { payload: jsonText(message.payload) });
   addLog({ t: event.stamp, space: event.space, kind: "event", name: event.topic, source: event.source, payload: event.payload });
   addSpaceOption(event.space);
   // A task's run, as the experiments started here see it.
@@ -574,7 +584,7 @@ function renderCallForm() {
   $("call-result").textContent = "";
   const service = state.client && state.client.services.get($("operation").value);
   if (!service) return;
-  const schema = JSON.parse((service.request && service.request.schema) || service.requestSchema || "{}");
+  const schema = JSON.parse((service.request && service.request.schema) || "{}");
   el("div", { class: "small" }, form, service.type + " (" + (service.request ? service.request.schemaName : "") + ")");
   buildFields(form, schema, "");
 }
@@ -585,7 +595,7 @@ function buildFields(parent, schema, path) {
   for (const [name, field] of Object.entries(schema.properties || {})) {
     const key = path ? path + "." + name : name;
     const type = typeOf(field);
-    if (type === "object" && field.properties) {
+    if (type === "object" && field.properties && Object.keys(field.properties).length) {
       const set = el("fieldset", {}, parent);
       el("legend", {}, set, name);
       buildFields(set, field, key);
@@ -601,6 +611,9 @@ function buildFields(parent, schema, path) {
       input = el("input", { type: "checkbox", "data-field": key, "data-kind": "boolean" }, label);
     } else if (type === "number" || (type === "integer" && !Array.isArray(field.type))) {
       input = el("input", { type: "number", step: "any", "data-field": key, "data-kind": "number" }, label);
+    } else if (field.contentMediaType === "application/json") {
+      // Any JSON value, sent as its text (the gateway reads it back).
+      input = el("textarea", { "data-field": key, "data-kind": "string", placeholder: "JSON" }, label);
     } else if (type === "string" || type === "integer") {
       input = el("input", { type: "text", "data-field": key, "data-kind": "string" }, label);
     } else {

@@ -219,11 +219,72 @@ def handshake_timeout(s):
     expect(conn.closed_by_server(), "then the connection closed")
 
 
-@check("3", "a second Hello on an open session is a protocol error")
+@check("3", "a second Hello on an open session is a protocol error: Goodbye BAD_ARGUMENTS, close")
 def second_hello(s):
     conn = s.open()
-    conn.hello(s.token("client"))
+    answer = conn.hello(s.token("client"))
+    expect(answer is not None and answer.WhichOneof("body") == "goodbye" and answer.goodbye.status == pl.BAD_ARGUMENTS,
+           "Goodbye BAD_ARGUMENTS", answer)
     expect(conn.closed_by_server(), "the connection closed after a second Hello")
+
+
+@check("3", "the Hello is checked in order: version, peer_name, role value, credential, role; the first failure answers")
+def hello_check_order(s):
+    conn = s.connect()
+    refused = expect_refused(conn.hello("wrong", peer_name="", role=7, version=2), pl.INTERNAL, "for the version first")
+    conn = s.connect()
+    expect_refused(conn.hello("wrong", peer_name="", role=7), pl.BAD_ARGUMENTS, "for the peer_name second")
+    conn = s.connect()
+    refused = expect_refused(conn.hello("wrong", role=7), pl.BAD_ARGUMENTS, "for the role value third")
+    expect("Hello.role 7" in refused.reason, "a reason naming Hello.role 7", refused)
+    if not s.credentialed():
+        raise Skip("an open server checks no credential")
+    conn = s.connect()
+    expect_refused(conn.hello("wrong", role=pl.OPERATOR), pl.UNAUTHENTICATED, "for the credential before the role")
+
+
+@check("3", "Hello.role 0 (unset) asks for the least role: the Welcome names the credential's role")
+def hello_role_zero(s):
+    conn = s.connect()
+    answer = conn.hello(s.token("client"), role=0)
+    expect(answer is not None and answer.WhichOneof("body") == "welcome", "a Welcome", answer)
+    expect(answer.welcome.role in (pl.CLIENT, pl.SAM, pl.OPERATOR), "the credential's role", answer.welcome.role)
+
+
+@check("1", "a zero-length frame is a protocol error before and after the handshake: Goodbye BAD_ARGUMENTS, close")
+def zero_length_frame(s):
+    for conn in (s.connect(), s.open()):
+        conn.send_raw(b"\0\0\0\0")
+        expect_goodbye(conn, pl.BAD_ARGUMENTS)
+
+
+@check("3", "a Goodbye as the first frame: the server closes the connection without answering")
+def goodbye_first(s):
+    conn = s.connect()
+    conn.send(pl.Frame(goodbye=pl.Goodbye(status=pl.OK, reason="never mind")))
+    try:
+        answer = conn.recv(5)
+    except Closed:
+        answer = None
+    expect(answer is None, "no answer", answer)
+    expect(conn.closed_by_server(), "the connection closed")
+
+
+@check("3", "frames sent right after the Hello, before the Welcome, are handled once the session is open")
+def pipelined_after_hello(s):
+    conn = s.connect()
+    hello = pl.Frame()
+    hello.hello.version, hello.hello.token, hello.hello.peer_name = 1, s.token("client"), "conformance"
+    hello.hello.role = pl.CLIENT
+    request = pl.Frame()
+    r = request.request
+    r.call_id, r.service, r.operation = 7, "camus.registry", "List"
+    r.payload = cm.ListRequest(pattern="camus.*").SerializeToString()
+    conn.send_all([hello, request])
+    first = conn.recv(10)
+    expect(first is not None and first.WhichOneof("body") == "welcome", "the Welcome first", first)
+    reply = conn.expect("reply", match=lambda x: x.call_id == 7)
+    expect(reply is not None and reply.reply.status == pl.OK, "then the Reply to the pipelined call", reply)
 
 
 @check("3", "peer_name must be 1..128 bytes of letters, digits and . _ - @ : /, not camus-server (Refused BAD_ARGUMENTS)")
@@ -232,6 +293,12 @@ def peer_name_validated(s):
         conn = s.connect()
         expect_refused(conn.hello(s.token("client"), peer_name=name), pl.BAD_ARGUMENTS, "for peer_name %r" % name)
     s.open(name="sam@robot1:a/b_c-d.e")
+
+
+@check("3", "peer_name letters are ASCII letters: a non-ASCII letter is refused BAD_ARGUMENTS")
+def peer_name_ascii(s):
+    conn = s.connect()
+    expect_refused(conn.hello(s.token("client"), peer_name="caf\u00e9"), pl.BAD_ARGUMENTS, "for peer_name 'caf\u00e9'")
 
 
 # ---- 4. Authentication, identity and roles -------------------------------------------------------
@@ -334,17 +401,41 @@ def secret_needs_its_credential(s):
     expect(owner.expect("goodbye", timeout=1.0) is None, "the owner's connection left open")
 
 
-@check("4.3", "a resumed session keeps its registrations; another session cannot register or remove them")
+@check("12", "a service name with an empty level (/x, a//b, x/) is refused BAD_ARGUMENTS: it could not be announced")
+def service_name_levels(s):
+    conn = s.open(role="sam", hello_role=pl.SAM)
+    for i, name in enumerate(["/conformance", "conformance//x", "conformance/"]):
+        reply = s.register(conn, name, "URS.Diagnostic", call_id=i + 1)
+        expect(reply.status == pl.BAD_ARGUMENTS and "empty level" in reply.message,
+               "BAD_ARGUMENTS naming the empty level for %r" % name, reply)
+
+
+@check("4.3", "a resumed session keeps its registrations; a session of another credential cannot register or "
+              "remove them; one of the same credential provides the service too and removes only itself")
 def registrations_belong_to_the_session(s):
     name = "conformance.svc-" + s.unique
     sam = s.open("sam", name="conformance-sam", hello_role=pl.SAM)
     reply = s.register(sam, name, "conformance.Echo")
     expect(reply.status == pl.OK, "Register by a sam: OK", reply)
-    other = s.open("sam", name="conformance-sam", hello_role=pl.SAM)
-    reply = s.register(other, name, "conformance.Echo")
-    expect(reply.status == pl.ALREADY_EXISTS, "another session: ALREADY_EXISTS", reply)
-    reply = s.call(other, "camus.registry", "Unregister", cm.UnregisterRequest(name=name).SerializeToString(), call_id=2)
-    expect(reply.status == pl.PERMISSION_DENIED, "another session's Unregister: PERMISSION_DENIED", reply)
+    if s.credentialed():
+        other = s.open("operator", name="conformance-sam", hello_role=pl.OPERATOR)
+        reply = s.register(other, name, "conformance.Echo")
+        expect(reply.status == pl.ALREADY_EXISTS, "a session of another credential: ALREADY_EXISTS", reply)
+        reply = s.call(other, "camus.registry", "Unregister", cm.UnregisterRequest(name=name).SerializeToString(),
+                       call_id=2)
+        expect(reply.status == pl.PERMISSION_DENIED, "its Unregister: PERMISSION_DENIED", reply)
+    replica = s.open("sam", name="conformance-replica", hello_role=pl.SAM)
+    reply = s.register(replica, name, "conformance.Other")
+    expect(reply.status == pl.ALREADY_EXISTS, "the same credential with another interface: ALREADY_EXISTS", reply)
+    reply = s.register(replica, name, "conformance.Echo", call_id=2)
+    expect(reply.status == pl.OK, "the same credential, another session: OK, a second provider", reply)
+    listed = cm.ListReply.FromString(
+        s.call(replica, "camus.registry", "List", cm.ListRequest(pattern=name).SerializeToString(), call_id=3).payload)
+    expect(len(listed.services) == 1 and [p.peer_name for p in listed.services[0].providers] ==
+           ["conformance-sam", "conformance-replica"], "one service with both providers, the first one first", listed)
+    reply = s.call(replica, "camus.registry", "Unregister", cm.UnregisterRequest(name=name).SerializeToString(),
+                   call_id=4)
+    expect(reply.status == pl.OK, "the second provider unregisters itself: OK", reply)
     resumed = s.open("sam", name="conformance-sam", hello_role=pl.SAM, secret=sam.welcome.session_secret)
     reply = s.register(resumed, name, "conformance.Echo")
     expect(reply.status == pl.OK, "the resumed session re-registers: OK", reply)
@@ -596,6 +687,29 @@ def subscribe_refusals(s):
     expect(subscribe(conn, 1, "conformance/a").status == pl.OK, "the first OK")
     expect(subscribe(conn, 1, "conformance/b").status == pl.ALREADY_EXISTS, "the same id: ALREADY_EXISTS")
     expect(subscribe(conn, 2, "conformance/#/b").status == pl.BAD_ARGUMENTS, "'#' not last: BAD_ARGUMENTS")
+
+
+@check("5", "Unsubscribe has no acknowledgement: events stop, an unknown id is ignored and the session goes on")
+def unsubscribe_unacknowledged(s):
+    topic = "conformance/unsubscribe/" + s.unique
+    conn = s.open()
+    expect(subscribe(conn, 1, topic).status == pl.OK, "SubscribeAck OK")
+    conn.send_all([pl.Frame(unsubscribe=pl.Unsubscribe(subscription_id=1)),
+                   pl.Frame(unsubscribe=pl.Unsubscribe(subscription_id=99))])
+    ack = publish(conn, 1, topic)
+    expect(ack.status == pl.OK, "the publish after Unsubscribe acknowledged", ack)
+    answer = conn.recv(1.0)
+    expect(answer is None, "nothing else: no acknowledgement, no event", answer)
+    expect(subscribe(conn, 1, topic).status == pl.OK, "the id free again for a new subscription")
+
+
+@check("2", "what a peer sent is quoted, not echoed whole, in an error (a 60,000-byte context key)")
+def errors_quote_input(s):
+    conn = s.open()
+    key = "k" * 60000
+    reply = s.call(conn, "camus.context", "Get", cm.ContextGetRequest(key=key).SerializeToString())
+    expect(reply.status in (pl.NOT_FOUND, pl.BAD_ARGUMENTS), "NOT_FOUND or BAD_ARGUMENTS", reply.status)
+    expect(len(reply.message) < 1000, "a message under 1000 bytes", len(reply.message))
 
 
 @check("2", "topics and patterns over max_topic_bytes / max_topic_levels are refused BAD_ARGUMENTS naming the limit")

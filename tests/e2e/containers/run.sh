@@ -15,9 +15,10 @@
 #       in kr and kr's agents RTCs in jp; the demo scenario (a kr client drives jp's robot around
 #       the square, waypoint errors asserted; a jp RT consumer makes kr's TTS speak and kr's voice
 #       recognition hear it); a 921,600-byte image crosses whole; scaling jp's managers gives that
-#       many services in kr; a killed bridge's services vanish from the other space within the
-#       lease, every call in flight gets an answer, and they return with the bridge; cutting the
-#       link makes cross-space calls fail fast with a reason, and reconnecting restores them;
+#       many services in kr; a killed bridge's space is unreachable from the other within the
+#       lease (its services shown unreachable, calls refused at once naming it), every call in
+#       flight gets an answer, and they work again with the bridge; cutting the link makes
+#       cross-space calls fail fast naming the space, and reconnecting restores them;
 #       shared state: jp's RTC lifecycle states and robot pose are entries of kr's context, and
 #       leave it with jp's bridge; kr refuses a Planet client without its token; a call jp's
 #       dds.export.callers grant nobody is refused with the reason and in jp's audit log.
@@ -89,6 +90,12 @@ while True:
 export URS_KR_DASHBOARD_PORT=${URS_E2E_KR_DASHBOARD_PORT:-$(free_port)}
 export URS_JP_DASHBOARD_PORT=${URS_E2E_JP_DASHBOARD_PORT:-$(free_port)}
 while [[ $URS_JP_DASHBOARD_PORT == "$URS_KR_DASHBOARD_PORT" ]]; do URS_JP_DASHBOARD_PORT=$(free_port); done
+# Prometheus too (compose's monitoring profile), on a free host port of its own.
+export COMPOSE_PROFILES=monitoring
+export URS_PROMETHEUS_PORT=${URS_E2E_PROMETHEUS_PORT:-$(free_port)}
+while [[ $URS_PROMETHEUS_PORT == "$URS_KR_DASHBOARD_PORT" || $URS_PROMETHEUS_PORT == "$URS_JP_DASHBOARD_PORT" ]]; do
+  URS_PROMETHEUS_PORT=$(free_port)
+done
 # The credentials compose mounts as secrets (deploy/images/build.sh writes them too).
 "$root/compose/make-token.sh" >/dev/null
 "$root/compose/make-token.sh" "${URS_KR_OPERATOR_TOKEN_FILE:-$root/compose/config/kr-operator.token}" >/dev/null
@@ -146,12 +153,12 @@ wait_healthy() {
 # ---- images -----------------------------------------------------------------------------------
 step "images"
 if [[ "${URS_E2E_SKIP_IMAGE_BUILD:-0}" == 1 ]]; then
-  for s in rtc-naming camus-server sam-host rtc-manager cli bridge gateway; do
+  for s in rtc-naming camus-server sam-host rtc-manager cli bridge gateway prometheus; do
     docker image inspect "urslink/$s:${URS_IMAGE_TAG:-dev}" >/dev/null 2>&1 || fail "image urslink/$s:${URS_IMAGE_TAG:-dev} is missing"
   done
 else
   t=$SECONDS
-  URS_BUILD_DIR=$build timeout 480 "$root/deploy/images/build.sh" rtc-naming camus-server sam-host rtc-manager cli bridge gateway \
+  URS_BUILD_DIR=$build timeout 480 "$root/deploy/images/build.sh" rtc-naming camus-server sam-host rtc-manager cli bridge gateway prometheus \
     || fail "deploy/images/build.sh failed"
   say "images ready in $((SECONDS - t)) s"
 fi
@@ -481,6 +488,48 @@ print("image:", image["format"], len(data), "bytes")
 assert len(data) == 921600 == image["format"]["width"] * image["format"]["height"] * 3
 PY
 
+# ---- monitoring ---------------------------------------------------------------------------------
+step "Prometheus scrapes every program of both spaces; each hop's call counter rose by the calls made"
+# The value of a PromQL query through Prometheus's HTTP API (the sum of its series; 0 if none).
+prom() {
+  python3 - "$URS_PROMETHEUS_PORT" "$1" <<'PY'
+import json, sys, urllib.parse, urllib.request
+port, query = sys.argv[1], sys.argv[2]
+url = "http://127.0.0.1:%s/api/v1/query?query=%s" % (port, urllib.parse.quote(query))
+with urllib.request.urlopen(url, timeout=5) as answer:
+    data = json.load(answer)
+assert data["status"] == "success", data
+print("%g" % sum(float(series["value"][1]) for series in data["data"]["result"]))
+PY
+}
+# kr: camus-server, sam-host, bridge-kr, gateway-kr; jp: rtc-robot, rtc-manager, bridge-jp, gateway-jp.
+all_up() { [[ $(prom 'count(up == 1)' 2>/dev/null) == 8 && $(prom 'count(up == 0)' 2>/dev/null) == 0 ]]; }
+eventually 60 all_up || fail "not every program is an up target: $(prom 'count(up == 1)') up, $(prom 'count(up == 0)') down"
+say "8 targets up, none down"
+hops=(
+  'urslink_served_calls_total{instance="camus-server:9600",via="planet",service="jp/robot1.navigation",operation="getPosition",status="OK"}'
+  'urslink_bridge_calls_total{instance="bridge-kr:9600",service="jp/robot1.navigation",operation="getPosition",status="OK"}'
+  'urslink_served_calls_total{instance="bridge-jp:9600",via="dds",service="robot1.navigation",operation="getPosition",status="OK"}'
+  'urslink_served_calls_total{instance="rtc-robot:9600",via="corba",operation="getPosition",status="OK"}'
+)
+before=()
+for q in "${hops[@]}"; do before+=("$(prom "$q")"); done
+calls=5
+for ((i = 0; i < calls; ++i)); do
+  kr call jp/robot1.navigation getPosition >/dev/null || fail "getPosition: $(cat "$tmp/cli.err")"
+done
+rose() {
+  local i
+  for i in "${!hops[@]}"; do
+    [[ $(prom "${hops[$i]}") == $(awk -v b="${before[$i]}" -v n=$calls 'BEGIN {printf "%g", b + n}') ]] || return 1
+  done
+}
+eventually 60 rose || {
+  for i in "${!hops[@]}"; do echo "${hops[$i]}: ${before[$i]} -> $(prom "${hops[$i]}")"; done
+  fail "a hop's call counter did not rise by the $calls calls made"
+}
+say "each of the 4 hops counted the $calls calls (camus-server, bridge-kr, bridge-jp, rtc-robot)"
+
 # ---- scaling ------------------------------------------------------------------------------------
 step "scale: sam-host=2 rtc-manager=2"
 t=$SECONDS
@@ -532,7 +581,7 @@ say "jp's services registered again by bridge-kr $((SECONDS - t)) s after the re
 wait_healthy 60
 
 # ---- faults between the spaces -------------------------------------------------------------------
-step "bridge-jp killed: calls in flight are answered, jp's services vanish from kr within the lease"
+step "bridge-jp killed: calls in flight are answered, jp is unreachable from kr within the lease"
 diag_jp="jp/Diagnostic0.diagnostic@$mgr1"
 for i in 1 2 3; do
   ( dc run --rm -T cli-kr call "$diag_jp" sleep '{"ms":4000}' --deadline-ms 8000 >/dev/null 2>"$tmp/inflight$i.err"
@@ -548,16 +597,17 @@ for i in 1 2 3; do
   echo "call $i in flight: exit $rc: $reason"
   [[ ($rc -eq 1 || $rc -eq 3) && -n "$reason" ]] || fail "call $i in flight was not answered with an error (exit $rc)"
 done
-gone() { ! kr ls 'jp/*' | grep -q '^jp/'; }
-eventually 15 gone || fail "jp's services still in kr: $(kr ls 'jp/*')"
-say "jp's services gone from kr $((SECONDS - t)) s after the kill (lease 3 s)"
+# Held (dds.hold_lost_ms, 30 s): listed as unreachable, each call refused at once naming the space.
+unreachable() { kr ls 'jp/robot1.navigation' | grep '^jp/robot1.navigation ' | grep -q unreachable; }
+eventually 15 unreachable || fail "jp's services not shown unreachable in kr: $(kr ls 'jp/*')"
+say "jp unreachable from kr $((SECONDS - t)) s after the kill (lease 3 s)"
 state_gone() { ! kr context ls 'jp/component/*' | grep -q Robot0; }
 eventually 15 state_gone || fail "jp's component states still in kr: $(kr context ls 'jp/component/*')"
-kr call jp/robot1.navigation getPosition >/dev/null && fail "a call to a vanished service succeeded"
-grep -q UNKNOWN_SERVICE "$tmp/cli.err" || fail "no clear error: $(cat "$tmp/cli.err")"
+kr call jp/robot1.navigation getPosition >/dev/null && fail "a call to an unreachable space succeeded"
+grep -q 'UNAVAILABLE.*space jp is unreachable' "$tmp/cli.err" || fail "no clear error: $(cat "$tmp/cli.err")"
 dc start bridge-jp >/dev/null 2>&1 || fail "restart bridge-jp"
-eventually 60 jp_listed robot1.navigation || fail "jp's services did not come back: $(kr ls)"
-kr call jp/robot1.navigation getPosition >/dev/null || fail "after the restart: $(cat "$tmp/cli.err")"
+jp_calls() { kr call jp/robot1.navigation getPosition >/dev/null && ! unreachable; }
+eventually 60 jp_calls || fail "jp's services did not come back: $(cat "$tmp/cli.err"); $(kr ls 'jp/*')"
 say "back $((SECONDS - t)) s after the kill"
 
 step "link cut: cross-space calls fail fast with a reason, and work again once reconnected"
@@ -565,16 +615,16 @@ link=$(docker inspect -f '{{range $k, $v := .NetworkSettings.Networks}}{{$k}} {{
 [[ -n "$link" ]] || fail "bridge-kr is on no link network"
 docker network disconnect "$link" "$(dc ps -q bridge-kr)" || fail "disconnect"
 t=$SECONDS
-eventually 20 gone || fail "jp's services still in kr with the link cut: $(kr ls 'jp/*')"
+eventually 20 unreachable || fail "jp's services not shown unreachable with the link cut: $(kr ls 'jp/*')"
 say "cut noticed in $((SECONDS - t)) s"
 t0=$SECONDS
 kr call jp/robot1.navigation getPosition --deadline-ms 10000 >/dev/null && fail "a cross-space call succeeded with the link cut"
 (( SECONDS - t0 < 5 )) || fail "the call with the link cut took $((SECONDS - t0)) s"
 echo "with the link cut: $(cat "$tmp/cli.err")"
+grep -q 'UNAVAILABLE.*space jp is unreachable' "$tmp/cli.err" || fail "the refusal does not name the space"
 docker network connect "$link" "$(dc ps -q bridge-kr)" || fail "reconnect"
 t=$SECONDS
-eventually 60 jp_listed robot1.navigation || fail "jp's services did not come back after reconnecting: $(kr ls)"
-kr call jp/robot1.navigation getPosition >/dev/null || fail "after reconnecting: $(cat "$tmp/cli.err")"
+eventually 60 jp_calls || fail "jp's services did not come back after reconnecting: $(cat "$tmp/cli.err"); $(kr ls 'jp/*')"
 say "calls across spaces work again $((SECONDS - t)) s after reconnecting"
 eventually 30 robot_state || fail "jp's component states did not come back to kr's context: $(cat "$tmp/components.json")"
 say "jp's shared state back in kr $((SECONDS - t)) s after reconnecting"

@@ -6,7 +6,6 @@
 // token the fixture's own clients present: the SAM, the bridges, the test's client and the CLI.
 
 #include <gtest/gtest.h>
-
 #include <unistd.h>
 
 #include <algorithm>
@@ -32,7 +31,8 @@ inline std::string diagnostic_rules(int deadline_ms) {
          "    - match: \"*/Diagnostic*.rtc\"\n"
          "      interface: URS::Diagnostic\n"
          "      name: \"rt.{instance}\"\n"
-         "      deadline_ms: " + std::to_string(deadline_ms) + "\n";
+         "      deadline_ms: " +
+         std::to_string(deadline_ms) + "\n";
 }
 
 // What a Planet client sees of one call.
@@ -48,9 +48,10 @@ class BridgeSpaceTest : public RtSpaceTest {
   void SetUp() override {
     RtSpaceTest::SetUp();
     std::ofstream(dir_ + "/sam.yaml") << "agents:\n  - name: diag\n    type: diagnostic\n    deadline_ms: 5000\n";
-    std::vector<std::string> server_argv{URS_SERVER_BIN, "--space", space_, "--listen", "127.0.0.1:0", "--data-dir",
-                                         dir_ + "/data", "--port-file", dir_ + "/port", "--heartbeat-ms", "200",
-                                         "--heartbeat-timeout-ms", "1000", "--log-level", "debug"};
+    std::vector<std::string> server_argv{URS_SERVER_BIN, "--space",        space_,         "--listen",
+                                         "127.0.0.1:0",  "--data-dir",     dir_ + "/data", "--port-file",
+                                         dir_ + "/port", "--heartbeat-ms", "200",          "--heartbeat-timeout-ms",
+                                         "1000",         "--log-level",    "debug"};
     const std::vector<std::string> credentials = credentials_args();
     server_argv.insert(server_argv.end(), credentials.begin(), credentials.end());
     server_ = std::make_unique<Process>(server_argv, dir_ + "/server.log");
@@ -60,8 +61,8 @@ class BridgeSpaceTest : public RtSpaceTest {
     while (!server_address_.empty() && std::isspace(static_cast<unsigned char>(server_address_.back()))) {
       server_address_.pop_back();
     }
-    std::vector<std::string> sam_argv{URS_SAM_BIN, "--space", space_, "--server", server_address_,
-                                      "--config", dir_ + "/sam.yaml", "--log-level", "debug"};
+    std::vector<std::string> sam_argv{URS_SAM_BIN, "--space",          space_,        "--server", server_address_,
+                                      "--config",  dir_ + "/sam.yaml", "--log-level", "debug"};
     const std::vector<std::string> token = admin_token_args();
     sam_argv.insert(sam_argv.end(), token.begin(), token.end());
     sam_ = std::make_unique<Process>(sam_argv, dir_ + "/sam.log");
@@ -107,8 +108,10 @@ class BridgeSpaceTest : public RtSpaceTest {
 
   void TearDown() override {
     if (HasFailure()) {
-      std::cerr << "---- bridge log\n" << (bridge_ ? bridge_->log() : "") << "---- server log\n"
-                << (server_ ? server_->log() : "") << "---- sam log\n" << (sam_ ? sam_->log() : "");
+      std::cerr << "---- bridge log\n"
+                << (bridge_ ? bridge_->log() : "") << "---- server log\n"
+                << (server_ ? server_->log() : "") << "---- sam log\n"
+                << (sam_ ? sam_->log() : "");
     }
     bridge_.reset();
     planet_.reset();
@@ -143,8 +146,8 @@ class BridgeSpaceTest : public RtSpaceTest {
       argv.insert(argv.end(), token.begin(), token.end());
     }
     auto process = std::make_unique<Process>(argv, dir_ + "/" + name + ".log");
-    const bool up = wait_until([&] { return std::filesystem::exists(ready) || !process->running(); },
-                               std::chrono::seconds(20));
+    const bool up =
+        wait_until([&] { return std::filesystem::exists(ready) || !process->running(); }, std::chrono::seconds(20));
     EXPECT_TRUE(up && std::filesystem::exists(ready)) << name << " did not come up:\n" << process->log();
     return process;
   }

@@ -45,8 +45,8 @@ class BridgeCamusSide : public BridgeSpaceTest {
     std::cout << operation << " through the bridge: " << planet::status_name(bridged.status) << " after "
               << std::chrono::duration_cast<std::chrono::microseconds>(Clock::now() - start).count() << " us ("
               << bridged.message << ")\n";
-    EXPECT_EQ(bridged.status, native.status) << operation << ": native '" << native.message << "', bridged '"
-                                             << bridged.message << "'";
+    EXPECT_EQ(bridged.status, native.status)
+        << operation << ": native '" << native.message << "', bridged '" << bridged.message << "'";
     EXPECT_EQ(bridged.payload, native.payload) << operation;
     EXPECT_EQ(bridged.exception_type, native.exception_type) << operation;
     return bridged;
@@ -129,8 +129,8 @@ TEST_F(BridgeCamusSide, PerServiceDeadlineBoundsSlowCallsWhichNeverHoldUpOthers)
   // A slow call in flight; three quick calls answer while it is still running.
   URS::Diagnostic_sleep_Request sleep;
   sleep.set_ms(1200);
-  auto slow = std::async(std::launch::async,
-                         [&] { return call("rt.Diagnostic0", "sleep", sleep.SerializeAsString(), 10s); });
+  auto slow =
+      std::async(std::launch::async, [&] { return call("rt.Diagnostic0", "sleep", sleep.SerializeAsString(), 10s); });
   URS::Diagnostic_echo_Request echo;
   echo.set_text("quick");
   for (int i = 0; i < 3; ++i) EXPECT_EQ(call("rt.Diagnostic0", "echo", echo.SerializeAsString()).status, planet::OK);
@@ -143,11 +143,11 @@ TEST_F(BridgeCamusSide, ProviderKilledMidCallIsAClearErrorAndItsServiceIsWithdra
   if (HasFatalFailure()) return;
   URS::Diagnostic_sleep_Request sleep;
   sleep.set_ms(1400);
-  auto pending = std::async(std::launch::async,
-                            [&] { return call("rt.Diagnostic0", "sleep", sleep.SerializeAsString(), 10s); });
+  auto pending =
+      std::async(std::launch::async, [&] { return call("rt.Diagnostic0", "sleep", sleep.SerializeAsString(), 10s); });
   // The provider's debug log says when the call has reached it.
-  ASSERT_TRUE(wait_until(
-      [&] { return manager("m").log().find("diagnostic: sleep 1400 ms begins") != std::string::npos; }, 10s))
+  ASSERT_TRUE(
+      wait_until([&] { return manager("m").log().find("diagnostic: sleep 1400 ms begins") != std::string::npos; }, 10s))
       << manager("m").log();
   manager("m").kill9();
   // Unavailable, not DEADLINE_EXCEEDED: the caller was answered when the provider died rather than
@@ -226,13 +226,16 @@ TEST_F(BridgeCamusSide, AnInterfaceKnownOnlyFromAnIdlFileInTheConfiguration) {
     return std::make_unique<corba_agent::AgentComponent>(settings, std::make_shared<Thermostat>(*interface));
   });
 
-  start_bridge("name: bridge-test\n"
-               "idl: [" + idl + "]\n"
-               "rt_to_camus:\n"
-               "  poll_ms: 100\n"
-               "  providers:\n"
-               "    - match: \"*/Thermostat*.rtc\"\n"
-               "      name: lab.thermostat\n");
+  start_bridge(
+      "name: bridge-test\n"
+      "idl: [" +
+      idl +
+      "]\n"
+      "rt_to_camus:\n"
+      "  poll_ms: 100\n"
+      "  providers:\n"
+      "    - match: \"*/Thermostat*.rtc\"\n"
+      "      name: lab.thermostat\n");
   ASSERT_TRUE(wait_for_service("lab.thermostat")) << bridge_->log();
   EXPECT_NE(listed("lab.thermostat").find("Lab.Thermostat"), std::string::npos);
 
@@ -259,15 +262,18 @@ TEST_F(BridgeCamusSide, AnInterfaceKnownOnlyFromAnIdlFileInTheConfiguration) {
 
 TEST_F(BridgeCamusSide, AnRtOutPortFeedsEventsAndContext) {
   start_manager("m", "labhost", "components:\n  - type: Counter\n    activate: true\n");
-  start_bridge("name: bridge-test\n"
-               "idl: [" + std::string(URS_RTC_IDL_DIR) + "/BasicDataType.idl]\n"
-               "rt_to_camus: {poll_ms: 100}\n"
-               "data_to_camus:\n"
-               "  - match: \"*/Counter0.rtc\"\n"
-               "    port: count\n"
-               "    type: RTC.TimedLong\n"
-               "    topic: counter/count\n"
-               "    context: counter.count\n");
+  start_bridge(
+      "name: bridge-test\n"
+      "idl: [" +
+      std::string(URS_RTC_IDL_DIR) +
+      "/BasicDataType.idl]\n"
+      "rt_to_camus: {poll_ms: 100}\n"
+      "data_to_camus:\n"
+      "  - match: \"*/Counter0.rtc\"\n"
+      "    port: count\n"
+      "    type: RTC.TimedLong\n"
+      "    topic: counter/count\n"
+      "    context: counter.count\n");
   // Shared with the handler, which runs on the client's thread until the client is stopped.
   struct Received {
     std::mutex mutex;
@@ -278,10 +284,13 @@ TEST_F(BridgeCamusSide, AnRtOutPortFeedsEventsAndContext) {
     std::lock_guard lock(received->mutex);
     received->events.push_back(event);
   });
-  ASSERT_TRUE(wait_until([&] {
-    std::lock_guard lock(received->mutex);
-    return received->events.size() >= 20;
-  }, 15s)) << bridge_->log();
+  ASSERT_TRUE(wait_until(
+      [&] {
+        std::lock_guard lock(received->mutex);
+        return received->events.size() >= 20;
+      },
+      15s))
+      << bridge_->log();
   // Values arrive in order, each a TimedLong as the Counter wrote it (data +1 per execution).
   const schema::IdlLoad types = schema::load_idl(std::string(URS_RTC_IDL_DIR) + "/BasicDataType.idl");
   ASSERT_TRUE(types.ok()) << types.error;

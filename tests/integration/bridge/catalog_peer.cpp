@@ -50,8 +50,8 @@
 #include "Diagnostic.pb.h"
 #include "Federation.h"
 #include "FederationPubSubTypes.h"
-#include "urs/bridge/dds_link.hpp"
-#include "urs/bridge/dds_security.hpp"
+#include "urs/federation/dds_link.hpp"
+#include "urs/federation/dds_security.hpp"
 #include "urs/schema/schema.hpp"
 #include "urs/util/cli.hpp"
 
@@ -89,7 +89,8 @@ fdds::Topic* topic_of(fdds::DomainParticipant* participant, const std::string& n
 // own partition, where the others' DDS takes its samples and the bridges judge them.
 class ForgedCatalog {
  public:
-  ForgedCatalog(urs::bridge::DdsLink& link, const std::string& own_partition, const std::vector<std::string>& spaces)
+  ForgedCatalog(urs::federation::DdsLink& link, const std::string& own_partition,
+                const std::vector<std::string>& spaces)
       : link_(link) {
     fdds::DataWriterQos qos = fdds::DATAWRITER_QOS_DEFAULT;
     qos.reliability().kind = fdds::RELIABLE_RELIABILITY_QOS;
@@ -105,7 +106,8 @@ class ForgedCatalog {
       in_space.partition().push_back(space.c_str());
       fdds::Publisher* publisher = participant->create_publisher(in_space);
       fdds::Topic* topic = topic_of(participant, "urs/catalog", urs::dds::ServiceEntryPubSubType().getName());
-      fdds::DataWriter* writer = publisher != nullptr && topic != nullptr ? publisher->create_datawriter(topic, qos) : nullptr;
+      fdds::DataWriter* writer =
+          publisher != nullptr && topic != nullptr ? publisher->create_datawriter(topic, qos) : nullptr;
       say("forge urs/catalog in partition " + space + ": " + (writer != nullptr ? "made" : "refused by its own DDS"));
       if (writer != nullptr) publisher->delete_datawriter(writer);
       if (publisher != nullptr) participant->delete_publisher(publisher);
@@ -123,7 +125,7 @@ class ForgedCatalog {
     }
     const std::string described = urs::schema::descriptor_set_for(*URS::Diagnostic_echo_Request::descriptor()->file());
     urs::dds::InterfaceDescription description;
-    digest_ = urs::bridge::description_digest(described);
+    digest_ = urs::federation::description_digest(described);
     description.digest(digest_);
     description.descriptor_set(std::vector<uint8_t>(described.begin(), described.end()));
     descriptions_->write(&description);
@@ -155,7 +157,7 @@ class ForgedCatalog {
   }
 
  private:
-  urs::bridge::DdsLink& link_;
+  urs::federation::DdsLink& link_;
   fdds::Publisher* publisher_ = nullptr;
   fdds::DataWriter* entries_ = nullptr;
   fdds::DataWriter* descriptions_ = nullptr;
@@ -253,7 +255,7 @@ int main(int argc, char** argv) {
   }
   if (argc - next < 3) usage();
   urs::util::block_shutdown_signals(true);  // every thread (Fast DDS's too) inherits the mask
-  urs::bridge::DdsOptions options;
+  urs::federation::DdsOptions options;
   options.domain = static_cast<uint32_t>(std::stoul(argv[next]));
   options.space = argv[next + 1];
   options.bridge = "bridge-" + options.space;
@@ -261,14 +263,16 @@ int main(int argc, char** argv) {
   options.udp_only = true;
   options.initial_peers = split(flags["--peers"]);
   if (!flags["--pki"].empty()) {
-    options.security = urs::bridge::security_from_folder(
+    options.security = urs::federation::security_from_folder(
         flags["--pki"], flags["--member"].empty() ? options.space : flags["--member"]);
   }
-  const bool reporting = !flags["--report-ms"].empty() || !flags["--call"].empty() || !flags["--snoop"].empty() ||
-                         !flags["--as"].empty();
-  urs::bridge::DdsLink link(options, [] {}, [](urs::call::Request request, urs::call::Responder) {
-    say("request " + request.caller.space + " " + request.service + "." + request.operation);
-  });
+  const bool reporting =
+      !flags["--report-ms"].empty() || !flags["--call"].empty() || !flags["--snoop"].empty() || !flags["--as"].empty();
+  urs::federation::DdsLink link(
+      options, [] {},
+      [](urs::call::Request request, urs::call::Responder) {
+        say("request " + request.caller.space + " " + request.service + "." + request.operation);
+      });
   const std::vector<std::string> as = split(flags["--as"]);
   std::unique_ptr<ForgedCatalog> forged;
   if (!as.empty()) {
@@ -294,7 +298,7 @@ int main(int argc, char** argv) {
       if (action[0] == '-') {
         link.withdraw(name);
       } else {
-        urs::bridge::ServiceEntry entry;
+        urs::federation::ServiceEntry entry;
         entry.name = name;
         entry.interface_name = "URS.Diagnostic";
         entry.descriptor_set = "a description";
@@ -312,7 +316,8 @@ int main(int argc, char** argv) {
   bool stop = false;
   std::thread reporter;
   if (reporting) {
-    const auto period = std::chrono::milliseconds(flags["--report-ms"].empty() ? 1000 : std::stoul(flags["--report-ms"]));
+    const auto period =
+        std::chrono::milliseconds(flags["--report-ms"].empty() ? 1000 : std::stoul(flags["--report-ms"]));
     const std::string target = flags["--call"];
     reporter = std::thread([&, period, target] {
       std::vector<std::unique_ptr<Snoop>> snoops;
@@ -330,11 +335,13 @@ int main(int argc, char** argv) {
         if (now != seen) say(seen = now);
         // The calls first, then the snoops: its own calls would be read by its own reader.
         if (const auto slash = target.find('/'); slash != std::string::npos && calls < kCalls) {
-          const auto reply = link.call(target.substr(0, slash), target.substr(slash + 1), "echo", "", std::chrono::seconds(3));
+          const auto reply =
+              link.call(target.substr(0, slash), target.substr(slash + 1), "echo", "", std::chrono::seconds(3));
           say("call " + target + ": " + std::string(urs::call::status_name(reply.status)) + " " + reply.message);
           ++calls;
         } else if (!snooping) {
-          for (const auto& space : split(flags["--snoop"])) snoops.push_back(std::make_unique<Snoop>(link.participant(), space));
+          for (const auto& space : split(flags["--snoop"]))
+            snoops.push_back(std::make_unique<Snoop>(link.participant(), space));
           snooping = true;
           say("snooping");
         }

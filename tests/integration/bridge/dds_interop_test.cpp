@@ -9,6 +9,7 @@
 
 #include <gtest/gtest.h>
 
+#include <csignal>
 #include <fastdds/dds/domain/DomainParticipant.hpp>
 #include <fastdds/dds/domain/DomainParticipantFactory.hpp>
 #include <fastdds/dds/publisher/DataWriter.hpp>
@@ -17,13 +18,12 @@
 #include <fastdds/dds/subscriber/SampleInfo.hpp>
 #include <fastdds/dds/subscriber/Subscriber.hpp>
 #include <fastdds/dds/topic/TypeSupport.hpp>
-#include <csignal>
 #include <filesystem>
 #include <fstream>
-#include <thread>
 #include <future>
 #include <mutex>
 #include <sstream>
+#include <thread>
 
 #include "Diagnostic.pb.h"
 #include "Federation.h"
@@ -32,7 +32,7 @@
 #include "dds_domain.hpp"
 #include "naming_service.hpp"
 #include "process.hpp"
-#include "urs/bridge/dds_link.hpp"
+#include "urs/federation/dds_link.hpp"
 #include "urs/planet/client.hpp"
 #include "urs/schema/schema.hpp"
 
@@ -65,7 +65,10 @@ class RawEndpoint {
     return qos;
   }
   // A reader of the requests that never answers: the caller's request writer matches it at once.
-  void read() { reader_ = participant_->create_subscriber(fdds::SUBSCRIBER_QOS_DEFAULT)->create_datareader(topic_, rpc(fdds::DATAREADER_QOS_DEFAULT)); }
+  void read() {
+    reader_ = participant_->create_subscriber(fdds::SUBSCRIBER_QOS_DEFAULT)
+                  ->create_datareader(topic_, rpc(fdds::DATAREADER_QOS_DEFAULT));
+  }
   std::size_t requests_seen() {
     dds::CallRequest sample;
     fdds::SampleInfo info;
@@ -74,7 +77,10 @@ class RawEndpoint {
     }
     return seen_;
   }
-  void write() { writer_ = participant_->create_publisher(fdds::PUBLISHER_QOS_DEFAULT)->create_datawriter(topic_, rpc(fdds::DATAWRITER_QOS_DEFAULT)); }
+  void write() {
+    writer_ = participant_->create_publisher(fdds::PUBLISHER_QOS_DEFAULT)
+                  ->create_datawriter(topic_, rpc(fdds::DATAWRITER_QOS_DEFAULT));
+  }
   fdds::DataWriter* writer() { return writer_; }
 
  private:
@@ -86,8 +92,8 @@ class RawEndpoint {
   std::size_t seen_ = 0;
 };
 
-bridge::DdsOptions link_options(uint32_t domain, const std::string& space) {
-  bridge::DdsOptions options;
+federation::DdsOptions link_options(uint32_t domain, const std::string& space) {
+  federation::DdsOptions options;
   options.domain = domain;
   options.space = space;
   options.bridge = "bridge-" + space;
@@ -128,8 +134,7 @@ class CyclonePeer : public ::testing::Test {
     argv.insert(argv.end(), args.begin(), args.end());
     auto& made = peers_[name] = std::make_unique<Process>(argv, dir_ + "/" + name + ".log");
     if (ready) {
-      EXPECT_TRUE(wait_until([&] { return made->log().find("ready\n") != std::string::npos || !made->running(); },
-                             30s))
+      EXPECT_TRUE(wait_until([&] { return made->log().find("ready\n") != std::string::npos || !made->running(); }, 30s))
           << made->log();
     }
     return *made;
@@ -147,7 +152,8 @@ class CyclonePeer : public ::testing::Test {
 // request goes out at once; the replier, another vendor's, appears only afterwards. It gets the
 // request all the same, and answers it. A replier appearing after the call ended never sees it.
 TEST_F(CyclonePeer, AReplierMatchingAfterTheRequestWasWrittenStillGetsIt) {
-  bridge::DdsLink caller(link_options(domain(), "req"), [] {}, [](call::Request, call::Responder) {});
+  federation::DdsLink caller(
+      link_options(domain(), "req"), [] {}, [](call::Request, call::Responder) {});
   RawEndpoint decoy(domain(), "urs/rpc/rep/request");
   decoy.read();
   auto answer = std::async(std::launch::async, [&] { return caller.call("rep", "svc", "echo", "first call", 30s); });
@@ -173,10 +179,12 @@ TEST_F(CyclonePeer, AReplierMatchingAfterTheRequestWasWrittenStillGetsIt) {
 // A call whose caller gave up (its deadline passed with no replier) is not executed by a replier
 // that appears afterwards.
 TEST_F(CyclonePeer, ARequestItsCallerGaveUpOnIsNeverExecuted) {
-  bridge::DdsLink caller(link_options(domain(), "req"), [] {}, [](call::Request, call::Responder) {});
+  federation::DdsLink caller(
+      link_options(domain(), "req"), [] {}, [](call::Request, call::Responder) {});
   RawEndpoint decoy(domain(), "urs/rpc/rep/request");
   decoy.read();
-  auto abandoned = std::async(std::launch::async, [&] { return caller.call("rep", "svc", "echo", "nobody answers", 3s); });
+  auto abandoned =
+      std::async(std::launch::async, [&] { return caller.call("rep", "svc", "echo", "nobody answers", 3s); });
   ASSERT_TRUE(wait_until([&] { return decoy.requests_seen() == 1; }, 10s));  // the request was out
   const auto gave_up = abandoned.get();
   ASSERT_EQ(gave_up.status, call::Status::DEADLINE_EXCEEDED) << gave_up.message;
@@ -229,8 +237,9 @@ TEST_F(CyclonePeer, AServiceItOffersIsImportedAndServedByABridge) {
                  dir_ + "/server.log");
   ASSERT_TRUE(wait_until([&] { return !read_text(dir_ + "/port").empty(); }, 10s)) << server.log();
   const uint16_t port = static_cast<uint16_t>(std::stoi(read_text(dir_ + "/port")));
-  std::ofstream(dir_ + "/bridge.yaml") << "name: bridge-kr\ndds:\n  domain: " << domain()
-                                       << "\n  lease_ms: 3000\n  udp_only: true\n  import: {as_rtc: \"\"}\n";
+  std::ofstream(dir_ + "/bridge.yaml")
+      << "name: bridge-kr\ndds:\n  domain: " << domain()
+      << "\n  lease_ms: 3000\n  hold_lost_ms: 0\n  udp_only: true\n  import: {as_rtc: \"\"}\n";
   Process bridge({URS_BRIDGE_BIN, "--space", "kr", "--config", dir_ + "/bridge.yaml", "--server",
                   "127.0.0.1:" + std::to_string(port), "--ready-file", dir_ + "/bridge.ready"},
                  dir_ + "/bridge.log");
@@ -262,7 +271,8 @@ TEST_F(CyclonePeer, AServiceItOffersIsImportedAndServedByABridge) {
   ASSERT_EQ(executed("offer").size(), 1u);
   EXPECT_EQ(executed("offer")[0].rfind("kr/bridge-kr/", 0), 0u) << executed("offer")[0];
 
-  // Its writers' liveliness (3 s) ends it, well before Cyclone's participant lease (10 s) would.
+  // Its writers' liveliness (3 s) ends it, well before Cyclone's participant lease (10 s) would
+  // (hold_lost_ms: 0, so that the lost space's service leaves at once instead of staying, unreachable).
   peers_.at("offer")->kill9();
   const auto killed = std::chrono::steady_clock::now();
   ASSERT_TRUE(wait_until([&] { return !imported(); }, 15s)) << bridge.log();
@@ -278,12 +288,13 @@ TEST(DdsReplier, ExecutesEachRequestOnceAndNoneAfterItsDeadline) {
   const DdsDomains domains;
   std::mutex mutex;
   std::vector<std::string> served;  // the payloads served: each request carries its id as payload
-  bridge::DdsLink replier(link_options(domains[0], "svc"), [] {},
-                          [&](call::Request request, call::Responder responder) {
-                            std::lock_guard lock(mutex);
-                            served.push_back(request.payload);
-                            responder.reply(call::Reply::success(request.payload));
-                          });
+  federation::DdsLink replier(
+      link_options(domains[0], "svc"), [] {},
+      [&](call::Request request, call::Responder responder) {
+        std::lock_guard lock(mutex);
+        served.push_back(request.payload);
+        responder.reply(call::Reply::success(request.payload));
+      });
   auto served_now = [&] {
     std::lock_guard lock(mutex);
     return served;
@@ -319,7 +330,7 @@ TEST(DdsReplier, ExecutesEachRequestOnceAndNoneAfterItsDeadline) {
   sent.seconds -= 60;
   ASSERT_EQ(caller.writer()->write_w_timestamp(&old, fdds::HANDLE_NIL, sent), ReturnCode_t::RETCODE_OK);
 
-  auto fresh = request("other/b/1/3");  // requests arrive in order: once this one is served, the
+  auto fresh = request("other/b/1/3");          // requests arrive in order: once this one is served, the
   ASSERT_TRUE(caller.writer()->write(&fresh));  // two before it were handled
   ASSERT_TRUE(wait_until([&] { return served_now().size() >= 2; }, 10s));
   EXPECT_EQ(served_now(), (std::vector<std::string>{"other/b/1/1", "other/b/1/3"}));

@@ -1,6 +1,8 @@
-// The DDS link between bridges (urs::bridge::DdsLink, StateLink) on real Fast DDS participants,
+// The DDS link between bridges (urs::federation::DdsLink, StateLink) on real Fast DDS participants,
 // UDP only as between containers: what one space sees of another's catalog and state when that
 // space withdraws a service, or its bridge dies while others live on.
+
+#include "urs/federation/dds_link.hpp"
 
 #include <gtest/gtest.h>
 #include <signal.h>
@@ -20,8 +22,7 @@
 
 #include "dds_domain.hpp"
 #include "process.hpp"
-#include "urs/bridge/dds_link.hpp"
-#include "urs/bridge/state_link.hpp"
+#include "urs/federation/state_link.hpp"
 
 namespace urs::test {
 namespace {
@@ -31,8 +32,8 @@ using Clock = std::chrono::steady_clock;
 
 constexpr auto kLease = 1500ms;
 
-bridge::DdsOptions link_options(uint32_t domain, const std::string& space) {
-  bridge::DdsOptions options;
+federation::DdsOptions link_options(uint32_t domain, const std::string& space) {
+  federation::DdsOptions options;
   options.domain = domain;
   options.space = space;
   options.bridge = "bridge-" + space;
@@ -41,8 +42,8 @@ bridge::DdsOptions link_options(uint32_t domain, const std::string& space) {
   return options;
 }
 
-bridge::ServiceEntry entry_named(const std::string& name) {
-  bridge::ServiceEntry entry;
+federation::ServiceEntry entry_named(const std::string& name) {
+  federation::ServiceEntry entry;
   entry.name = name;
   entry.interface_name = "URS.Diagnostic";
   entry.descriptor_set = "a description";
@@ -55,8 +56,9 @@ pid_t bridge_process(uint32_t domain, const std::string& space) {
   const pid_t child = fork();
   if (child != 0) return child;
   try {  // never back into the test runner
-    bridge::DdsLink link(link_options(domain, space), [] {}, [](call::Request, call::Responder) {});
-    bridge::StateLink state(link, {}, std::nullopt);
+    federation::DdsLink link(
+        link_options(domain, space), [] {}, [](call::Request, call::Responder) {});
+    federation::StateLink state(link, {}, std::nullopt);
     link.announce(entry_named("svc"));
     state.set_component({space, "robot", "rtc", "Active", "Robot", "host", {}});
     while (true) pause();
@@ -87,8 +89,8 @@ TEST_F(LinkedSpaces, AKilledBridgesServicesAndStateEndWithinTheLeaseWhileAnother
   children_.push_back(bridge_process(domains[0], "b"));
   std::mutex mutex;
   std::set<std::string> components;  // "<space>/<name>" of the live ones
-  bridge::StateHandlers handlers;
-  handlers.component = [&](const bridge::ComponentState& c, bool alive) {
+  federation::StateHandlers handlers;
+  handlers.component = [&](const federation::ComponentState& c, bool alive) {
     std::lock_guard lock(mutex);
     if (alive) {
       components.insert(c.space + "/" + c.name);
@@ -96,8 +98,9 @@ TEST_F(LinkedSpaces, AKilledBridgesServicesAndStateEndWithinTheLeaseWhileAnother
       components.erase(c.space + "/" + c.name);
     }
   };
-  bridge::DdsLink seeing(link_options(domains[0], "r"), [] {}, [](call::Request, call::Responder) {});
-  bridge::StateLink state(seeing, handlers, std::nullopt);
+  federation::DdsLink seeing(
+      link_options(domains[0], "r"), [] {}, [](call::Request, call::Responder) {});
+  federation::StateLink state(seeing, handlers, std::nullopt);
   auto services = [&] {
     std::set<std::string> found;
     for (const auto& entry : seeing.catalog()) found.insert(entry.space + "/" + entry.name);
@@ -128,8 +131,10 @@ TEST_F(LinkedSpaces, AKilledBridgesServicesAndStateEndWithinTheLeaseWhileAnother
 // and what that bridge announces afterwards still arrives.
 TEST(DdsCatalog, AWithdrawnEntryLeavesTheOtherSpaces) {
   const DdsDomains domains;
-  bridge::DdsLink offering(link_options(domains[0], "a"), [] {}, [](call::Request, call::Responder) {});
-  bridge::DdsLink seeing(link_options(domains[0], "b"), [] {}, [](call::Request, call::Responder) {});
+  federation::DdsLink offering(
+      link_options(domains[0], "a"), [] {}, [](call::Request, call::Responder) {});
+  federation::DdsLink seeing(
+      link_options(domains[0], "b"), [] {}, [](call::Request, call::Responder) {});
   auto names = [&] {
     std::set<std::string> found;
     for (const auto& entry : seeing.catalog()) found.insert(entry.space + "/" + entry.name);
@@ -157,30 +162,36 @@ TEST(DdsCatalog, AWithdrawalAndANewEntryReachAnotherProcessAndWhatFollowsThem) {
   Process peer({URS_CATALOG_PEER_BIN, std::to_string(domains[0]), "a", "+kept,+gone", "-gone,+new", "+kept,+new"},
                dir + "/peer.log");
   std::atomic<int> arrivals{0};  // catalog samples arrived
-  bridge::DdsLink seeing(link_options(domains[0], "b"), [&] { ++arrivals; }, [](call::Request, call::Responder) {});
+  federation::DdsLink seeing(
+      link_options(domains[0], "b"), [&] { ++arrivals; }, [](call::Request, call::Responder) {});
   auto names = [&] {
     std::set<std::string> found;
     for (const auto& entry : seeing.catalog()) found.insert(entry.space + "/" + entry.name);
     return found;
   };
-  ASSERT_TRUE(wait_until([&] { return names() == std::set<std::string>{"a/gone", "a/kept"}; }, 20s))
-      << "seen: " << ::testing::PrintToString(names()) << "\n" << peer.log();
+  ASSERT_TRUE(wait_until(
+      [&] {
+        return names() == std::set<std::string>{"a/gone", "a/kept"};
+      },
+      20s))
+      << "seen: " << ::testing::PrintToString(names()) << "\n"
+      << peer.log();
   peer.signal(SIGHUP);  // withdraws "gone", offers "new"
   const std::set<std::string> after{"a/kept", "a/new"};
   EXPECT_TRUE(wait_until([&] { return names() == after; }, 20s))
-      << "seen: " << ::testing::PrintToString(names()) << "\n" << peer.log();
+      << "seen: " << ::testing::PrintToString(names()) << "\n"
+      << peer.log();
   const int before = arrivals;
   peer.signal(SIGHUP);  // announces both again
   EXPECT_TRUE(wait_until([&] { return arrivals > before; }, 20s)) << "the second announcement never arrived";
-  EXPECT_TRUE(wait_until([&] { return peer.log().find("+new\n+kept\n+new") != std::string::npos; }, 20s))
-      << peer.log();
+  EXPECT_TRUE(wait_until([&] { return peer.log().find("+new\n+kept\n+new") != std::string::npos; }, 20s)) << peer.log();
   EXPECT_EQ(names(), after);
   std::filesystem::remove_all(dir);
 }
 
 // call_async() on `link` to service "svc" of `space`: the future of its outcome, or nullopt when
 // the link refused to start it without waiting for a match.
-std::optional<std::future<call::Reply>> call_async(bridge::DdsLink& link, const std::string& space,
+std::optional<std::future<call::Reply>> call_async(federation::DdsLink& link, const std::string& space,
                                                    const std::string& operation, std::string payload,
                                                    std::chrono::milliseconds deadline) {
   auto promise = std::make_shared<std::promise<call::Reply>>();
@@ -196,16 +207,17 @@ std::optional<std::future<call::Reply>> call_async(bridge::DdsLink& link, const 
 class SlowSpace {
  public:
   SlowSpace(uint32_t domain, const std::string& space)
-      : link_(std::make_unique<bridge::DdsLink>(link_options(domain, space), [] {},
-                                                [this](call::Request request, call::Responder responder) {
-                                                  if (request.operation == "echo") {
-                                                    responder.reply(call::Reply::success(request.payload));
-                                                    return;
-                                                  }
-                                                  std::lock_guard lock(mutex_);
-                                                  unanswered_.push_back(std::move(responder));
-                                                  arrived_.notify_all();
-                                                })) {}
+      : link_(std::make_unique<federation::DdsLink>(
+            link_options(domain, space), [] {},
+            [this](call::Request request, call::Responder responder) {
+              if (request.operation == "echo") {
+                responder.reply(call::Reply::success(request.payload));
+                return;
+              }
+              std::lock_guard lock(mutex_);
+              unanswered_.push_back(std::move(responder));
+              arrived_.notify_all();
+            })) {}
   bool wait_for_call() {
     std::unique_lock lock(mutex_);
     return arrived_.wait_for(lock, 30s, [&] { return !unanswered_.empty(); });
@@ -216,7 +228,7 @@ class SlowSpace {
   std::mutex mutex_;
   std::condition_variable arrived_;
   std::vector<call::Responder> unanswered_;
-  std::unique_ptr<bridge::DdsLink> link_;  // last: its handler uses the above
+  std::unique_ptr<federation::DdsLink> link_;  // last: its handler uses the above
 };
 
 // An asynchronous call is started only to a space whose bridge is matched already (the first call
@@ -224,7 +236,8 @@ class SlowSpace {
 TEST(DdsCalls, AnAsyncCallStartsOnlyToAMatchedSpaceAndPassesItsBytes) {
   const DdsDomains domains;
   SlowSpace here(domains[0], "here");
-  bridge::DdsLink calling(link_options(domains[0], "a"), [] {}, [](call::Request, call::Responder) {});
+  federation::DdsLink calling(
+      link_options(domains[0], "a"), [] {}, [](call::Request, call::Responder) {});
   const std::string bytes("\0\xff not a message\0", 17);
   std::string payload = bytes;
   EXPECT_FALSE(calling.call_async("here", "svc", "echo", std::move(payload), 10s, "",
@@ -245,7 +258,8 @@ TEST(DdsCalls, AnAsyncCallStartsOnlyToAMatchedSpaceAndPassesItsBytes) {
 TEST(DdsCalls, AnAsyncCallUnansweredEndsAtItsDeadline) {
   const DdsDomains domains;
   SlowSpace slow(domains[0], "slow");
-  bridge::DdsLink calling(link_options(domains[0], "a"), [] {}, [](call::Request, call::Responder) {});
+  federation::DdsLink calling(
+      link_options(domains[0], "a"), [] {}, [](call::Request, call::Responder) {});
   ASSERT_EQ(calling.call("slow", "svc", "echo", "", 10s).status, call::Status::OK);
 
   const auto started = Clock::now();
@@ -266,7 +280,8 @@ TEST(DdsCalls, AnAsyncCallUnansweredEndsAtItsDeadline) {
 TEST(DdsCalls, AnAsyncCallEndsProviderGoneWhenTheCalledBridgeLeaves) {
   const DdsDomains domains;
   SlowSpace slow(domains[0], "slow");
-  bridge::DdsLink calling(link_options(domains[0], "a"), [] {}, [](call::Request, call::Responder) {});
+  federation::DdsLink calling(
+      link_options(domains[0], "a"), [] {}, [](call::Request, call::Responder) {});
   ASSERT_EQ(calling.call("slow", "svc", "echo", "", 10s).status, call::Status::OK);
 
   auto pending = call_async(calling, "slow", "sleep", "", 60s);
@@ -283,8 +298,8 @@ TEST(DdsCalls, AnAsyncCallEndsProviderGoneWhenTheCalledBridgeLeaves) {
 TEST(DdsCalls, ALinkStoppingAnswersItsAsyncCallsUnavailable) {
   const DdsDomains domains;
   SlowSpace slow(domains[0], "slow");
-  auto calling = std::make_unique<bridge::DdsLink>(link_options(domains[0], "a"), [] {},
-                                                   [](call::Request, call::Responder) {});
+  auto calling = std::make_unique<federation::DdsLink>(
+      link_options(domains[0], "a"), [] {}, [](call::Request, call::Responder) {});
   ASSERT_EQ(calling->call("slow", "svc", "echo", "", 10s).status, call::Status::OK);
 
   auto pending = call_async(*calling, "slow", "sleep", "", 60s);
@@ -302,11 +317,14 @@ TEST(DdsCalls, ALinkStoppingAnswersItsAsyncCallsUnavailable) {
 // the match wait (not DEADLINE_EXCEEDED).
 TEST(DdsCalls, ACallWaitsForItsSpacesBridgeToMatchAndOnlyThatLong) {
   const DdsDomains domains;
-  bridge::DdsLink calling(link_options(domains[0], "a"), [] {}, [](call::Request, call::Responder) {});
+  federation::DdsLink calling(
+      link_options(domains[0], "a"), [] {}, [](call::Request, call::Responder) {});
   auto answer = std::async(std::launch::async, [&] { return calling.call("late", "svc", "echo", "ping", 10s); });
-  bridge::DdsLink late(link_options(domains[0], "late"), [] {}, [](call::Request request, call::Responder responder) {
-    responder.reply(call::Reply::success(request.operation + ":" + request.payload));
-  });
+  federation::DdsLink late(
+      link_options(domains[0], "late"), [] {},
+      [](call::Request request, call::Responder responder) {
+        responder.reply(call::Reply::success(request.operation + ":" + request.payload));
+      });
   ASSERT_EQ(answer.wait_for(30s), std::future_status::ready);
   const auto result = answer.get();
   EXPECT_EQ(result.status, call::Status::OK) << result.message;
@@ -325,16 +343,19 @@ TEST(DdsCalls, RepliesGivenOnTheListenerThreadReachTheirCallers) {
   const DdsDomains domains;
   std::mutex mutex;
   std::vector<call::Request> received;
-  bridge::DdsLink replier(link_options(domains[0], "here"), [] {}, [&](call::Request request, call::Responder responder) {
-    {
-      std::lock_guard lock(mutex);
-      received.push_back(request);
-    }
-    if (request.operation == "drop") return;  // the responder is dropped unanswered, here
-    responder.reply(call::Reply::success(request.operation + ":" + request.payload));
-  });
+  federation::DdsLink replier(
+      link_options(domains[0], "here"), [] {},
+      [&](call::Request request, call::Responder responder) {
+        {
+          std::lock_guard lock(mutex);
+          received.push_back(request);
+        }
+        if (request.operation == "drop") return;  // the responder is dropped unanswered, here
+        responder.reply(call::Reply::success(request.operation + ":" + request.payload));
+      });
   for (const std::string space : {"a", "b", "c"}) {
-    bridge::DdsLink calling(link_options(domains[0], space), [] {}, [](call::Request, call::Responder) {});
+    federation::DdsLink calling(
+        link_options(domains[0], space), [] {}, [](call::Request, call::Responder) {});
     for (int i = 0; i < 3; ++i) {
       const auto echoed = calling.call("here", "svc", "echo", space + std::to_string(i), 10s);
       ASSERT_EQ(echoed.status, call::Status::OK) << space << i << ": " << echoed.message;
@@ -362,9 +383,11 @@ pid_t echo_process(uint32_t domain, const std::string& space) {
   const pid_t child = fork();
   if (child != 0) return child;
   try {  // never back into the test runner
-    bridge::DdsLink link(link_options(domain, space), [] {}, [](call::Request request, call::Responder responder) {
-      responder.reply(call::Reply::success(std::move(request.payload)));
-    });
+    federation::DdsLink link(
+        link_options(domain, space), [] {},
+        [](call::Request request, call::Responder responder) {
+          responder.reply(call::Reply::success(std::move(request.payload)));
+        });
     while (true) pause();
   } catch (const std::exception& e) {
     std::fprintf(stderr, "bridge of %s: %s\n", space.c_str(), e.what());
@@ -380,7 +403,8 @@ pid_t echo_process(uint32_t domain, const std::string& space) {
 TEST_F(LinkedSpaces, MoreCallsInARowThanCallsInFlightAreAllServed) {
   const DdsDomains domains;
   children_.push_back(echo_process(domains[0], "far"));
-  bridge::DdsLink calling(link_options(domains[0], "a"), [] {}, [](call::Request, call::Responder) {});
+  federation::DdsLink calling(
+      link_options(domains[0], "a"), [] {}, [](call::Request, call::Responder) {});
   ASSERT_TRUE(wait_until([&] { return calling.call("far", "svc", "echo", "first", 1s).ok(); }, 30s));
   for (int i = 0; i < 5000; ++i) {
     const auto echoed = calling.call("far", "svc", "echo", std::to_string(i), 10s);
@@ -396,13 +420,15 @@ TEST(DdsCalls, ALinkStoppingEndsItsCallsInProgressFirst) {
   std::mutex mutex;
   std::condition_variable arrived;
   std::vector<call::Responder> unanswered;  // the replier never answers
-  bridge::DdsLink replier(link_options(domains[0], "slow"), [] {}, [&](call::Request, call::Responder responder) {
-    std::lock_guard lock(mutex);
-    unanswered.push_back(std::move(responder));
-    arrived.notify_all();
-  });
-  auto calling = std::make_unique<bridge::DdsLink>(link_options(domains[0], "a"), [] {},
-                                                   [](call::Request, call::Responder) {});
+  federation::DdsLink replier(
+      link_options(domains[0], "slow"), [] {},
+      [&](call::Request, call::Responder responder) {
+        std::lock_guard lock(mutex);
+        unanswered.push_back(std::move(responder));
+        arrived.notify_all();
+      });
+  auto calling = std::make_unique<federation::DdsLink>(
+      link_options(domains[0], "a"), [] {}, [](call::Request, call::Responder) {});
   auto answer = std::async(std::launch::async, [&] { return calling->call("slow", "svc", "sleep", "", 60s); });
   {
     std::unique_lock lock(mutex);

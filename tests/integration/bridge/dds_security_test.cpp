@@ -7,33 +7,33 @@
 // space's entries nor swaps their descriptions; and a bad file is refused before Fast DDS is
 // asked, naming the file and what is wrong.
 
+#include "urs/federation/dds_security.hpp"
+
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
-#include <cstdio>
-#include <filesystem>
-#include <fstream>
 #include <algorithm>
-#include <future>
-#include <iterator>
-#include <set>
-#include <thread>
-
-#include "certificates.hpp"
-#include "dds_domain.hpp"
-#include "process.hpp"
+#include <cstdio>
 #include <fastdds/dds/domain/DomainParticipant.hpp>
 #include <fastdds/dds/publisher/DataWriter.hpp>
 #include <fastdds/dds/publisher/Publisher.hpp>
 #include <fastdds/dds/subscriber/DataReader.hpp>
 #include <fastdds/dds/subscriber/Subscriber.hpp>
 #include <fastdds/dds/topic/Topic.hpp>
+#include <filesystem>
+#include <fstream>
+#include <future>
+#include <iterator>
+#include <set>
+#include <thread>
 
 #include "Federation.h"
-#include "urs/bridge/dds_link.hpp"
-#include "urs/bridge/dds_security.hpp"
+#include "certificates.hpp"
+#include "dds_domain.hpp"
+#include "process.hpp"
+#include "urs/federation/dds_link.hpp"
 
 namespace urs::test {
 namespace {
@@ -66,12 +66,12 @@ class SecuredLink : public ::testing::Test {
     delete dir_;
   }
 
-  static bridge::DdsSecurity member(const std::string& pki_dir, const std::string& space) {
-    return bridge::security_from_folder(*dir_ + "/" + pki_dir, space);
+  static federation::DdsSecurity member(const std::string& pki_dir, const std::string& space) {
+    return federation::security_from_folder(*dir_ + "/" + pki_dir, space);
   }
 
-  static bridge::DdsOptions options(uint32_t domain, const std::string& space, bridge::DdsSecurity security) {
-    bridge::DdsOptions o;
+  static federation::DdsOptions options(uint32_t domain, const std::string& space, federation::DdsSecurity security) {
+    federation::DdsOptions o;
     o.domain = domain;
     o.space = space;
     o.bridge = "bridge-" + space;
@@ -91,13 +91,13 @@ class SecuredLink : public ::testing::Test {
       return;
     }
     try {
-      bridge::DdsLink link(options(domain, "kr", member("fed", "kr")), [] {},
-                           [](call::Request request, call::Responder responder) {
-                             responder.reply(call::Reply::success("kr heard " + request.payload + " from " +
-                                                                  request.caller.space + " (" +
-                                                                  request.caller.role + ")"));
-                           });
-      bridge::ServiceEntry entry;
+      federation::DdsLink link(
+          options(domain, "kr", member("fed", "kr")), [] {},
+          [](call::Request request, call::Responder responder) {
+            responder.reply(call::Reply::success("kr heard " + request.payload + " from " + request.caller.space +
+                                                 " (" + request.caller.role + ")"));
+          });
+      federation::ServiceEntry entry;
       entry.name = "svc";
       entry.interface_name = "URS.Diagnostic";
       entry.descriptor_set = "a description";
@@ -109,7 +109,7 @@ class SecuredLink : public ::testing::Test {
     _exit(1);
   }
 
-  static std::set<std::string> seen(const bridge::DdsLink& link) {
+  static std::set<std::string> seen(const federation::DdsLink& link) {
     std::set<std::string> found;
     for (const auto& entry : link.catalog()) found.insert(entry.space + "/" + entry.name);
     return found;
@@ -132,7 +132,8 @@ auto no_calls = [](call::Request, call::Responder) {};
 TEST_F(SecuredLink, MembersSeeAndCallEachOther) {
   const DdsDomains domains;
   serve_kr(domains[0]);
-  bridge::DdsLink jp(options(domains[0], "jp", member("fed", "jp")), [] {}, no_calls);
+  federation::DdsLink jp(
+      options(domains[0], "jp", member("fed", "jp")), [] {}, no_calls);
   ASSERT_TRUE(wait_until([&] { return seen(jp).count("kr/svc") == 1; }, 30s)) << "jp never saw kr's service";
   const auto reply = jp.call("kr", "svc", "echo", "marker-7f3a", 10s);
   ASSERT_TRUE(reply.ok()) << call::status_name(reply.status) << ": " << reply.message;
@@ -145,9 +146,12 @@ TEST_F(SecuredLink, MembersSeeAndCallEachOther) {
 TEST_F(SecuredLink, NoOneOutsideTheFederationJoins) {
   const DdsDomains domains;
   serve_kr(domains[0]);
-  bridge::DdsLink plain(options(domains[0], "intruder", {}), [] {}, no_calls);
-  bridge::DdsLink rogue(options(domains[0], "jp", member("rogue", "jp")), [] {}, no_calls);
-  bridge::DdsLink jp(options(domains[0], "jp", member("fed", "jp")), [] {}, no_calls);
+  federation::DdsLink plain(
+      options(domains[0], "intruder", {}), [] {}, no_calls);
+  federation::DdsLink rogue(
+      options(domains[0], "jp", member("rogue", "jp")), [] {}, no_calls);
+  federation::DdsLink jp(
+      options(domains[0], "jp", member("fed", "jp")), [] {}, no_calls);
   ASSERT_TRUE(wait_until([&] { return seen(jp).count("kr/svc") == 1; }, 30s)) << "jp never saw kr's service";
   ASSERT_TRUE(jp.call("kr", "svc", "echo", "member", 10s).ok());
   // Everything kr sent reached jp by now; the others had the same chances.
@@ -163,7 +167,8 @@ TEST_F(SecuredLink, NoOneOutsideTheFederationJoins) {
 TEST_F(SecuredLink, AMemberCallsOnlyTheSpacesItsPermissionsGrant) {
   const DdsDomains domains;
   serve_kr(domains[0]);
-  bridge::DdsLink xx(options(domains[0], "xx", member("fed", "xx")), [] {}, no_calls);
+  federation::DdsLink xx(
+      options(domains[0], "xx", member("fed", "xx")), [] {}, no_calls);
   ASSERT_TRUE(wait_until([&] { return seen(xx).count("kr/svc") == 1; }, 30s)) << "xx, a member, never saw kr";
   const auto refused = xx.call("kr", "svc", "echo", "not granted", 5s);
   EXPECT_EQ(refused.status, call::Status::PERMISSION_DENIED) << refused.message;
@@ -172,7 +177,7 @@ TEST_F(SecuredLink, AMemberCallsOnlyTheSpacesItsPermissionsGrant) {
 
 // A publisher (subscriber) of `link`'s participant in `partition` and an endpoint of `topic` on
 // it, as a modified bridge would make them: nullptr if DDS refuses.
-fdds::DataWriter* writer_in(bridge::DdsLink& link, const std::string& partition, const char* topic,
+fdds::DataWriter* writer_in(federation::DdsLink& link, const std::string& partition, const char* topic,
                             fdds::DataWriterQos qos = fdds::DATAWRITER_QOS_DEFAULT) {
   fdds::PublisherQos publisher_qos = fdds::PUBLISHER_QOS_DEFAULT;
   publisher_qos.partition().push_back(partition.c_str());
@@ -180,7 +185,7 @@ fdds::DataWriter* writer_in(bridge::DdsLink& link, const std::string& partition,
   auto* made = dynamic_cast<fdds::Topic*>(link.participant()->lookup_topicdescription(topic));
   return publisher && made ? publisher->create_datawriter(made, qos) : nullptr;
 }
-fdds::DataReader* reader_in(bridge::DdsLink& link, const std::string& partition, const char* topic) {
+fdds::DataReader* reader_in(federation::DdsLink& link, const std::string& partition, const char* topic) {
   fdds::SubscriberQos subscriber_qos = fdds::SUBSCRIBER_QOS_DEFAULT;
   subscriber_qos.partition().push_back(partition.c_str());
   fdds::Subscriber* subscriber = link.participant()->create_subscriber(subscriber_qos);
@@ -204,13 +209,15 @@ fdds::DataWriterQos catalog_writer_qos() {
 // which grant forbids it.
 TEST_F(SecuredLink, DdsRefusesAMemberWritingInAnotherSpacesPartition) {
   const DdsDomains domains;
-  bridge::DdsLink spy(options(domains[0], "spy", member("fed", "spy")), [] {}, no_calls);
+  federation::DdsLink spy(
+      options(domains[0], "spy", member("fed", "spy")), [] {}, no_calls);
   EXPECT_NE(writer_in(spy, "spy", "urs/catalog"), nullptr) << "spy's own partition";
   EXPECT_EQ(writer_in(spy, "jp", "urs/catalog"), nullptr) << "jp's partition, granted to jp only";
   EXPECT_EQ(writer_in(spy, "*", "urs/interface"), nullptr) << "every partition";
-  EXPECT_EQ(bridge::partition_refusal(member("fed", "spy"), "spy", "urs/catalog", {"jp"}, true),
-            "dds: the permissions of member spy do not let it write urs/catalog in partition jp (they grant it in spy)");
-  EXPECT_EQ(bridge::partition_refusal(member("fed", "watcher"), "watcher", "urs/state/pose", {"kr"}, false),
+  EXPECT_EQ(
+      federation::partition_refusal(member("fed", "spy"), "spy", "urs/catalog", {"jp"}, true),
+      "dds: the permissions of member spy do not let it write urs/catalog in partition jp (they grant it in spy)");
+  EXPECT_EQ(federation::partition_refusal(member("fed", "watcher"), "watcher", "urs/state/pose", {"kr"}, false),
             "dds: the permissions of member watcher do not let it read urs/state/pose in partition kr (they grant it "
             "in jp, watcher)");
 }
@@ -220,14 +227,17 @@ TEST_F(SecuredLink, DdsRefusesAMemberWritingInAnotherSpacesPartition) {
 TEST_F(SecuredLink, AMemberReadsOnlyThePartitionsItWasGranted) {
   const DdsDomains domains;
   serve_kr(domains[0]);
-  bridge::DdsLink jp(options(domains[0], "jp", member("fed", "jp")), [] {}, no_calls);
-  bridge::ServiceEntry entry;
+  federation::DdsLink jp(
+      options(domains[0], "jp", member("fed", "jp")), [] {}, no_calls);
+  federation::ServiceEntry entry;
   entry.name = "jsvc";
   entry.interface_name = "URS.Diagnostic";
   entry.descriptor_set = "a description";
   jp.announce(entry);
-  bridge::DdsLink watcher(options(domains[0], "watcher", member("fed", "watcher")), [] {}, no_calls);
-  bridge::DdsLink xx(options(domains[0], "xx", member("fed", "xx")), [] {}, no_calls);
+  federation::DdsLink watcher(
+      options(domains[0], "watcher", member("fed", "watcher")), [] {}, no_calls);
+  federation::DdsLink xx(
+      options(domains[0], "xx", member("fed", "xx")), [] {}, no_calls);
   ASSERT_TRUE(wait_until([&] { return seen(watcher).count("jp/jsvc") == 1; }, 30s)) << "watcher never saw jp's";
   // kr's entry reached a member that reads every partition; it had the same chances at watcher.
   ASSERT_TRUE(wait_until([&] { return seen(xx).count("kr/svc") == 1; }, 30s)) << "xx never saw kr's service";
@@ -243,8 +253,10 @@ TEST_F(SecuredLink, AMemberReadsOnlyThePartitionsItWasGranted) {
 // against that member's signed permissions.
 TEST_F(SecuredLink, TheOtherMembersRefuseAWriterTheGrantDoesNotAllow) {
   const DdsDomains domains;
-  bridge::DdsLink jp(options(domains[0], "jp", member("fed", "jp")), [] {}, no_calls);
-  bridge::DdsLink spy(options(domains[0], "spy", member("fed", "spy")), [] {}, no_calls);
+  federation::DdsLink jp(
+      options(domains[0], "jp", member("fed", "jp")), [] {}, no_calls);
+  federation::DdsLink spy(
+      options(domains[0], "spy", member("fed", "spy")), [] {}, no_calls);
   fdds::DataReader* in_jp = reader_in(jp, "jp", "urs/catalog");
   fdds::DataReader* in_all = reader_in(jp, "*", "urs/catalog");
   ASSERT_TRUE(in_jp && in_all);
@@ -275,7 +287,7 @@ TEST_F(SecuredLink, TheOtherMembersRefuseAWriterTheGrantDoesNotAllow) {
 
 // Member spy's raw writer of `topic` in its own partition, once jp sees kr's service and the
 // writer reaches spy's own reader, jp's and kr's; nullptr (and a failure) if it does not.
-fdds::DataWriter* spy_writer(bridge::DdsLink& jp, bridge::DdsLink& spy, const char* topic) {
+fdds::DataWriter* spy_writer(federation::DdsLink& jp, federation::DdsLink& spy, const char* topic) {
   auto sees_kr = [&] {
     for (const auto& entry : jp.catalog()) {
       if (entry.space == "kr" && entry.name == "svc") return true;
@@ -303,8 +315,10 @@ fdds::DataWriter* spy_writer(bridge::DdsLink& jp, bridge::DdsLink& spy, const ch
 TEST_F(SecuredLink, NoMemberEndsAnotherSpacesEntry) {
   const DdsDomains domains;
   serve_kr(domains[0]);
-  bridge::DdsLink jp(options(domains[0], "jp", member("fed", "jp")), [] {}, no_calls);
-  bridge::DdsLink spy(options(domains[0], "spy", member("fed", "spy")), [] {}, no_calls);
+  federation::DdsLink jp(
+      options(domains[0], "jp", member("fed", "jp")), [] {}, no_calls);
+  federation::DdsLink spy(
+      options(domains[0], "spy", member("fed", "spy")), [] {}, no_calls);
   fdds::DataWriter* ender = spy_writer(jp, spy, "urs/catalog");
   ASSERT_NE(ender, nullptr);
   dds::ServiceEntry krs;
@@ -331,13 +345,15 @@ TEST_F(SecuredLink, NoMemberEndsAnotherSpacesEntry) {
 TEST_F(SecuredLink, NoMemberSwapsTheDescriptionAnEntryNames) {
   const DdsDomains domains;
   serve_kr(domains[0]);
-  bridge::DdsLink jp(options(domains[0], "jp", member("fed", "jp")), [] {}, no_calls);
-  bridge::DdsLink spy(options(domains[0], "spy", member("fed", "spy")), [] {}, no_calls);
+  federation::DdsLink jp(
+      options(domains[0], "jp", member("fed", "jp")), [] {}, no_calls);
+  federation::DdsLink spy(
+      options(domains[0], "spy", member("fed", "spy")), [] {}, no_calls);
   fdds::DataWriter* swapper = spy_writer(jp, spy, "urs/interface");
   ASSERT_NE(swapper, nullptr);
   swapper->assert_liveliness();
   dds::InterfaceDescription swapped;
-  swapped.digest(bridge::description_digest("a description"));
+  swapped.digest(federation::description_digest("a description"));
   const std::string other = "another description";
   swapped.descriptor_set(std::vector<uint8_t>(other.begin(), other.end()));
   EXPECT_TRUE(swapper->write(&swapped));
@@ -358,8 +374,8 @@ std::string joined(const std::vector<std::string>& problems) {
 }
 
 TEST_F(SecuredLink, ABadFileIsNamedWithWhatIsWrong) {
-  EXPECT_TRUE(bridge::check_dds_security(member("fed", "kr"), "kr").empty())
-      << joined(bridge::check_dds_security(member("fed", "kr"), "kr"));
+  EXPECT_TRUE(federation::check_dds_security(member("fed", "kr"), "kr").empty())
+      << joined(federation::check_dds_security(member("fed", "kr"), "kr"));
   // kr's permissions as deploy/pki.sh made them before partitions: the shared topics in the
   // default partition only.
   {
@@ -369,50 +385,51 @@ TEST_F(SecuredLink, ABadFileIsNamedWithWhatIsWrong) {
       xml.erase(at, xml.find("</partitions>", at) + std::string("</partitions>").size() - at);
     }
     std::ofstream(*dir_ + "/fed/unpartitioned.xml") << xml;
-    const CommandResult signed_doc =
-        run_command({"/usr/bin/env", "openssl", "smime", "-sign", "-in", *dir_ + "/fed/unpartitioned.xml", "-text",
-                     "-out", *dir_ + "/fed/unpartitioned.p7s", "-signer", *dir_ + "/fed/ca.pem", "-inkey",
-                     *dir_ + "/fed/ca.key"},
-                    std::chrono::seconds(30));
+    const CommandResult signed_doc = run_command(
+        {"/usr/bin/env", "openssl", "smime", "-sign", "-in", *dir_ + "/fed/unpartitioned.xml", "-text", "-out",
+         *dir_ + "/fed/unpartitioned.p7s", "-signer", *dir_ + "/fed/ca.pem", "-inkey", *dir_ + "/fed/ca.key"},
+        std::chrono::seconds(30));
     ASSERT_EQ(signed_doc.exit_code, 0) << signed_doc.err;
   }
   struct Case {
-    std::string bad;                            // what is wrong
-    std::string bridge::DdsSecurity::*file;     // the file replaced
-    std::string by;                             // under the test's folder
-    std::string says;                           // part of the problem reported
+    std::string bad;                             // what is wrong
+    std::string federation::DdsSecurity::*file;  // the file replaced
+    std::string by;                              // under the test's folder
+    std::string says;                            // part of the problem reported
   };
   const std::vector<Case> cases{
-      {"another CA", &bridge::DdsSecurity::identity_ca, "rogue/ca.pem", "does not verify against the identity CA"},
-      {"another member's permissions", &bridge::DdsSecurity::permissions, "fed/jp/permissions.p7s",
+      {"another CA", &federation::DdsSecurity::identity_ca, "rogue/ca.pem", "does not verify against the identity CA"},
+      {"another member's permissions", &federation::DdsSecurity::permissions, "fed/jp/permissions.p7s",
        "not the certificate's subject 'CN=kr"},
-      {"an unsigned governance", &bridge::DdsSecurity::governance, "fed/governance.xml", "is not an S/MIME signed document"},
-      {"another CA's governance", &bridge::DdsSecurity::governance, "rogue/governance.p7s",
+      {"an unsigned governance", &federation::DdsSecurity::governance, "fed/governance.xml",
+       "is not an S/MIME signed document"},
+      {"another CA's governance", &federation::DdsSecurity::governance, "rogue/governance.p7s",
        "is not signed by the documents' CA"},
-      {"another member's key", &bridge::DdsSecurity::private_key, "fed/jp/identity.key", "is not the key of"},
-      {"no permissions", &bridge::DdsSecurity::permissions, "fed/nobody/permissions.p7s", "cannot be read"},
-      {"permissions without partitions", &bridge::DdsSecurity::permissions, "fed/unpartitioned.p7s",
+      {"another member's key", &federation::DdsSecurity::private_key, "fed/jp/identity.key", "is not the key of"},
+      {"no permissions", &federation::DdsSecurity::permissions, "fed/nobody/permissions.p7s", "cannot be read"},
+      {"permissions without partitions", &federation::DdsSecurity::permissions, "fed/unpartitioned.p7s",
        "do not let space kr write urs/catalog in its partition kr (they grant the default partition): make them "
        "again with deploy/pki.sh member"},
   };
   // Another member's own files, for space kr: the others would take nothing it announces as kr's.
-  EXPECT_NE(joined(bridge::check_dds_security(member("fed", "jp"), "kr"))
+  EXPECT_NE(joined(federation::check_dds_security(member("fed", "jp"), "kr"))
                 .find("names space 'jp' (its CN), not kr: the other spaces would take nothing"),
             std::string::npos)
-      << joined(bridge::check_dds_security(member("fed", "jp"), "kr"));
+      << joined(federation::check_dds_security(member("fed", "jp"), "kr"));
   for (const Case& c : cases) {
-    bridge::DdsSecurity security = member("fed", "kr");
+    federation::DdsSecurity security = member("fed", "kr");
     security.*c.file = *dir_ + "/" + c.by;
-    const std::string problems = joined(bridge::check_dds_security(security, "kr"));
+    const std::string problems = joined(federation::check_dds_security(security, "kr"));
     EXPECT_NE(problems.find(c.says), std::string::npos) << c.bad << ": " << problems;
   }
 
   // The link refuses to start with the problems in its message, before Fast DDS is asked.
   const DdsDomains domains;
   try {
-    bridge::DdsSecurity someone_elses = member("fed", "kr");
+    federation::DdsSecurity someone_elses = member("fed", "kr");
     someone_elses.permissions = *dir_ + "/fed/jp/permissions.p7s";
-    bridge::DdsLink link(options(domains[0], "kr", someone_elses), [] {}, no_calls);
+    federation::DdsLink link(
+        options(domains[0], "kr", someone_elses), [] {}, no_calls);
     ADD_FAILURE() << "a link with another member's permissions started";
   } catch (const std::exception& e) {
     EXPECT_NE(std::string(e.what()).find("not the certificate's subject"), std::string::npos) << e.what();
@@ -423,19 +440,21 @@ TEST_F(SecuredLink, ABadFileIsNamedWithWhatIsWrong) {
 TEST_F(SecuredLink, ARevokedMemberCannotRejoin) {
   const std::string fed = *dir_ + "/fed";
   ASSERT_NO_THROW(run_pki({{"member", fed, "old", "--calls", "kr"}}));
-  EXPECT_TRUE(bridge::check_dds_security(member("fed", "old"), "old").empty());
+  EXPECT_TRUE(federation::check_dds_security(member("fed", "old"), "old").empty());
   ASSERT_NO_THROW(run_pki({{"revoke", fed, "old"}}));
-  EXPECT_NE(joined(bridge::check_dds_security(member("fed", "old"), "old")).find("certificate revoked"),
+  EXPECT_NE(joined(federation::check_dds_security(member("fed", "old"), "old")).find("certificate revoked"),
             std::string::npos)
-      << joined(bridge::check_dds_security(member("fed", "old"), "old"));
+      << joined(federation::check_dds_security(member("fed", "old"), "old"));
 
   // Its bridge started without the CRL (so that it gets that far) is still refused by kr's.
   const DdsDomains domains;
   serve_kr(domains[0]);
-  bridge::DdsSecurity revoked = member("fed", "old");
+  federation::DdsSecurity revoked = member("fed", "old");
   revoked.crl.clear();
-  bridge::DdsLink old(options(domains[0], "old", revoked), [] {}, no_calls);
-  bridge::DdsLink jp(options(domains[0], "jp", member("fed", "jp")), [] {}, no_calls);
+  federation::DdsLink old(
+      options(domains[0], "old", revoked), [] {}, no_calls);
+  federation::DdsLink jp(
+      options(domains[0], "jp", member("fed", "jp")), [] {}, no_calls);
   ASSERT_TRUE(wait_until([&] { return seen(jp).count("kr/svc") == 1; }, 30s));
   ASSERT_TRUE(jp.call("kr", "svc", "echo", "member", 10s).ok());
   EXPECT_TRUE(seen(old).empty()) << ::testing::PrintToString(seen(old));

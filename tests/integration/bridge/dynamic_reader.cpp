@@ -15,6 +15,15 @@
 //                                   base64 strings, 64-bit integers as JSON numbers)
 // and exits 0 after SECONDS, 2 on bad arguments or when DDS refuses.
 
+#include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
+#include <fastrtps/types/DynamicData.h>
+#include <fastrtps/types/DynamicDataFactory.h>
+#include <fastrtps/types/DynamicPubSubType.h>
+#include <fastrtps/types/DynamicType.h>
+#include <fastrtps/types/DynamicTypeMember.h>
+#include <fastrtps/types/MemberDescriptor.h>
+#include <fastrtps/types/TypeDescriptor.h>
+
 #include <chrono>
 #include <condition_variable>
 #include <fastdds/dds/domain/DomainParticipant.hpp>
@@ -26,20 +35,12 @@
 #include <fastdds/dds/subscriber/Subscriber.hpp>
 #include <fastdds/dds/topic/Topic.hpp>
 #include <fastdds/dds/topic/TypeSupport.hpp>
-#include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
-#include <fastrtps/types/DynamicData.h>
-#include <fastrtps/types/DynamicDataFactory.h>
-#include <fastrtps/types/DynamicPubSubType.h>
-#include <fastrtps/types/DynamicType.h>
-#include <fastrtps/types/DynamicTypeMember.h>
-#include <fastrtps/types/MemberDescriptor.h>
-#include <fastrtps/types/TypeDescriptor.h>
 #include <iostream>
 #include <map>
 #include <memory>
 #include <mutex>
-#include <sstream>
 #include <set>
+#include <sstream>
 #include <string>
 #include <tuple>
 #include <vector>
@@ -111,15 +112,24 @@ std::string json_of(types::DynamicData* data, types::MemberId id, const types::D
       data->get_bool_value(value, id);
       return value ? "true" : "false";
     }
-    case types::TK_BYTE: return number_of<types::octet>(data, id, &D::get_byte_value);
-    case types::TK_INT16: return number_of<int16_t>(data, id, &D::get_int16_value);
-    case types::TK_UINT16: return number_of<uint16_t>(data, id, &D::get_uint16_value);
-    case types::TK_INT32: return number_of<int32_t>(data, id, &D::get_int32_value);
-    case types::TK_UINT32: return number_of<uint32_t>(data, id, &D::get_uint32_value);
-    case types::TK_INT64: return number_of<int64_t>(data, id, &D::get_int64_value);
-    case types::TK_UINT64: return number_of<uint64_t>(data, id, &D::get_uint64_value);
-    case types::TK_FLOAT32: return number_of<float>(data, id, &D::get_float32_value);
-    case types::TK_FLOAT64: return number_of<double>(data, id, &D::get_float64_value);
+    case types::TK_BYTE:
+      return number_of<types::octet>(data, id, &D::get_byte_value);
+    case types::TK_INT16:
+      return number_of<int16_t>(data, id, &D::get_int16_value);
+    case types::TK_UINT16:
+      return number_of<uint16_t>(data, id, &D::get_uint16_value);
+    case types::TK_INT32:
+      return number_of<int32_t>(data, id, &D::get_int32_value);
+    case types::TK_UINT32:
+      return number_of<uint32_t>(data, id, &D::get_uint32_value);
+    case types::TK_INT64:
+      return number_of<int64_t>(data, id, &D::get_int64_value);
+    case types::TK_UINT64:
+      return number_of<uint64_t>(data, id, &D::get_uint64_value);
+    case types::TK_FLOAT32:
+      return number_of<float>(data, id, &D::get_float32_value);
+    case types::TK_FLOAT64:
+      return number_of<double>(data, id, &D::get_float64_value);
     case types::TK_STRING8: {
       std::string value;
       data->get_string_value(value, id);
@@ -156,17 +166,28 @@ std::string member_idl(const std::string& name, const types::DynamicType_ptr& ty
 std::string idl_of(const types::DynamicType_ptr& type) {
   const types::TypeDescriptor* descriptor = type->get_type_descriptor();
   switch (type->get_kind()) {
-    case types::TK_BOOLEAN: return "boolean";
-    case types::TK_BYTE: return "octet";
-    case types::TK_INT16: return "short";
-    case types::TK_UINT16: return "unsigned short";
-    case types::TK_INT32: return "long";
-    case types::TK_UINT32: return "unsigned long";
-    case types::TK_INT64: return "long long";
-    case types::TK_UINT64: return "unsigned long long";
-    case types::TK_FLOAT32: return "float";
-    case types::TK_FLOAT64: return "double";
-    case types::TK_CHAR8: return "char";
+    case types::TK_BOOLEAN:
+      return "boolean";
+    case types::TK_BYTE:
+      return "octet";
+    case types::TK_INT16:
+      return "short";
+    case types::TK_UINT16:
+      return "unsigned short";
+    case types::TK_INT32:
+      return "long";
+    case types::TK_UINT32:
+      return "unsigned long";
+    case types::TK_INT64:
+      return "long long";
+    case types::TK_UINT64:
+      return "unsigned long long";
+    case types::TK_FLOAT32:
+      return "float";
+    case types::TK_FLOAT64:
+      return "double";
+    case types::TK_CHAR8:
+      return "char";
     case types::TK_STRING8: {
       const uint32_t bound = descriptor->get_bounds(0);
       return bound == types::BOUND_UNLIMITED ? "string" : "string<" + std::to_string(bound) + ">";
@@ -308,8 +329,7 @@ class Reader : public fdds::DomainParticipantListener {
     }
     std::string idl = idl_of(type);
     if (type->get_kind() == types::TK_STRUCTURE && object->_d() == types::EK_COMPLETE) {
-      idl = "struct " + object->complete().struct_type().header().detail().type_name() +
-            idl.substr(idl.find(" {"));
+      idl = "struct " + object->complete().struct_type().header().detail().type_name() + idl.substr(idl.find(" {"));
     }
     say("type " + topic.to_string() + " " + idl);
     wake_.notify_one();
@@ -334,9 +354,9 @@ class Reader : public fdds::DomainParticipantListener {
   std::condition_variable wake_;
   bool changed_ = false;
   std::map<std::string, types::DynamicType_ptr> types_;  // by type name
-  std::map<std::string, Discovered> topics_;              // by topic name
-  std::set<std::string> subscribed_;                      // topics
-  std::vector<std::unique_ptr<TopicReader>> readers_;     // run()'s own
+  std::map<std::string, Discovered> topics_;             // by topic name
+  std::set<std::string> subscribed_;                     // topics
+  std::vector<std::unique_ptr<TopicReader>> readers_;    // run()'s own
 };
 
 }  // namespace

@@ -1,12 +1,14 @@
 // What unmodified OpenRTM-aist peers showed the bridge, reproduced with URSLink's own runtime in
 // real processes (omniNames, urs-rtc-manager, urs-camus-server, urs-sam, urs-bridge, urs): a call
-// without a deadline gets the one the service advertises, even above the client's old 10 s; a
-// provider paused with SIGSTOP is slow, not gone, and serves again; a dropped connection is
-// dropped on both ends, so that the ports, which refuse duplicate connections as OpenRTM-aist's
-// do, connect again; an Inactive provider (whose objects do not exist, as in OpenRTM-aist) is
-// listed as such and calls say how to activate it; bounded references keep their own timeouts;
-// a restarted bridge connects its RTCs' consumers again; the references the bridge and the
-// manager hand out carry their repository ID and an address the naming service's peers reach.
+// without a deadline gets the one the service advertises, even above the client's old 10 s; slow
+// calls to a provider hold up no other up to the bridge's calls per peer, and a call beyond them
+// waits within its deadline; a provider paused with SIGSTOP is slow, not gone, and serves again;
+// a dropped connection is dropped on both ends, so that the ports, which refuse duplicate
+// connections as OpenRTM-aist's do, connect again; an Inactive provider (whose objects do not
+// exist, as in OpenRTM-aist) is listed as such and calls say how to activate it; bounded
+// references keep their own timeouts; a restarted bridge connects its RTCs' consumers again; the
+// references the bridge and the manager hand out carry their repository ID and an address the
+// naming service's peers reach.
 
 #include <gtest/gtest.h>
 #include <signal.h>
@@ -72,6 +74,37 @@ class BridgeInterop : public BridgeSpaceTest {
   }
   CommandResult echo(const std::string& service) { return urs({"call", service, "echo", R"({"text":"hi"})"}); }
 
+  // `count` calls of `urs call rt.Diagnostic0 sleep` of `ms` each, in processes of their own, once
+  // the provider has begun every one of them (its log says so); empty if it did not within 15 s.
+  std::vector<std::unique_ptr<Process>> sleeping(int count, int ms) {
+    std::vector<std::unique_ptr<Process>> calls;
+    const std::string args = R"({"ms":)" + std::to_string(ms) + "}";
+    for (int i = 0; i < count; ++i) {
+      std::vector<std::string> argv{URS_CLI_BIN, "--server", server_address_};
+      const std::vector<std::string> token = admin_token_args();
+      argv.insert(argv.end(), token.begin(), token.end());
+      argv.insert(argv.end(), {"call", "rt.Diagnostic0", "sleep", args});
+      calls.push_back(std::make_unique<Process>(argv, dir_ + "/sleep" + std::to_string(i) + ".log"));
+    }
+    const std::string begun = "sleep " + std::to_string(ms) + " ms begins";
+    const auto begun_count = [&] {
+      const std::string log = manager("m").log();
+      int found = 0;
+      for (auto at = log.find(begun); at != std::string::npos; at = log.find(begun, at + 1)) ++found;
+      return found;
+    };
+    if (!wait_until([&] { return begun_count() == count; }, 15s)) {
+      ADD_FAILURE() << begun_count() << " of " << count << " sleeps begun\n" << bridge_->log();
+      calls.clear();
+    }
+    return calls;
+  }
+  // A provider of its own process whose calls may last a minute, offered as rt.Diagnostic0.
+  void start_patient_provider() {
+    start_manager("m", "labhost",
+                  "components:\n  - type: Diagnostic\n    activate: true\n    config: {deadline_ms: 60000}\n");
+  }
+
   // How many connections the provider's port holds with a port of the bridge RTC.
   int bridge_connections(RTC::PortService_ptr port) {
     RTC::ConnectorProfileList_var profiles = port->get_connector_profiles();
@@ -122,6 +155,53 @@ TEST_F(BridgeInterop, ACallWithoutDeadlineGetsTheRulesDeadlineAboveTheOldClientD
   // 10.5 s: more than the 10 s a client used to put on the wire when given no deadline.
   const auto r = urs({"call", "rt.Diagnostic0", "sleep", R"({"ms":10500})"}, 60s);
   EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
+}
+
+// Six slow calls in flight to one provider process, one more than omniORB's default number of
+// connections to a peer: a seventh, fast call is answered while all six still run.
+TEST_F(BridgeInterop, SixSlowCallsToOneProviderHoldUpNoOther) {
+  start_patient_provider();
+  start_bridge(diagnostic_rules(60000));
+  ASSERT_TRUE(wait_for_service("rt.Diagnostic0")) << bridge_->log();
+  const auto slow = sleeping(6, 20000);
+  ASSERT_EQ(slow.size(), 6u);
+  const auto r = echo("rt.Diagnostic0");
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  for (const auto& call : slow) EXPECT_TRUE(call->running()) << "a 20 s sleep returned before the echo did";
+}
+
+// A bridge sending at most 2 calls at once to one process (--max-calls-per-peer 2), and two
+// providers in that process: rt.Diagnostic0, whose rule allows a minute, and rt.Diagnostic1,
+// whose rule bounds every call at 1 s. With two slow calls in flight to the first, a call to the
+// second waits for one of them, is never sent when its 1 s passes first, and says why; given
+// time, a call waits and is sent once one returns.
+TEST_F(BridgeInterop, ACallBeyondTheCallsPerPeerWaitsWithinItsDeadline) {
+  start_manager("m", "labhost",
+                "components:\n"
+                "  - {type: Diagnostic, instance: Diagnostic0, activate: true, config: {deadline_ms: 60000}}\n"
+                "  - {type: Diagnostic, instance: Diagnostic1, activate: true}\n");
+  bridge_ = launch_bridge("bridge",
+                          "name: bridge-test\n"
+                          "rt_to_camus:\n"
+                          "  poll_ms: 100\n"
+                          "  providers:\n"
+                          "    - {match: \"*/Diagnostic0.rtc\", name: \"rt.{instance}\", deadline_ms: 60000}\n"
+                          "    - {match: \"*/Diagnostic1.rtc\", name: \"rt.{instance}\", deadline_ms: 1000}\n",
+                          {"--server", server_address_, "--naming", naming_->address(), "--host", "bridgehost",
+                           "--max-calls-per-peer", "2"});
+  ASSERT_TRUE(wait_for_service("rt.Diagnostic0")) << bridge_->log();
+  ASSERT_TRUE(wait_for_service("rt.Diagnostic1")) << bridge_->log();
+  const auto slow = sleeping(2, 8000);
+  ASSERT_EQ(slow.size(), 2u);
+  const auto waited = urs({"call", "--deadline-ms", "30000", "rt.Diagnostic1", "echo", R"({"text":"hi"})"});
+  EXPECT_NE(waited.exit_code, 0);
+  EXPECT_NE(waited.err.find("DEADLINE_EXCEEDED: deadline passed before echo was sent"), std::string::npos)
+      << waited.err;
+  EXPECT_NE(waited.err.find("2 calls to it at most (max_calls_per_peer)"), std::string::npos) << waited.err;
+  for (const auto& call : slow) EXPECT_TRUE(call->running()) << "a sleep returned before the echo gave up";
+
+  const auto queued = urs({"call", "--deadline-ms", "30000", "rt.Diagnostic0", "echo", R"({"text":"hi"})"}, 40s);
+  EXPECT_EQ(queued.exit_code, 0) << queued.err;
 }
 
 TEST_F(BridgeInterop, APausedProviderIsSlowNotGoneAndServesAgain) {

@@ -40,6 +40,17 @@ class BridgeRtSide : public BridgeSpaceTest {
     return consumer_->consumer().get<URS::Diagnostic>();
   }
 
+  // diag's SAM is killed (SIGKILL): the RTC standing for diag leaves the naming service; started
+  // again, the RTC comes back.
+  void sam_dies_and_returns() {
+    sam_->kill9();
+    EXPECT_TRUE(wait_until([&] { return !bound(kImportPath); }, 15s)) << bridge_->log();
+    sam_ = std::make_unique<Process>(std::vector<std::string>{URS_SAM_BIN, "--space", "lab", "--server",
+                                                              server_address_, "--config", dir_ + "/sam.yaml"},
+                                     dir_ + "/sam2.log");
+    EXPECT_TRUE(wait_until([&] { return bound(kImportPath); }, 15s)) << bridge_->log();
+  }
+
   void TearDown() override {
     if (consumer_) consumer_->exit();
     consumer_.reset();
@@ -81,13 +92,14 @@ class BridgeRtSide : public BridgeSpaceTest {
 };
 
 TEST_F(BridgeRtSide, CamusServiceIsAProviderThatRtConsumersCall) {
-  start_bridge("name: bridge-test\n"
-               "camus_to_rt:\n"
-               "  poll_ms: 100\n"
-               "  services:\n"
-               "    - match: diag\n"
-               "      instance: \"camus_{service}\"\n"
-               "      deadline_ms: 1000\n");
+  start_bridge(
+      "name: bridge-test\n"
+      "camus_to_rt:\n"
+      "  poll_ms: 100\n"
+      "  services:\n"
+      "    - match: diag\n"
+      "      instance: \"camus_{service}\"\n"
+      "      deadline_ms: 1000\n");
   ASSERT_TRUE(wait_until([&] { return bound(kImportPath); }, 15s)) << bridge_->log();
   auto rtc = resolve<RTC::RTObject>(kImportPath);
   RTC::ComponentProfile_var profile = rtc->get_component_profile();
@@ -113,28 +125,39 @@ TEST_F(BridgeRtSide, CamusServiceIsAProviderThatRtConsumersCall) {
   EXPECT_STREQ(CORBA::String_var(diag->echo("still there")).in(), "still there");
 
   // The agent's SAM dies: the service leaves the registry and its RTC leaves the naming service.
-  sam_->kill9();
-  EXPECT_TRUE(wait_until([&] { return !bound(kImportPath); }, 15s)) << bridge_->log();
-  sam_ = std::make_unique<Process>(std::vector<std::string>{URS_SAM_BIN, "--space", "lab", "--server",
-                                                            server_address_, "--config", dir_ + "/sam.yaml"},
-                                   dir_ + "/sam2.log");
-  EXPECT_TRUE(wait_until([&] { return bound(kImportPath); }, 15s)) << bridge_->log();
+  sam_dies_and_returns();
+}
+
+// The CAMUS registry is read when the server says it changed (registry/<name> events), not only
+// at the poll: with a poll of a minute, a service's RTC still leaves with its SAM and comes back
+// with it within seconds.
+TEST_F(BridgeRtSide, ARegistryChangeReachesTheRtSideWithoutWaitingForThePoll) {
+  start_bridge(
+      "name: bridge-test\n"
+      "camus_to_rt:\n"
+      "  poll_ms: 60000\n"
+      "  services:\n"
+      "    - match: diag\n"
+      "      instance: \"camus_{service}\"\n");
+  ASSERT_TRUE(wait_until([&] { return bound(kImportPath); }, 15s)) << bridge_->log();
+  sam_dies_and_returns();
 }
 
 TEST_F(BridgeRtSide, DeactivationWithdrawsBothDirectionsAndNothingIsBridgedTwice) {
   start_manager("m", "labhost", "components:\n  - type: Diagnostic\n");
   // Rules that match everything: what the bridge offers must not come back through it.
-  start_bridge("name: bridge-test\n"
-               "rt_to_camus:\n"
-               "  poll_ms: 100\n"
-               "  providers:\n"
-               "    - match: \"*\"\n"
-               "      name: \"rt.{instance}\"\n"
-               "camus_to_rt:\n"
-               "  poll_ms: 100\n"
-               "  services:\n"
-               "    - match: \"*\"\n"
-               "      instance: \"camus_{service}\"\n");
+  start_bridge(
+      "name: bridge-test\n"
+      "rt_to_camus:\n"
+      "  poll_ms: 100\n"
+      "  providers:\n"
+      "    - match: \"*\"\n"
+      "      name: \"rt.{instance}\"\n"
+      "camus_to_rt:\n"
+      "  poll_ms: 100\n"
+      "  services:\n"
+      "    - match: \"*\"\n"
+      "      instance: \"camus_{service}\"\n");
   ASSERT_TRUE(wait_for_service("rt.Diagnostic0")) << bridge_->log();
   ASSERT_TRUE(wait_until([&] { return bound(kImportPath); }, 15s)) << bridge_->log();
   // Nothing may come back through the bridge. Every poll that could have bridged something back
@@ -183,14 +206,17 @@ TEST_F(BridgeRtSide, CamusEventsFeedAnRtInPort) {
     return made;
   });
   const std::string types = std::string(URS_RTC_IDL_DIR) + "/BasicDataType.idl";
-  start_bridge("name: bridge-test\n"
-               "idl: [" + types + "]\n"
-               "rt_to_camus: {poll_ms: 100}\n"
-               "events_to_rt:\n"
-               "  - topic: \"feed/#\"\n"
-               "    type: RTC.TimedLong\n"
-               "    match: \"*/Probe*.rtc\"\n"
-               "    port: count\n");
+  start_bridge(
+      "name: bridge-test\n"
+      "idl: [" +
+      types +
+      "]\n"
+      "rt_to_camus: {poll_ms: 100}\n"
+      "events_to_rt:\n"
+      "  - topic: \"feed/#\"\n"
+      "    type: RTC.TimedLong\n"
+      "    match: \"*/Probe*.rtc\"\n"
+      "    port: count\n");
   ASSERT_TRUE(wait_until([&] { return probe->count().connection_count() == 1; }, 15s)) << bridge_->log();
 
   const schema::IdlLoad loaded = schema::load_idl(types);

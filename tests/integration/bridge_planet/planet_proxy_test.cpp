@@ -1,7 +1,8 @@
 // A CAMUS service offered as a CORBA object through the Planet proxy: urs-camus-server and urs-sam
 // (the diagnostic agent as "diag") are real processes; this process fetches diag's interface from
-// the registry, hosts a CamusForwardingAgent for it in a corba_agent::AgentServant, and calls that
-// object with the static stubs of URS::Diagnostic, as any CORBA client would.
+// the registry, hosts a ForwardingAgent over Planet for it (bridge::planet_forwarder) in a
+// corba_agent::AgentServant, and calls that object with the static stubs of URS::Diagnostic, as any
+// CORBA client would.
 
 #include <gtest/gtest.h>
 
@@ -10,7 +11,7 @@
 
 #include "Diagnostic.hh"
 #include "space_fixture.hpp"
-#include "urs/bridge/camus_forwarding_agent.hpp"
+#include "urs/bridge/camus/planet_forwarding.hpp"
 #include "urs/corba_agent/agent_servant.hpp"
 #include "urs/diagnostic/diagnostic.hpp"
 #include "urs/rtc/orb.hpp"
@@ -50,16 +51,19 @@ class CamusForwardingTest : public SpaceTest {
     options.port = static_cast<uint16_t>(port_);
     options.token = "s3cret-token";
     options.peer_name = "bridge";
-    client_ = std::make_unique<planet::Client>(options);
+    client_ = std::make_shared<planet::Client>(options);
     client_->start();
     ASSERT_TRUE(client_->wait_connected(5s)) << client_->last_error();
-    std::string error;
-    const auto* interface = bridge::describe_service(*client_, "diag", pool_, 5s, error);
-    ASSERT_NE(interface, nullptr) << error;
+    const google::protobuf::ServiceDescriptor* interface = nullptr;
+    try {
+      interface = &bridge::describe_service(*client_, "diag", pool_);
+    } catch (const std::exception& e) {
+      FAIL() << e.what();
+    }
     // Learnt at run time: not the compiled-in description of URS.Diagnostic.
     ASSERT_NE(interface->file()->pool(), google::protobuf::DescriptorPool::generated_pool());
     servant_ = std::make_unique<corba_agent::AgentServant>(
-        orb().orb(), std::make_shared<bridge::CamusForwardingAgent>(*client_, "diag", *interface), events_,
+        orb().orb(), bridge::planet_forwarder(client_, "diag", *interface), events_,
         corba_agent::AgentServantOptions{"bridge.diag", kServantDeadline});
     CORBA::Object_var object = orb().activate(servant_.get());
     diag_ = URS::Diagnostic::_narrow(object);
@@ -74,7 +78,7 @@ class CamusForwardingTest : public SpaceTest {
   }
 
   schema::SchemaPool pool_;  // outlives the agent and its messages
-  std::unique_ptr<planet::Client> client_;
+  std::shared_ptr<planet::Client> client_;
   NoEvents events_;
   std::unique_ptr<corba_agent::AgentServant> servant_;
   URS::Diagnostic_var diag_;

@@ -287,8 +287,8 @@ int run(const Options& o) {
       << ",\"unacked_delivered\":" << unacked_delivered << ",\"deliver_s\":" << seconds(last_event)
       << ",\"ok_per_s\":" << (ack_s > 0 ? static_cast<double>(ok) / ack_s : 0.0) << ",\"subscribed\":" << subscribed
       << ",\"refused_subscriptions\":" << refused_subscriptions
-      << ",\"exhausted_message\":" << json_text(exhausted_message)
-      << ",\"other_message\":" << json_text(other_message) << "}";
+      << ",\"exhausted_message\":" << json_text(exhausted_message) << ",\"other_message\":" << json_text(other_message)
+      << "}";
   std::cout << out.str() << std::endl;
   return complete ? 0 : 1;
 }

@@ -1,16 +1,15 @@
 // urs-camus-server as a real process: Planet clients and SAMs talk to it over TCP on loopback.
 
 #include <gmock/gmock.h>
+#include <google/protobuf/descriptor.pb.h>
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <unistd.h>
 
-#include <google/protobuf/descriptor.pb.h>
-
 #include <condition_variable>
-#include <future>
 #include <filesystem>
 #include <fstream>
+#include <future>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -52,9 +51,21 @@ class CamusServerTest : public ::testing::Test {
   }
 
   std::vector<std::string> server_argv(const std::vector<std::string>& extra = {}) {
-    std::vector<std::string> argv{URS_CAMUS_SERVER_BIN, "--space", "kr", "--listen", "127.0.0.1:0", "--port-file",
-                                  dir_ + "/port", "--data-dir", dir_ + "/data", "--heartbeat-ms", "200",
-                                  "--heartbeat-timeout-ms", "1000", "--log-level", "debug"};
+    std::vector<std::string> argv{URS_CAMUS_SERVER_BIN,
+                                  "--space",
+                                  "kr",
+                                  "--listen",
+                                  "127.0.0.1:0",
+                                  "--port-file",
+                                  dir_ + "/port",
+                                  "--data-dir",
+                                  dir_ + "/data",
+                                  "--heartbeat-ms",
+                                  "200",
+                                  "--heartbeat-timeout-ms",
+                                  "1000",
+                                  "--log-level",
+                                  "debug"};
     argv.insert(argv.end(), extra.begin(), extra.end());
     return argv;
   }
@@ -87,7 +98,8 @@ class CamusServerTest : public ::testing::Test {
     return client.call("camus.context", "Set", set.SerializeAsString(), 5s);
   }
 
-  static planet::CallResult task_call(planet::Client& client, const std::string& op, const google::protobuf::Message& m) {
+  static planet::CallResult task_call(planet::Client& client, const std::string& op,
+                                      const google::protobuf::Message& m) {
     return client.call("camus.tasks", op, m.SerializeAsString(), 5s);
   }
 
@@ -248,7 +260,6 @@ TEST_F(CamusServerTest, Kill9AndRestartKeepsContextAndTasks) {
   EXPECT_TRUE(urs::test::wait_until([&] { return task_status(client, waiting_run).state() == "succeeded"; }, 5s));
 }
 
-
 TEST_F(CamusServerTest, GarbageOnOneConnectionDoesNotDisturbOthers) {
   start_server();
   auto& client = connect("cli@test");
@@ -274,7 +285,8 @@ TEST_F(CamusServerTest, SigtermStopsInOrder) {
 }
 
 TEST_F(CamusServerTest, BadFlagsExitTwoWithOneLine) {
-  auto r = urs::test::run_command({URS_CAMUS_SERVER_BIN, "--space", "kr", "--listen", "127.0.0.1:0", "--heartbeat-ms", "abc"});
+  auto r = urs::test::run_command(
+      {URS_CAMUS_SERVER_BIN, "--space", "kr", "--listen", "127.0.0.1:0", "--heartbeat-ms", "abc"});
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_EQ(r.err, "urs-camus-server: --heartbeat-ms: 'abc' is not a number of milliseconds (10..3600000)\n");
   r = urs::test::run_command({URS_CAMUS_SERVER_BIN, "--space", "kr", "--listen", "localhost"});
@@ -285,7 +297,8 @@ TEST_F(CamusServerTest, BadFlagsExitTwoWithOneLine) {
   std::ofstream(dir_ + "/tasks/bad.yaml") << "steps: [{sleep: {}}]\n";
   r = urs::test::run_command(server_argv({"--tasks-dir", dir_ + "/tasks"}));
   EXPECT_EQ(r.exit_code, 2);
-  EXPECT_EQ(r.err, "urs-camus-server: --tasks-dir: '" + dir_ + "/tasks/bad.yaml': task 'bad': steps[0].sleep (line 1): missing 'ms'\n");
+  EXPECT_EQ(r.err, "urs-camus-server: --tasks-dir: '" + dir_ +
+                       "/tasks/bad.yaml': task 'bad': steps[0].sleep (line 1): missing 'ms'\n");
 }
 
 }  // namespace

@@ -10,6 +10,7 @@
 #include <ifaddrs.h>
 #include <netinet/in.h>
 #include <signal.h>
+#include <sys/stat.h>
 
 #include <filesystem>
 #include <fstream>
@@ -73,8 +74,10 @@ class TlsTest : public ::testing::Test {
   static void write(const std::string& path, const std::string& text) { std::ofstream(path) << text; }
 
   void start_server(const std::string& listen, std::vector<std::string> extra) {
-    std::vector<std::string> argv{URS_CAMUS_SERVER_BIN, "--space", "kr", "--listen", listen, "--port-file",
-                                  dir_ + "/port", "--credentials", dir_ + "/credentials.yaml", "--log-level", "debug"};
+    std::vector<std::string> argv{URS_CAMUS_SERVER_BIN, "--space",       "kr",
+                                  "--listen",           listen,          "--port-file",
+                                  dir_ + "/port",       "--credentials", dir_ + "/credentials.yaml",
+                                  "--log-level",        "debug"};
     argv.insert(argv.end(), extra.begin(), extra.end());
     std::filesystem::remove(dir_ + "/port");
     server_ = std::make_unique<Process>(argv, dir_ + "/server.log");
@@ -235,7 +238,8 @@ TEST_F(TlsTest, TokensOverPlainTcpComeFromLoopbackUnlessTheOperatorOptsIn) {
 }
 
 // A renewed certificate is taken on SIGHUP for the connections that follow; a broken one is
-// refused and the previous one stays in force.
+// refused and the previous one stays in force; a key replaced by a FIFO nobody writes is refused
+// without blocking, and SIGTERM still stops the server at once.
 TEST_F(TlsTest, SighupReloadsTheServerCertificate) {
   start_tls_server();
   ASSERT_FALSE(HasFatalFailure());
@@ -252,19 +256,33 @@ TEST_F(TlsTest, SighupReloadsTheServerCertificate) {
   };
   EXPECT_TRUE(connects("ca"));
   urs::test::make_leaf(dir_, "renewed", "camus.kr", "other-ca", "IP:127.0.0.1");
-  std::filesystem::copy_file(dir_ + "/renewed.pem", dir_ + "/server.pem", std::filesystem::copy_options::overwrite_existing);
-  std::filesystem::copy_file(dir_ + "/renewed.key", dir_ + "/server.key", std::filesystem::copy_options::overwrite_existing);
+  std::filesystem::copy_file(dir_ + "/renewed.pem", dir_ + "/server.pem",
+                             std::filesystem::copy_options::overwrite_existing);
+  std::filesystem::copy_file(dir_ + "/renewed.key", dir_ + "/server.key",
+                             std::filesystem::copy_options::overwrite_existing);
   server_->signal(SIGHUP);
-  ASSERT_TRUE(urs::test::wait_until([&] { return server_->log().find("SIGHUP: TLS certificate") != std::string::npos; }, 10s))
+  ASSERT_TRUE(
+      urs::test::wait_until([&] { return server_->log().find("SIGHUP: TLS certificate") != std::string::npos; }, 10s))
       << server_->log();
   EXPECT_TRUE(connects("other-ca"));
   EXPECT_FALSE(connects("ca"));
 
   write(dir_ + "/server.key", "not a key\n");
   server_->signal(SIGHUP);
-  ASSERT_TRUE(urs::test::wait_until([&] { return server_->log().find("SIGHUP: TLS files not reloaded") != std::string::npos; }, 10s));
+  ASSERT_TRUE(urs::test::wait_until(
+      [&] { return server_->log().find("SIGHUP: TLS files not reloaded") != std::string::npos; }, 10s));
   EXPECT_TRUE(connects("other-ca")) << "the previous certificate stays in force";
   EXPECT_TRUE(server_->running());
+
+  std::filesystem::remove(dir_ + "/server.key");
+  ASSERT_EQ(::mkfifo((dir_ + "/server.key").c_str(), 0600), 0);
+  server_->signal(SIGHUP);
+  ASSERT_TRUE(urs::test::wait_until(
+      [&] { return server_->log().find("is a FIFO, not a regular file") != std::string::npos; }, 10s))
+      << server_->log();
+  EXPECT_TRUE(connects("other-ca"));
+  server_->signal(SIGTERM);
+  EXPECT_EQ(server_->wait(10s), 0) << "a reload blocked the shutdown";
 }
 
 }  // namespace

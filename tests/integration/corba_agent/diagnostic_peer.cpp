@@ -50,8 +50,7 @@ int main(int argc, char** argv) {
   }
   urs::rtc::Orb orb;
   urs::agent::DiscardingEventSink events;
-  urs::corba_agent::AgentServant dsi(orb.orb(), std::make_shared<urs::diagnostic::DiagnosticAgent>(), events,
-                                     {"peer"});
+  urs::corba_agent::AgentServant dsi(orb.orb(), std::make_shared<urs::diagnostic::DiagnosticAgent>(), events, {"peer"});
   StaticDiagnostic baseline;
   CORBA::Object_var dsi_ref = orb.activate(&dsi);
   CORBA::Object_var static_ref = orb.activate(&baseline);

@@ -41,11 +41,12 @@ class FakeNavigation : public agent::TypedAgent {
           *rep.mutable_result() = pose_;
           return Outcome::ok();
         });
-    on<URC::Navigation_stop_Request, URC::Navigation_stop_Reply>("stop", [this](const auto&, auto&, const CallContext&) {
-      std::lock_guard lock(mutex_);
-      state_ = URC::NAVIGATION_STATE_STOPPED;
-      return Outcome::ok();
-    });
+    on<URC::Navigation_stop_Request, URC::Navigation_stop_Reply>("stop",
+                                                                 [this](const auto&, auto&, const CallContext&) {
+                                                                   std::lock_guard lock(mutex_);
+                                                                   state_ = URC::NAVIGATION_STATE_STOPPED;
+                                                                   return Outcome::ok();
+                                                                 });
     on<URC::Navigation_setSpeed_Request, URC::Navigation_setSpeed_Reply>(
         "setSpeed", [this](const auto& req, auto&, const CallContext&) {
           if (req.speed() > kMaxSpeed) {

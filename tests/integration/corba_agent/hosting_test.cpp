@@ -131,7 +131,8 @@ TEST_F(DiagnosticPeer, AnImageSizedBlobCrossesTheDsiLikeAStaticServant) {
   URS::OctetSeq_var from_static = static_->blob(921600);
   URS::OctetSeq_var from_dsi = dsi_->blob(921600);
   ASSERT_EQ(from_dsi->length(), from_static->length());
-  EXPECT_TRUE(std::equal(from_dsi->get_buffer(), from_dsi->get_buffer() + from_dsi->length(), from_static->get_buffer()));
+  EXPECT_TRUE(
+      std::equal(from_dsi->get_buffer(), from_dsi->get_buffer() + from_dsi->length(), from_static->get_buffer()));
   EXPECT_EQ(dsi_->checksum(from_static.in()), static_->checksum(from_static.in()));
 
   const double blob_dsi = median_us(kCalls, [&] { URS::OctetSeq_var b = dsi_->blob(921600); });
@@ -208,7 +209,8 @@ class HostedComponent : public ::testing::Test {
 };
 
 TEST_F(HostedComponent, ItsPortServesTheAgentAndEventsLeaveAsIdlStructs) {
-  corba_agent::AgentComponent component({"Navigation", "", "", {{"pose", "pose", "URC.Pose2D"}}}, make_fake_navigation());
+  corba_agent::AgentComponent component({"Navigation", "", "", {{"pose", "pose", "URC.Pose2D"}}},
+                                        make_fake_navigation());
   component.setup(test_orb(), "Navigation0", 100.0);
   ASSERT_EQ(component.initialize(), RTC::RTC_OK);
   EXPECT_EQ(component.config().port, "navigation");
@@ -239,14 +241,16 @@ TEST_F(HostedComponent, ItsPortServesTheAgentAndEventsLeaveAsIdlStructs) {
 
 TEST_F(HostedComponent, StreamsMustNameIdlStructsOfTheAgentsPool) {
   using Config = corba_agent::AgentComponentConfig;
-  EXPECT_THROW(corba_agent::AgentComponent(Config{"N", "", "", {{"pose", "pose", "URC.NoSuchType"}}}, make_fake_navigation()),
-               std::invalid_argument);
+  EXPECT_THROW(
+      corba_agent::AgentComponent(Config{"N", "", "", {{"pose", "pose", "URC.NoSuchType"}}}, make_fake_navigation()),
+      std::invalid_argument);
   EXPECT_THROW(corba_agent::AgentComponent(Config{"N", "", "", {{"pose", "pose", "URC.Navigation_moveTo_Request"}}},
                                            make_fake_navigation()),
                std::invalid_argument);
-  EXPECT_THROW(corba_agent::AgentComponent(
-                   Config{"N", "", "", {{"pose", "a", "URC.Pose2D"}, {"pose", "b", "URC.Pose2D"}}}, make_fake_navigation()),
-               std::invalid_argument);
+  EXPECT_THROW(
+      corba_agent::AgentComponent(Config{"N", "", "", {{"pose", "a", "URC.Pose2D"}, {"pose", "b", "URC.Pose2D"}}},
+                                  make_fake_navigation()),
+      std::invalid_argument);
 }
 
 // ---- the diagnostic agent in urs-rtc-manager ----
@@ -268,7 +272,8 @@ TEST_F(ManagedDiagnostic, TheGenericDiagnosticComponentAnswersAndLogsUnroutedEve
 TEST_F(ManagedDiagnostic, UnknownConfigKeysAreRefused) {
   const std::string config = dir_ + "/bad.yaml";
   std::ofstream(config) << "components:\n  - type: Diagnostic\n    config: {colour: red}\n";
-  auto result = run_command({URS_RTC_MANAGER_BIN, "--space", "lab", "--naming", naming_->address(), "--config", config});
+  auto result =
+      run_command({URS_RTC_MANAGER_BIN, "--space", "lab", "--naming", naming_->address(), "--config", config});
   EXPECT_EQ(result.exit_code, 2);
   EXPECT_NE(result.err.find("config.colour: unknown key"), std::string::npos) << result.err;
 }

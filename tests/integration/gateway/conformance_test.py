@@ -13,6 +13,8 @@ import json
 import struct
 import sys
 import time
+import urllib.error
+import urllib.request
 
 import websockets
 
@@ -114,6 +116,17 @@ class Client:
         return [m for m in self.of("status")]
 
 
+def post(url, body):
+    """POST JSON; (status, body dict)."""
+    request = urllib.request.Request(url, data=json.dumps(body).encode(), headers={"Content-Type": "application/json"},
+                                     method="POST")
+    try:
+        with urllib.request.urlopen(request, timeout=10) as response:
+            return response.status, json.loads(response.read())
+    except urllib.error.HTTPError as e:
+        return e.code, json.loads(e.read() or b"{}")
+
+
 async def scenario(space):
     status, body = space.login("not the token")
     check(status == 401, "a wrong credential is refused with 401 (got %s %s)" % (status, body))
@@ -154,7 +167,7 @@ async def scenario(space):
     check(first.get("supportedEncodings") == ["json"], "supportedEncodings: %s" % first.get("supportedEncodings"))
     check(first.get("metadata", {}).get("role") == "operator", "metadata.role: %s" % first.get("metadata"))
     channels = a.channels()
-    for topic in ("/graph", "/services", "/components", "/poses", "/trails", "/context", "/events"):
+    for topic in ("/graph", "/services", "/components", "/poses", "/trails", "/context", "/events", "/calls"):
         check(topic in channels, "channel %s advertised" % topic)
     for topic, channel in channels.items():
         check(channel["encoding"] == "json" and channel["schemaEncoding"] == "jsonschema", "%s: json + jsonschema" % topic)
@@ -172,7 +185,8 @@ async def scenario(space):
           "diag/echo request: json + jsonschema")
     request_schema = json.loads(echo["request"]["schema"])
     check(request_schema["properties"]["text"]["type"] == "string", "diag/echo's request schema has text: string")
-    check(json.loads(echo["requestSchema"]) == request_schema, "requestSchema (older clients) matches request.schema")
+    check("requestSchema" not in echo and "responseSchema" not in echo,
+          "the deprecated requestSchema / responseSchema are not sent: %s" % sorted(echo))
 
     # Subscribe: latched state first, then the stream; only to who asked.
     await a.send({"op": "subscribe", "subscriptions": [{"id": 1, "channelId": channels["/poses"]["id"]},
@@ -277,7 +291,24 @@ async def scenario(space):
     await a.call("diag/notify", {"topic": "gateway/test", "text": "an event"}, 105)
     await a.answer(105)
     event = await a.until("the notify event", lambda: [d for d in a.data if d[0] == 4 and d[2]["topic"] == "gateway/test"])
-    check(event[0][2]["payload"].get("text") == "an event", "the event's payload is decoded: %s" % (event[0][2],))
+    check(json.loads(event[0][2]["payload"]).get("text") == "an event",
+          "the event's payload is decoded, as JSON text: %s" % (event[0][2],))
+
+    # Every call made through the gateway, answered, is on /calls with its reply and its caller.
+    await a.send({"op": "subscribe", "subscriptions": [{"id": 6, "channelId": channels["/calls"]["id"]}]})
+    # The recorded calls may come in several messages: wait for the two looked at below.
+    def recorded_calls():
+        calls = [d[2] for d in a.data if d[0] == 6]
+        services = {c["service"] for c in calls}
+        return calls if {"diag/echo", "diag/fail"} <= services else []
+    calls = await a.until("the calls on /calls", recorded_calls)
+    echoed = [c for c in calls if c["service"] == "diag/echo" and c["ok"]]
+    check(echoed and json.loads(echoed[0]["request"]) == {"text": "hello gateway"} and
+          json.loads(echoed[0]["reply"]) == {"result": "hello gateway"} and echoed[0]["role"] == "operator" and
+          echoed[0]["type"] == "URS.Diagnostic.echo", "diag/echo is on /calls with its reply: %s" % echoed[:1])
+    failed = [c for c in calls if c["service"] == "diag/fail"]
+    check(failed and not failed[0]["ok"] and failed[0]["error"].startswith("USER_EXCEPTION"),
+          "a failed call is on /calls with its error: %s" % failed[:1])
 
     # The connection graph.
     await a.send({"op": "subscribeConnectionGraph"})
@@ -288,20 +319,37 @@ async def scenario(space):
     check(any(t["name"] == "/poses" for t in update["publishedTopics"]), "the graph lists the channels")
     check(not b.of("connectionGraphUpdate"), "b did not subscribe to the graph")
 
-    await a.ws.close()
+    # Logging out (the session as the login returned it, no cookie) ends the login's connections,
+    # with a close frame saying why; the other login's connection goes on.
+    status, out = post(space.http_url + "api/logout", {"session": operator_session})
+    check(status == 200 and out == {"ended": True, "connections": 1}, "logout ends the session: %s %s" % (status, out))
+    try:
+        await asyncio.wait_for(a.task, 10)
+    except asyncio.TimeoutError:
+        pass
+    check(a.ws.close_code == 1008 and a.ws.close_reason.startswith("logged out"),
+          "the operator's connection is closed with a reason: %s %s" % (a.ws.close_code, a.ws.close_reason))
+    b_count = len(b.data)
+    await b.until("b still receiving after a's logout", lambda: len(b.data) > b_count + 3)
     await b.ws.close()
+
+
+def run_checks(space, scenario, what, timeout):
+    """Starts `space`, runs `scenario(space)` within `timeout` s and stops the space; on any failed
+    check dumps the space's logs and exits 1 (the tests of this folder end so)."""
+    with space:
+        asyncio.run(asyncio.wait_for(scenario(space), timeout))
+        if failures:
+            space.dump_logs()
+    if failures:
+        print("%s: %d failure(s)" % (what, len(failures)))
+        sys.exit(1)
+    print("%s: every check passed" % what)
 
 
 def main():
     build, source = sys.argv[1], sys.argv[2]
-    with Space(build, source, "conf") as space:
-        asyncio.run(asyncio.wait_for(scenario(space), 180))
-        if failures:
-            space.dump_logs()
-    if failures:
-        print("conformance: %d failure(s)" % len(failures))
-        sys.exit(1)
-    print("conformance: every check passed")
+    run_checks(Space(build, source, "conf"), scenario, "conformance", 180)
 
 
 if __name__ == "__main__":

@@ -1,19 +1,20 @@
 // urs::gateway's network side with real sockets and real Fast DDS, in one process: the HTTP and
 // WebSocket server (limits, logins, a slow client dropped while a fast one keeps receiving), and
 // the DDS source reading another space's bridge on a real domain.
-#include <gtest/gtest.h>
+#include "urs/gateway/server.hpp"
 
-#include <boost/asio/connect.hpp>
-#include <boost/asio/ip/tcp.hpp>
-#include <boost/beast/core.hpp>
-#include <boost/beast/http.hpp>
-#include <boost/beast/websocket.hpp>
+#include <gtest/gtest.h>
 #include <poll.h>
 #include <sys/mount.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <atomic>
+#include <boost/asio/connect.hpp>
+#include <boost/asio/ip/tcp.hpp>
+#include <boost/beast/core.hpp>
+#include <boost/beast/http.hpp>
+#include <boost/beast/websocket.hpp>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -23,14 +24,13 @@
 #include "Diagnostic.pb.h"
 #include "dds_domain.hpp"
 #include "process.hpp"
-#include "urs/bridge/dds_link.hpp"
-#include "urs/bridge/state_link.hpp"
+#include "urs/federation/dds_link.hpp"
+#include "urs/federation/state_link.hpp"
 #include "urs/gateway/dds_source.hpp"
 #include "urs/gateway/gateway.hpp"
 #include "urs/gateway/hub.hpp"
 #include "urs/gateway/logins.hpp"
 #include "urs/gateway/protocol.hpp"
-#include "urs/gateway/server.hpp"
 #include "urs/schema/schema.hpp"
 
 namespace beast = boost::beast;
@@ -101,14 +101,18 @@ struct WsClient {
   websocket::stream<tcp::socket> ws{ioc};
   beast::flat_buffer buffer;
 
-  void connect(const std::string& port, const std::string& target = "/", int receive_buffer = 0) {
+  // `origin`: the Origin header a browser page sends (none: a program's connection).
+  void connect(const std::string& port, const std::string& target = "/", int receive_buffer = 0,
+               const std::string& origin = {}) {
     if (receive_buffer > 0) {
       ws.next_layer().open(tcp::v4());
       ws.next_layer().set_option(net::socket_base::receive_buffer_size(receive_buffer));
     }
     ws.next_layer().connect(tcp::endpoint(net::ip::make_address("127.0.0.1"), static_cast<uint16_t>(std::stoi(port))));
-    ws.set_option(websocket::stream_base::decorator(
-        [](websocket::request_type& req) { req.set(http::field::sec_websocket_protocol, gw::foxglove::kSubprotocol); }));
+    ws.set_option(websocket::stream_base::decorator([origin](websocket::request_type& req) {
+      req.set(http::field::sec_websocket_protocol, gw::foxglove::kSubprotocol);
+      if (!origin.empty()) req.set(http::field::origin, origin);
+    }));
     ws.handshake("127.0.0.1:" + port, target);
   }
   std::string read() {
@@ -140,8 +144,10 @@ TEST_F(ServerTest, ServesTheDashboardAndNothingElse) {
   EXPECT_EQ(request(http::verb::get, "/nothing.js").result_int(), 404);
   EXPECT_EQ(request(http::verb::delete_, "/").result_int(), 405);
   // A login must be JSON (another site's form cannot post it), and the credential right.
-  EXPECT_EQ(request(http::verb::post, "/api/login", "credential=x", "application/x-www-form-urlencoded").result_int(), 415);
-  EXPECT_EQ(request(http::verb::post, "/api/login", "{\"credential\":\"wrong\"}", "application/json").result_int(), 401);
+  EXPECT_EQ(request(http::verb::post, "/api/login", "credential=x", "application/x-www-form-urlencoded").result_int(),
+            415);
+  EXPECT_EQ(request(http::verb::post, "/api/login", "{\"credential\":\"wrong\"}", "application/json").result_int(),
+            401);
   EXPECT_EQ(request(http::verb::post, "/api/login", std::string(8000, 'x'), "application/json").result_int(), 599)
       << "a body over 4 KiB is not read";
   auto login = request(http::verb::post, "/api/login", "{\"credential\":\"the-space-token\"}", "application/json");
@@ -170,14 +176,84 @@ TEST_F(ServerTest, WebSocketsNeedALoginUnlessAnonymousViewersAreAllowed) {
   EXPECT_THROW(wrong.connect(port(), "/?session=00000000000000000000000000000000"), beast::system_error);
 }
 
+TEST_F(ServerTest, AnUnauthenticatedUpgradeIsToldHowToLogIn) {
+  start({});
+  // A program reads the refusal's body.
+  {
+    net::io_context ioc;
+    tcp::socket socket(ioc);
+    socket.connect(tcp::endpoint(net::ip::make_address("127.0.0.1"), server_->port()));
+    http::request<http::string_body> req{http::verb::get, "/", 11};
+    req.set(http::field::host, "127.0.0.1:" + port());
+    req.set(http::field::connection, "Upgrade");
+    req.set(http::field::upgrade, "websocket");
+    req.set(http::field::sec_websocket_key, "dGhlIHNhbXBsZSBub25jZQ==");
+    req.set(http::field::sec_websocket_version, "13");
+    req.set(http::field::sec_websocket_protocol, gw::foxglove::kSubprotocol);
+    http::write(socket, req);
+    beast::flat_buffer buffer;
+    http::response<http::string_body> response;
+    http::read(socket, buffer, response);
+    EXPECT_EQ(response.result_int(), 401);
+    EXPECT_NE(response.body().find("log in first: POST /api/login"), std::string::npos) << response.body();
+  }
+  // A browser page cannot read it: it gets the WebSocket, a Status and a close frame saying the same.
+  WsClient browser;
+  browser.connect(port(), "/", 0, "http://elsewhere.example");
+  const std::string status = browser.read();
+  EXPECT_NE(status.find("\"op\":\"status\""), std::string::npos) << status;
+  EXPECT_NE(status.find("\"level\":2"), std::string::npos) << status;
+  EXPECT_NE(status.find("log in first"), std::string::npos) << status;
+  EXPECT_THROW(browser.read(), beast::system_error);
+  EXPECT_EQ(browser.ws.reason().code, websocket::close_code::policy_error);
+  EXPECT_EQ(std::string(browser.ws.reason().reason.data(), browser.ws.reason().reason.size()).rfind("log in first", 0),
+            0u)
+      << browser.ws.reason().reason.c_str();
+  EXPECT_EQ(hub_.clients(), 0u) << "a refused connection never joins the hub";
+}
+
+TEST_F(ServerTest, LogoutTakesTheSessionAsGivenAndEndsItsConnections) {
+  start({});
+  auto login = request(http::verb::post, "/api/login", "{\"credential\":\"the-space-token\"}", "application/json");
+  const auto at = login.body().find("\"session\":\"") + 11;
+  const std::string session = login.body().substr(at, 32);
+  WsClient foxglove;
+  foxglove.connect(port(), "/?session=" + session);
+  foxglove.read_until("advertise");
+  ASSERT_TRUE(wait_until([&] { return hub_.clients() == 1; }, 5s));
+  EXPECT_EQ(request(http::verb::post, "/api/logout", "{}", "application/json").result_int(), 400) << "no session named";
+  auto out = request(http::verb::post, "/api/logout", "{\"session\":\"" + session + "\"}", "application/json");
+  EXPECT_EQ(out.result_int(), 200);
+  EXPECT_EQ(out.body(), "{\"ended\":true,\"connections\":1}");
+  // The connection leaves the hub and ends, saying why (a connection left open would block the
+  // reads below: the hub is asked first); the session is gone.
+  ASSERT_TRUE(wait_until([&] { return hub_.clients() == 0; }, 5s)) << "the logged out connection left the hub";
+  bool closed = false;
+  for (int i = 0; i < 100 && !closed; ++i) {
+    try {
+      foxglove.read();
+    } catch (const beast::system_error&) {
+      closed = true;
+    }
+  }
+  EXPECT_TRUE(closed);
+  EXPECT_EQ(foxglove.ws.reason().code, websocket::close_code::policy_error);
+  EXPECT_EQ(std::string(foxglove.ws.reason().reason.data(), foxglove.ws.reason().reason.size()),
+            "logged out: log in again for a new session");
+  WsClient again;
+  EXPECT_THROW(again.connect(port(), "/?session=" + session), beast::system_error);
+  auto twice = request(http::verb::post, "/api/logout?session=" + session, "{}", "application/json");
+  EXPECT_EQ(twice.body(), "{\"ended\":false,\"connections\":0}");
+}
+
 TEST_F(ServerTest, ASlowClientIsDroppedWhileAFastOneKeepsReceiving) {
   gw::ServerOptions options;
   options.anonymous = gw::Role::viewer;
   options.max_queue_bytes = 512 * 1024;
   start(options);
   const uint32_t flood = hub_.add_channel({"/flood", "T", "{}", gw::Latch::none, 0});
-  const std::string subscribe = "{\"op\":\"subscribe\",\"subscriptions\":[{\"id\":1,\"channelId\":" +
-                                std::to_string(flood) + "}]}";
+  const std::string subscribe =
+      "{\"op\":\"subscribe\",\"subscriptions\":[{\"id\":1,\"channelId\":" + std::to_string(flood) + "}]}";
   WsClient fast;
   fast.connect(port());
   fast.read_until("advertise");
@@ -284,8 +360,8 @@ class RecordingSink : public gw::ViewSink {
 };
 
 // The options of the DDS link of `space`'s bridge, named "bridge-<space>", in `domain`.
-urs::bridge::DdsOptions bridge_link_options(uint32_t domain, const std::string& space) {
-  urs::bridge::DdsOptions options;
+urs::federation::DdsOptions bridge_link_options(uint32_t domain, const std::string& space) {
+  urs::federation::DdsOptions options;
   options.domain = domain;
   options.space = space;
   options.bridge = "bridge-" + space;
@@ -295,10 +371,11 @@ urs::bridge::DdsOptions bridge_link_options(uint32_t domain, const std::string& 
 
 TEST(DdsSource, SeesAnotherSpacesBridgeAndLosesIt) {
   urs::test::DdsDomains domains(1);
-  urs::bridge::DdsOptions jp_options = bridge_link_options(domains[0], "jp");
+  urs::federation::DdsOptions jp_options = bridge_link_options(domains[0], "jp");
   jp_options.lease = 1000ms;
-  auto jp = std::make_unique<urs::bridge::DdsLink>(jp_options, [] {}, [](urs::call::Request, urs::call::Responder) {});
-  auto jp_state = std::make_unique<urs::bridge::StateLink>(*jp, urs::bridge::StateHandlers{}, std::nullopt);
+  auto jp = std::make_unique<urs::federation::DdsLink>(
+      jp_options, [] {}, [](urs::call::Request, urs::call::Responder) {});
+  auto jp_state = std::make_unique<urs::federation::StateLink>(*jp, urs::federation::StateHandlers{}, std::nullopt);
 
   gw::DdsSourceOptions options;
   options.space = "kr";
@@ -328,12 +405,14 @@ TEST(DdsSource, SeesAnotherSpacesBridgeAndLosesIt) {
   jp_state->set_context({"", "robot1.battery", "{\"level\":0.8}", "sam@jp", 3, {}});
   URS::Diagnostic_echo_Request payload;
   payload.set_text("from jp");
-  ASSERT_TRUE(wait_until([&] {
-    jp_state->publish_event({"", 7, "jp/test", "URS.Diagnostic_echo_Request", "sam@jp", std::chrono::system_clock::now(),
-                             payload.SerializeAsString()});
-    std::lock_guard lock(sink.mutex);
-    return !sink.events.empty() && !sink.contexts.empty();
-  }, 20s));
+  ASSERT_TRUE(wait_until(
+      [&] {
+        jp_state->publish_event({"", 7, "jp/test", "URS.Diagnostic_echo_Request", "sam@jp",
+                                 std::chrono::system_clock::now(), payload.SerializeAsString()});
+        std::lock_guard lock(sink.mutex);
+        return !sink.events.empty() && !sink.contexts.empty();
+      },
+      20s));
   {
     std::lock_guard lock(sink.mutex);
     EXPECT_EQ(sink.events.front().space(), "jp");
@@ -432,10 +511,11 @@ TEST(DdsSource, JoinsTheLinkOnceItsPeersNameResolves) {
     GTEST_SKIP() << started;
   }
   ASSERT_EQ(started, "started") << "the source must start without its peer's name";
-  urs::bridge::DdsOptions jp_options = bridge_link_options(domains[0], "jp");
+  urs::federation::DdsOptions jp_options = bridge_link_options(domains[0], "jp");
   jp_options.lease = 1000ms;
   jp_options.udp_only = true;
-  urs::bridge::DdsLink jp(jp_options, [] {}, [](urs::call::Request, urs::call::Responder) {});
+  urs::federation::DdsLink jp(
+      jp_options, [] {}, [](urs::call::Request, urs::call::Responder) {});
   const auto* diagnostic = URS::Diagnostic_echo_Request::descriptor()->file()->FindServiceByName("Diagnostic");
   jp.announce({"jp", "robot1.navigation", diagnostic->full_name(), "IDL:URS/Diagnostic:1.0", "rtc:x", "bridge-jp", 0,
                urs::schema::descriptor_set_for(*diagnostic->file())});
@@ -448,8 +528,10 @@ TEST(DdsSource, JoinsTheLinkOnceItsPeersNameResolves) {
 
 TEST(DdsSource, LeavesOutWhatTheOwnSpacesNativeSourcesShow) {
   urs::test::DdsDomains domains(1);
-  urs::bridge::DdsLink kr(bridge_link_options(domains[0], "kr"), [] {}, [](urs::call::Request, urs::call::Responder) {});
-  urs::bridge::DdsLink jp(bridge_link_options(domains[0], "jp"), [] {}, [](urs::call::Request, urs::call::Responder) {});
+  urs::federation::DdsLink kr(
+      bridge_link_options(domains[0], "kr"), [] {}, [](urs::call::Request, urs::call::Responder) {});
+  urs::federation::DdsLink jp(
+      bridge_link_options(domains[0], "jp"), [] {}, [](urs::call::Request, urs::call::Responder) {});
   const auto* diagnostic = URS::Diagnostic_echo_Request::descriptor()->file()->FindServiceByName("Diagnostic");
   const std::string described = urs::schema::descriptor_set_for(*diagnostic->file());
   kr.announce({"kr", "diag", diagnostic->full_name(), "IDL:URS/Diagnostic:1.0", "camus", "bridge-kr", 0, described});
@@ -459,13 +541,13 @@ TEST(DdsSource, LeavesOutWhatTheOwnSpacesNativeSourcesShow) {
   options.space = "kr";
   options.link.domain = domains[0];
   RecordingSink all_sink, others_sink;  // before the sources, which report into them
-  gw::DdsSource everything(options);     // a gateway of kr that reads kr's entries on the link too
-  options.own_services = false;          // one whose CAMUS server shows kr's services
+  gw::DdsSource everything(options);    // a gateway of kr that reads kr's entries on the link too
+  options.own_services = false;         // one whose CAMUS server shows kr's services
   gw::DdsSource others(options);
   everything.start(all_sink);
   others.start(others_sink);
-  ASSERT_TRUE(wait_until([&] { return all_sink.services("dds").size() == 2 && !others_sink.services("dds").empty(); },
-                         20s));
+  ASSERT_TRUE(
+      wait_until([&] { return all_sink.services("dds").size() == 2 && !others_sink.services("dds").empty(); }, 20s));
   // Both entries were in the domain and each source had matched the writers by then: three more
   // reads of the other source saw them too (each participant discovers the others at its own pace,
   // so it is the other source's own arrival of jp's entry that says it has).

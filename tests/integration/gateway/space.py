@@ -46,11 +46,15 @@ def wait_for(what, condition, timeout):
 
 
 class Space:
-    def __init__(self, build, source, name, time_scale=4, localizer_rate=10, extra_gateway_args=(), link_domain=None):
+    def __init__(self, build, source, name, time_scale=4, localizer_rate=10, extra_gateway_args=(), link_domain=None,
+                 all_devices=False):
         """link_domain: a DDS domain shared with other spaces; the bridge links the space there
         (exporting everything, importing the others' services as CAMUS services <space>/<name>,
-        sharing its components, robot poses and events) and the gateway reads it."""
+        sharing its components, robot poses and events) and the gateway reads it.
+        all_devices: the SAM hosts the speech devices too (tts1, voice1) and the example C++
+        plug-in's calculator (calc), and the Python SDK example's agent serves thermo."""
         self.link_domain = link_domain
+        self.all_devices = all_devices
         self.build = build
         self.source = source
         self.name = name
@@ -161,6 +165,9 @@ components:
 """)
         sam_yaml = os.path.join(d, "sam.yaml")
         with open(sam_yaml, "w") as f:
+            if self.all_devices:
+                f.write("plugins: [%s]\n" % os.path.join(self.build, "tests", "integration", "plugin",
+                                                         "libtest_calculator_plugin.so"))
             f.write("""agents:
   - {name: diag, type: diagnostic, deadline_ms: 5000}
   - name: robot1.navigation
@@ -173,6 +180,11 @@ components:
     type: camera
     params: {event_prefix: camera1, scan_hz: 2, world: {domain: %(domain)d, robot: robot1}}
 """ % params)
+            if self.all_devices:
+                f.write("""  - {name: tts1, type: tts, deadline_ms: 20000, params: {}}
+  - {name: voice1, type: voice, deadline_ms: 20000, params: {}}
+  - {name: calc, type: calculator, params: {label: %s-calc}}
+""" % self.name)
         bridge_yaml = os.path.join(d, "bridge.yaml")
         with open(bridge_yaml, "w") as f:
             f.write("""name: bridge-lab
@@ -202,6 +214,11 @@ camus_to_rt:
         wait_for("urs-rtc-manager up", lambda: os.path.exists(os.path.join(d, "rtc.ready")), 40)
         self.start("sam", [self.bin("sam/urs-sam"), "--space", self.name, "--server", self.server, "--config",
                            sam_yaml, "--token-file", os.path.join(d, "token")])
+        if self.all_devices:
+            self.start("thermostat", ["/usr/bin/python3", os.path.join(self.source, "examples", "python",
+                                                                      "thermostat_agent.py"),
+                                      "--server", self.server, "--token-file", os.path.join(d, "agent-host.token"),
+                                      "--name", "thermo"])
         self.start("bridge", [self.bin("bridge/urs-bridge"), "--space", self.name, "--server", self.server,
                               "--naming", self.naming, "--host", "labpc", "--config", bridge_yaml, "--token-file",
                               os.path.join(d, "token"), "--ready-file", os.path.join(d, "bridge.ready")])

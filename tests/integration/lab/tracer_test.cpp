@@ -17,8 +17,8 @@ namespace {
 
 using namespace std::chrono_literals;
 
-constexpr double kTick = 0.02;   // s of simulated time between poses (the robot's 50 Hz)
-constexpr double kSpeed = 0.5;   // m/s of simulated time
+constexpr double kTick = 0.02;  // s of simulated time between poses (the robot's 50 Hz)
+constexpr double kSpeed = 0.5;  // m/s of simulated time
 
 world::PoseSample pose_at(int tick) {
   world::PoseSample pose;

@@ -1,6 +1,8 @@
 // Planet client against a real Server: calls, deadlines, chunking, reconnection and what it
 // restores, publishes, subscriptions, the provider role, and a dead server.
 
+#include "urs/planet/client.hpp"
+
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -11,7 +13,6 @@
 #include <thread>
 
 #include "support.hpp"
-#include "urs/planet/client.hpp"
 #include "urs/planet/server.hpp"
 
 namespace urs::planet::testing {
@@ -19,7 +20,6 @@ namespace {
 
 using ::testing::ElementsAre;
 using ::testing::HasSubstr;
-
 
 // Collects replies in arrival order.
 class Replies {
@@ -222,13 +222,11 @@ TEST(PlanetClient, ReconnectRestoresRegistrationsSubscriptionsAndQueuedCalls) {
   // While disconnected: calls queue up to max_queued; then UNAVAILABLE with the reason.
   Replies queued;
   for (int i = 1; i <= 3; ++i) {
-    sam.call_async("echo", "say", "q" + std::to_string(i), 10s,
-                   queued.handler("q" + std::to_string(i)));
+    sam.call_async("echo", "say", "q" + std::to_string(i), 10s, queued.handler("q" + std::to_string(i)));
   }
   sam.call_async("echo", "say", "q4", 10s, queued.handler("q4"));
   ASSERT_TRUE(queued.wait_count(1));
-  const std::string full =
-      "not connected to 127.0.0.1:" + std::to_string(port) + " and the queue of 3 is full";
+  const std::string full = "not connected to 127.0.0.1:" + std::to_string(port) + " and the queue of 3 is full";
   EXPECT_EQ(queued.got()[0].first, "q4");
   EXPECT_EQ(queued.got()[0].second.status, UNAVAILABLE);
   EXPECT_EQ(queued.got()[0].second.message, full);
@@ -262,8 +260,7 @@ TEST(PlanetClient, ReconnectRestoresRegistrationsSubscriptionsAndQueuedCalls) {
   EXPECT_TRUE(handler.provider_registered("robot1.navigation"));
   auto frames = handler.received_from("sam");
   const uint64_t second_session = frames.back().session;
-  frames.erase(std::remove_if(frames.begin(), frames.end(),
-                              [&](const auto& r) { return r.session != second_session; }),
+  frames.erase(std::remove_if(frames.begin(), frames.end(), [&](const auto& r) { return r.session != second_session; }),
                frames.end());
   ASSERT_GE(frames.size(), 5u);
   EXPECT_EQ(frames[0].frame.request().service(), "camus.registry");
@@ -439,8 +436,7 @@ TEST(PlanetClient, ConnectFailureIsReported) {
   Client client(client_options(port, "lonely"));
   client.start();
   EXPECT_TRUE(eventually([&] { return !client.last_error().empty(); }));
-  EXPECT_THAT(client.last_error(),
-              HasSubstr("cannot connect to 127.0.0.1:" + std::to_string(port)));
+  EXPECT_THAT(client.last_error(), HasSubstr("cannot connect to 127.0.0.1:" + std::to_string(port)));
   EXPECT_FALSE(client.wait_connected(50ms));
 }
 

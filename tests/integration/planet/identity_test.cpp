@@ -24,7 +24,8 @@ std::shared_ptr<const Credentials> credentials(std::vector<std::tuple<std::strin
 }
 
 std::shared_ptr<const Credentials> team() {
-  return credentials({{"alice", OPERATOR, "alice-token"}, {"robot1", SAM, "robot1-token"}, {"viewer", CLIENT, "viewer-token"}});
+  return credentials(
+      {{"alice", OPERATOR, "alice-token"}, {"robot1", SAM, "robot1-token"}, {"viewer", CLIENT, "viewer-token"}});
 }
 
 // A server with the team's credentials and a recording handler.
@@ -187,9 +188,10 @@ TEST_F(PlanetIdentity, ReplacedCredentialsCloseOnlyTheSessionsTheyNoLongerAdmit)
   ASSERT_TRUE(eventually([&] { return handler.identities().size() == 3; }));
 
   // alice removed, robot1's role lowered, viewer unchanged, bob added.
-  EXPECT_EQ(server_->set_authenticator(credentials(
-                {{"robot1", CLIENT, "robot1-token"}, {"viewer", CLIENT, "viewer-token"}, {"bob", OPERATOR, "bob-token"}})),
-            2u);
+  EXPECT_EQ(
+      server_->set_authenticator(credentials(
+          {{"robot1", CLIENT, "robot1-token"}, {"viewer", CLIENT, "viewer-token"}, {"bob", OPERATOR, "bob-token"}})),
+      2u);
   for (RawPeer* closed : {&alice, &robot}) {
     auto goodbye = closed->read_non_ping();
     ASSERT_TRUE(goodbye && goodbye->has_goodbye());

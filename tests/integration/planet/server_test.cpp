@@ -1,6 +1,8 @@
 // Planet server transport against raw TCP peers and real clients: handshake, authentication,
 // versioning, heartbeats, and isolation of misbehaving connections.
 
+#include "urs/planet/server.hpp"
+
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -9,14 +11,12 @@
 
 #include "support.hpp"
 #include "urs/planet/client.hpp"
-#include "urs/planet/server.hpp"
 
 namespace urs::planet::testing {
 namespace {
 
 using ::testing::AllOf;
 using ::testing::HasSubstr;
-
 
 TEST(PlanetServer, HandshakeSucceedsAndWelcomeCarriesTheSettings) {
   TestHandler handler;
@@ -92,8 +92,7 @@ TEST(PlanetServer, WrongTokenIsRefusedAndTheClientKeepsRetrying) {
   copts.token = "s3cres";
   Client client(copts);
   client.start();
-  EXPECT_TRUE(eventually([&] { return client.last_error() == "refused: wrong token"; }))
-      << client.last_error();
+  EXPECT_TRUE(eventually([&] { return client.last_error() == "refused: wrong token"; })) << client.last_error();
 
   RawPeer raw(server.port());
   raw.send_hello(1, "s3cret-and-more");
@@ -215,8 +214,7 @@ TEST(PlanetServer, GarbageAndOversizedFramesCloseOnlyTheirConnection) {
   ASSERT_TRUE(goodbye && goodbye->has_goodbye());
   EXPECT_EQ(goodbye->goodbye().status(), PAYLOAD_TOO_LARGE);
   EXPECT_THAT(goodbye->goodbye().reason(),
-              AllOf(HasSubstr("frame of 2147483647 bytes exceeds the limit of 65536 bytes"),
-                    HasSubstr("chunk_bytes")));
+              AllOf(HasSubstr("frame of 2147483647 bytes exceeds the limit of 65536 bytes"), HasSubstr("chunk_bytes")));
   EXPECT_TRUE(oversized->closed_by_server());
 
   // A chunked message announcing more than max_message_bytes.
@@ -308,8 +306,7 @@ TEST(PlanetServer, ListeningOnABusyPortThrowsNamingTheAddress) {
     Server second(options, handler);
     FAIL() << "expected std::runtime_error";
   } catch (const std::runtime_error& error) {
-    EXPECT_THAT(error.what(),
-                HasSubstr("cannot listen on 127.0.0.1:" + std::to_string(first.port())));
+    EXPECT_THAT(error.what(), HasSubstr("cannot listen on 127.0.0.1:" + std::to_string(first.port())));
   }
 }
 
@@ -323,8 +320,7 @@ TEST(PlanetServer, InvalidOptionsAreReportedTogether) {
     Server server(options, handler);
     FAIL() << "expected std::invalid_argument";
   } catch (const std::invalid_argument& error) {
-    EXPECT_THAT(error.what(),
-                AllOf(HasSubstr("chunk_bytes 10"), HasSubstr("heartbeat_timeout 10 ms")));
+    EXPECT_THAT(error.what(), AllOf(HasSubstr("chunk_bytes 10"), HasSubstr("heartbeat_timeout 10 ms")));
   }
 }
 

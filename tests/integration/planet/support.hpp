@@ -25,13 +25,13 @@
 #include <vector>
 
 #include "camus.pb.h"
-#include "urs/planet/codec.hpp"
+#include "process.hpp"
+#include "raw_peer.hpp"
 #include "urs/planet/client.hpp"
+#include "urs/planet/codec.hpp"
 #include "urs/planet/credentials.hpp"
 #include "urs/planet/server.hpp"
 #include "urs/util/secret.hpp"
-#include "process.hpp"
-#include "raw_peer.hpp"
 
 namespace urs::planet::testing {
 
@@ -39,8 +39,7 @@ using namespace std::chrono_literals;
 using Clock = std::chrono::steady_clock;
 
 // urs::test::wait_until with this suite's default timeout.
-inline bool eventually(const std::function<bool()>& condition,
-                       std::chrono::milliseconds timeout = 10s) {
+inline bool eventually(const std::function<bool()>& condition, std::chrono::milliseconds timeout = 10s) {
   return urs::test::wait_until(condition, timeout);
 }
 
@@ -96,8 +95,7 @@ inline bool start_and_connect(Client& client) {
 }
 
 inline long elapsed_ms(Clock::time_point since) {
-  return static_cast<long>(
-      std::chrono::duration_cast<std::chrono::milliseconds>(Clock::now() - since).count());
+  return static_cast<long>(std::chrono::duration_cast<std::chrono::milliseconds>(Clock::now() - since).count());
 }
 
 using urs::test::RawPeer;
@@ -129,8 +127,7 @@ class RawListener {
     address.sin_family = AF_INET;
     address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
     socklen_t size = sizeof address;
-    if (fd_ < 0 || ::bind(fd_, reinterpret_cast<sockaddr*>(&address), sizeof address) != 0 ||
-        ::listen(fd_, 8) != 0 ||
+    if (fd_ < 0 || ::bind(fd_, reinterpret_cast<sockaddr*>(&address), sizeof address) != 0 || ::listen(fd_, 8) != 0 ||
         ::getsockname(fd_, reinterpret_cast<sockaddr*>(&address), &size) != 0) {
       throw std::runtime_error("RawListener cannot listen");
     }
@@ -197,7 +194,7 @@ class TestHandler : public SessionHandler {
   };
 
   // Knobs.
-  std::atomic<bool> ack_publishes{true};     // false: sequence and store, but send no PublishAck
+  std::atomic<bool> ack_publishes{true};    // false: sequence and store, but send no PublishAck
   std::atomic<bool> replay_overlap{false};  // also replay the event at resume_after_seq (a dup)
 
   // SessionHandler
@@ -214,14 +211,23 @@ class TestHandler : public SessionHandler {
     std::lock_guard<std::mutex> lock(mutex_);
     received_.push_back({serials_[session.get()], session->hello().peer_name(), frame});
     switch (frame.body_case()) {
-      case Frame::kRequest: handle_request(session, frame.request()); break;
-      case Frame::kReply: handle_provider_reply(frame.reply()); break;
-      case Frame::kPublish: handle_publish(session, frame.publish()); break;
-      case Frame::kSubscribe: handle_subscribe(session, frame.subscribe()); break;
+      case Frame::kRequest:
+        handle_request(session, frame.request());
+        break;
+      case Frame::kReply:
+        handle_provider_reply(frame.reply());
+        break;
+      case Frame::kPublish:
+        handle_publish(session, frame.publish());
+        break;
+      case Frame::kSubscribe:
+        handle_subscribe(session, frame.subscribe());
+        break;
       case Frame::kUnsubscribe:
         subscriptions_.erase({session->id(), frame.unsubscribe().subscription_id()});
         break;
-      default: break;
+      default:
+        break;
     }
     changed_.notify_all();
   }
@@ -241,9 +247,15 @@ class TestHandler : public SessionHandler {
   }
 
   // Inspection (thread-safe copies).
-  std::vector<Hello> opened() const { return locked([&] { return opened_; }); }
-  std::vector<Identity> identities() const { return locked([&] { return identities_; }); }
-  std::vector<Received> received() const { return locked([&] { return received_; }); }
+  std::vector<Hello> opened() const {
+    return locked([&] { return opened_; });
+  }
+  std::vector<Identity> identities() const {
+    return locked([&] { return identities_; });
+  }
+  std::vector<Received> received() const {
+    return locked([&] { return received_; });
+  }
   std::vector<Received> received_from(const std::string& peer) const {
     return locked([&] {
       std::vector<Received> out;
@@ -258,7 +270,9 @@ class TestHandler : public SessionHandler {
     std::string peer;
     std::string reason;
   };
-  std::vector<Close> closes() const { return locked([&] { return closes_; }); }
+  std::vector<Close> closes() const {
+    return locked([&] { return closes_; });
+  }
   std::optional<std::string> close_reason_of(const std::string& peer) const {
     return locked([&]() -> std::optional<std::string> {
       for (const auto& c : closes_) {
@@ -267,7 +281,9 @@ class TestHandler : public SessionHandler {
       return std::nullopt;
     });
   }
-  size_t open_sessions() const { return locked([&] { return sessions_.size(); }); }
+  size_t open_sessions() const {
+    return locked([&] { return sessions_.size(); });
+  }
   SessionPtr session_of(const std::string& peer) const {
     return locked([&]() -> SessionPtr {
       for (const auto& [id, s] : sessions_) {
@@ -276,8 +292,12 @@ class TestHandler : public SessionHandler {
       return nullptr;
     });
   }
-  size_t subscriptions() const { return locked([&] { return subscriptions_.size(); }); }
-  std::vector<Silent> silent() const { return locked([&] { return silent_; }); }
+  size_t subscriptions() const {
+    return locked([&] { return subscriptions_.size(); });
+  }
+  std::vector<Silent> silent() const {
+    return locked([&] { return silent_; });
+  }
   int registrations_of(const std::string& name) const {
     return locked([&] {
       auto it = register_count_.find(name);
@@ -287,8 +307,12 @@ class TestHandler : public SessionHandler {
   bool provider_registered(const std::string& name) const {
     return locked([&] { return providers_.count(name) > 0; });
   }
-  size_t stored_events() const { return locked([&] { return events_.size(); }); }
-  int duplicate_publishes() const { return locked([&] { return duplicates_; }); }
+  size_t stored_events() const {
+    return locked([&] { return events_.size(); });
+  }
+  int duplicate_publishes() const {
+    return locked([&] { return duplicates_; });
+  }
 
  private:
   static Frame reply(uint64_t call_id, Status status, std::string payload, std::string message) {
@@ -334,8 +358,7 @@ class TestHandler : public SessionHandler {
       return;
     }
     if (!request.oneway()) {
-      session->send(reply(request.call_id(), UNKNOWN_SERVICE, "",
-                          "no service '" + request.service() + "'"));
+      session->send(reply(request.call_id(), UNKNOWN_SERVICE, "", "no service '" + request.service() + "'"));
     }
   }
 

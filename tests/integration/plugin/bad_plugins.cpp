@@ -11,7 +11,7 @@
 extern "C" URS_PLUGIN_EXPORT int not_a_plugin() { return 1; }
 #elif BAD_PLUGIN_wrong_abi
 extern "C" URS_PLUGIN_EXPORT const UrsPluginAbi urs_plugin_abi = {urs::agent::kPluginAbiVersion + 1000,
-                                                                   GOOGLE_PROTOBUF_VERSION};
+                                                                  GOOGLE_PROTOBUF_VERSION};
 extern "C" URS_PLUGIN_EXPORT int urs_plugin_register(urs::agent::PluginRegistry&) { return 0; }
 #elif BAD_PLUGIN_registers_nothing
 URS_PLUGIN_ABI();

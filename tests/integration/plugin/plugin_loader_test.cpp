@@ -57,7 +57,8 @@ void expect_refused(const std::string& entry, const std::string& path, const std
 
 TEST(PluginLoader, RefusesAMissingFile) {
   expect_refused("/nonexistent/libnothing.so", "/nonexistent/libnothing.so", "no such file");
-  expect_refused("nothing", "nothing", "not found as nothing or libnothing.so in the plug-in search path (" + kDir + ")");
+  expect_refused("nothing", "nothing",
+                 "not found as nothing or libnothing.so in the plug-in search path (" + kDir + ")");
 }
 
 TEST(PluginLoader, RefusesAFileThatIsNotASharedLibrary) {

@@ -255,10 +255,12 @@ TEST_F(ManagedLifecycle, ToolsActivateAComponentFoundInTheNamingService) {
 
   // exit() through CORBA: the component unbinds itself, the manager keeps running.
   EXPECT_EQ(rtc->exit(), RTC::RTC_OK);
-  EXPECT_TRUE(wait_until([&] {
-    CORBA::Object_var object = client_->try_resolve("labhost.host_cxt/Diagnostic0.rtc");
-    return CORBA::is_nil(object);
-  }, 5s));
+  EXPECT_TRUE(wait_until(
+      [&] {
+        CORBA::Object_var object = client_->try_resolve("labhost.host_cxt/Diagnostic0.rtc");
+        return CORBA::is_nil(object);
+      },
+      5s));
   EXPECT_TRUE(manager("m").running());
 }
 
@@ -277,7 +279,8 @@ TEST_F(ManagedLifecycle, ActivateFromConfigAndUnbindOnCleanExit) {
 TEST_F(ManagedLifecycle, BadConfigurationIsRefusedWithTheReason) {
   const std::string config = dir_ + "/bad.yaml";
   std::ofstream(config) << "components:\n  - type: NoSuchType\n  - type: Diagnostic\n    rate: -3\n    colour: red\n";
-  auto result = run_command({URS_RTC_MANAGER_BIN, "--space", "lab", "--naming", naming_->address(), "--config", config});
+  auto result =
+      run_command({URS_RTC_MANAGER_BIN, "--space", "lab", "--naming", naming_->address(), "--config", config});
   EXPECT_EQ(result.exit_code, 2);
   EXPECT_NE(result.err.find("components[1].rate"), std::string::npos) << result.err;
   EXPECT_NE(result.err.find("components[1].colour: unknown key"), std::string::npos) << result.err;

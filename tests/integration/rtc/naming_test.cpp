@@ -70,8 +70,8 @@ TEST_F(Naming, AnExplicitInstanceNameHeldByALiveComponentIsAnError) {
   EXPECT_EQ(start_manager("a", "shared", config), "shared.host_cxt/Front.rtc\n");
   const std::string path = dir_ + "/second.yaml";
   std::ofstream(path) << config;
-  auto result = run_command({URS_RTC_MANAGER_BIN, "--space", "lab", "--naming", naming_->address(), "--host",
-                             "shared", "--config", path});
+  auto result = run_command(
+      {URS_RTC_MANAGER_BIN, "--space", "lab", "--naming", naming_->address(), "--host", "shared", "--config", path});
   EXPECT_EQ(result.exit_code, 1);
   EXPECT_NE(result.err.find("Front is already bound to a live component"), std::string::npos) << result.err;
   CORBA::Object_var kept = client_->resolve("shared.host_cxt/Front.rtc");

@@ -152,7 +152,8 @@ TEST_F(ServicePort, ASecondConnectionToTheSamePeerIsRefusedAsOpenRtmRefusesIt) {
   EXPECT_EQ(theirs->length(), 1u);
   // Unless the connector allows it.
   EXPECT_EQ(rtc::connect_ports({port.in(), provider_port_.in()}, "dup",
-                               rtc::nv_from({{"dataport.allow_dup_connection", "YES"}})).code,
+                               rtc::nv_from({{"dataport.allow_dup_connection", "YES"}}))
+                .code,
             RTC::RTC_OK);
   theirs = provider_port_->get_connector_profiles();
   EXPECT_EQ(theirs->length(), 2u);

@@ -11,10 +11,12 @@
 #include <fstream>
 #include <iostream>
 #include <memory>
+#include <regex>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
+#include "metrics_scrape.hpp"
 #include "naming_service.hpp"
 #include "process.hpp"
 #include "rt_space.hpp"
@@ -63,8 +65,9 @@ class RtcCliTest : public ::testing::Test {
     for (const std::string& type : types) out << "  - type: " << type << "\n";
     out.close();
     auto manager = std::make_unique<Process>(
-        std::vector<std::string>{URS_RTC_MANAGER_BIN, "--space", "lab", "--naming", naming_->address(), "--host",
-                                 host, "--config", config, "--ready-file", ready, "--log-level", "debug"},
+        std::vector<std::string>{URS_RTC_MANAGER_BIN, "--space", "lab", "--naming", naming_->address(), "--host", host,
+                                 "--config", config, "--ready-file", ready, "--log-level", "debug", "--metrics-listen",
+                                 "127.0.0.1:0"},
         dir_ + "/" + host + ".log");
     const bool up = wait_until([&] { return std::filesystem::exists(ready) || !manager->running(); }, 20s);
     if (!up || !manager->running()) throw std::runtime_error("urs-rtc-manager did not come up:\n" + manager->log());
@@ -231,6 +234,40 @@ TEST_F(RtcCliTest, CallIsAConsumerOfAnyProviderPortFromItsInterfaceDescription) 
   EXPECT_THAT(r.out, HasSubstr("diagnostic  CorbaPort  0 connections\n"));
 }
 
+// One call followed and counted on the RT side: the trace id `urs rtc call` prints travels in the
+// request's service context and is on the manager's line for serving it; the manager's metrics
+// count the calls its component served, by instance, operation and status.
+TEST_F(RtcCliTest, CallCarriesItsTraceToTheServingComponentWhichCountsIt) {
+  const std::string provider = path("Diagnostic0") + ":diagnostic";
+  CommandResult r = urs({"call", provider, "echo", R"({"text":"followed"})", "--show-trace"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  std::smatch match;
+  ASSERT_TRUE(std::regex_search(r.err, match, std::regex("trace ([0-9a-f]{32})\n"))) << r.err;
+  const std::regex served("trace=" + std::string(match[1]) + " served Diagnostic0\\.echo: OK in [0-9]+ us");
+  EXPECT_TRUE(wait_until([&] { return std::regex_search(manager_->log(), served); }, 5s));
+  r = urs({"call", provider, "echo", R"({"text":"again"})"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  r = urs({"call", provider, "fail", R"({"reason":"jammed","code":9})"});
+  ASSERT_EQ(r.exit_code, 1) << r.err;
+
+  const auto port = metrics_port_in_log(manager_->log());
+  ASSERT_TRUE(port.has_value());
+  const auto response = http_get(*port, "/metrics");
+  ASSERT_EQ(response.status, 200);
+  auto calls = [&](const std::string& operation, const std::string& status) {
+    return metric_value(response.body, "urslink_served_calls_total",
+                        {{"via", "corba"}, {"service", "Diagnostic0"}, {"operation", operation}, {"status", status}});
+  };
+  EXPECT_EQ(calls("echo", "OK"), 2);
+  EXPECT_EQ(calls("fail", "USER_EXCEPTION"), 1);
+  EXPECT_EQ(metric_sum(response.body, "urslink_served_calls_total"), 3);
+  const auto checked = promtool_check_metrics(response.body);
+  EXPECT_EQ(checked.out + checked.err, "") << response.body;
+  const auto ready = http_get(*port, "/readyz");
+  EXPECT_EQ(ready.status, 200);
+  EXPECT_EQ(ready.body, "ok components bound\n");
+}
+
 TEST_F(RtcCliTest, DataPortsConnectWithTheDefaultPropertiesAndDisAllRemovesThem) {
   CommandResult r = urs({"con", path("Counter0") + ":count", path("Sink0") + ":count"});
   ASSERT_EQ(r.exit_code, 0) << r.err;
@@ -264,8 +301,9 @@ TEST_F(RtcCliTest, ConRefusesPortsThatCannotWorkTogetherUnlessForced) {
   const std::string second_caller = "otherhost.host_cxt/DiagnosticCaller0.rtc:diagnostic";
   CommandResult r = urs({"con", caller, second_caller});
   EXPECT_EQ(r.exit_code, 1);
-  EXPECT_EQ(r.err, "urs: rtc con: DiagnosticCaller0.diagnostic requires URS::Diagnostic but "
-                   "DiagnosticCaller0.diagnostic provides nothing (--force connects them anyway)\n");
+  EXPECT_EQ(r.err,
+            "urs: rtc con: DiagnosticCaller0.diagnostic requires URS::Diagnostic but "
+            "DiagnosticCaller0.diagnostic provides nothing (--force connects them anyway)\n");
   r = urs({"con", caller, path("Counter0") + ":count"});
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_THAT(r.err, HasSubstr("DiagnosticCaller0.diagnostic is a CorbaPort and Counter0.count a DataOutPort"));
@@ -298,13 +336,15 @@ TEST_F(RtcCliTest, ConfListsGetsSetsAndActivatesConfigurationSets) {
 
   r = urs({"conf", "set", path("Counter0"), "radius", "wide"});
   EXPECT_EQ(r.exit_code, 1);
-  EXPECT_EQ(r.err, "urs: rtc conf set: " + path("Counter0") + ": radius: 'wide' is not a number (set default unchanged)\n");
+  EXPECT_EQ(r.err,
+            "urs: rtc conf set: " + path("Counter0") + ": radius: 'wide' is not a number (set default unchanged)\n");
   r = urs({"conf", "set", path("Counter0"), "start", "5"});
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_THAT(r.err, HasSubstr("start is read-only (its value stays '0')"));
   r = urs({"conf", "get", path("Counter0"), "gain"});
   EXPECT_EQ(r.exit_code, 1);
-  EXPECT_THAT(r.err, HasSubstr("configuration set default has no parameter 'gain' (parameters: start, radius, period)"));
+  EXPECT_THAT(r.err,
+              HasSubstr("configuration set default has no parameter 'gain' (parameters: start, radius, period)"));
   r = urs({"conf", "set", path("Counter0"), "radius", "3", "--set", "fast"});
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_THAT(r.err, HasSubstr("no configuration set fast"));
@@ -504,7 +544,8 @@ TEST_F(RtcCliTest, TheManagersNamingContextComesFromTheEnvironment) {
 }
 
 TEST_F(RtcCliTest, NamingAddressComesFromTheEnvironmentToo) {
-  const CommandResult r = run_command({"/usr/bin/env", "URS_NAMING=" + naming_->address(), URS_CLI_BIN, "rtc", "ls"}, 30s);
+  const CommandResult r =
+      run_command({"/usr/bin/env", "URS_NAMING=" + naming_->address(), URS_CLI_BIN, "rtc", "ls"}, 30s);
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_THAT(r.out, ContainsRegex("Diagnostic0\\.rtc +Inactive"));
 }

@@ -13,11 +13,15 @@
 #include <string>
 #include <vector>
 
+// The data types' Any operators are global functions: they must be declared before the templates
+// of urs/rtc/data_port.hpp, which clang-format would otherwise put first as this file's own header.
+// clang-format off
 #include "BasicDataType.hh"
-#include "DataPort.hh"
 #include "ExtendedDataTypes.hh"
-#include "process.hpp"
 #include "urs/rtc/data_port.hpp"
+// clang-format on
+#include "DataPort.hh"
+#include "process.hpp"
 #include "urs/rtc/nvlist.hpp"
 #include "urs/rtc/orb.hpp"
 #include "urs/rtc/tools.hpp"
@@ -355,8 +359,8 @@ TEST(ForeignInPort, MissingInPortCdrRefusesTheConnection) {
 
 // Connects `in` alone, as a foreign OutPort's connect would, and returns the InPortCdr it published.
 OpenRTM::InPortCdr_ptr published_inport(rtc::InPort<RTC::TimedLong>& in, const char* endian) {
-  const auto connection = connect({&in}, properties({{"dataport.serializer.cdr.endian", endian},
-                                                     {"dataport.data_type", "IDL:RTC/TimedLong:1.0"}}));
+  const auto connection = connect(
+      {&in}, properties({{"dataport.serializer.cdr.endian", endian}, {"dataport.data_type", "IDL:RTC/TimedLong:1.0"}}));
   EXPECT_EQ(connection.code, RTC::RTC_OK);
   CORBA::Object_var object = rtc::nv_object(connection.profile.properties, "dataport.corba_cdr.inport_ref");
   const auto ior = rtc::nv_string(connection.profile.properties, "dataport.corba_cdr.inport_ior");
@@ -543,9 +547,12 @@ TEST(Refused, ConnectorPropertiesThePortsDoNotSupport) {
   Writer<RTC::TimedLong> out("count");
   Reader<RTC::TimedLong> in("count");
   const std::pair<std::string, std::string> unsupported[] = {
-      {"dataport.data_type", "IDL:RTC/TimedShort:1.0"}, {"dataport.subscription_type", "periodic"},
-      {"dataport.serializer.cdr.endian", "middle"},     {"dataport.interface_type", "shared_memory"},
-      {"dataport.dataflow_type", "pull"},               {"dataport.marshaling_type", "json"},
+      {"dataport.data_type", "IDL:RTC/TimedShort:1.0"},
+      {"dataport.subscription_type", "periodic"},
+      {"dataport.serializer.cdr.endian", "middle"},
+      {"dataport.interface_type", "shared_memory"},
+      {"dataport.dataflow_type", "pull"},
+      {"dataport.marshaling_type", "json"},
   };
   for (const auto& property : unsupported) {
     EXPECT_EQ(connect({&out, &in}, properties({property})).code, RTC::BAD_PARAMETER) << property.first;

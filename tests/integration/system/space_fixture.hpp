@@ -10,6 +10,7 @@
 #include <memory>
 #include <string>
 
+#include "metrics_scrape.hpp"
 #include "process.hpp"
 
 namespace urs::test {
@@ -30,14 +31,16 @@ class SpaceTest : public ::testing::Test {
     port_ = std::stoi(read_text(dir_ + "/port"));
     sam_ = std::make_unique<Process>(
         std::vector<std::string>{URS_SAM_BIN, "--space", "lab", "--server", server_address(), "--config",
-                                 dir_ + "/sam.yaml", "--token-file", dir_ + "/token", "--log-level", "debug"},
+                                 dir_ + "/sam.yaml", "--token-file", dir_ + "/token", "--log-level", "debug",
+                                 "--metrics-listen", "127.0.0.1:0"},
         dir_ + "/sam.log");
     ASSERT_TRUE(wait_for_service("diag")) << sam_->log() << server_->log();
   }
 
   void TearDown() override {
     if (HasFailure()) {
-      std::cerr << "---- server log\n" << (server_ ? server_->log() : "") << "---- sam log\n"
+      std::cerr << "---- server log\n"
+                << (server_ ? server_->log() : "") << "---- sam log\n"
                 << (sam_ ? sam_->log() : "");
     }
     sam_.reset();
@@ -49,13 +52,19 @@ class SpaceTest : public ::testing::Test {
     std::filesystem::remove(dir_ + "/port");
     server_ = std::make_unique<Process>(
         std::vector<std::string>{URS_SERVER_BIN, "--space", "lab", "--listen", "127.0.0.1:" + std::to_string(port),
-                                 "--token-file", dir_ + "/token", "--token-role", "operator", "--data-dir", dir_ + "/data", "--port-file",
-                                 dir_ + "/port", "--heartbeat-ms", "200", "--heartbeat-timeout-ms", "1000",
-                                 "--log-level", "debug"},
+                                 "--token-file", dir_ + "/token", "--token-role", "operator", "--data-dir",
+                                 dir_ + "/data", "--port-file", dir_ + "/port", "--heartbeat-ms", "200",
+                                 "--heartbeat-timeout-ms", "1000", "--log-level", "debug"},
         dir_ + "/server.log");
   }
 
   std::string server_address() const { return "127.0.0.1:" + std::to_string(port_); }
+
+  // The port of the SAM's --metrics-listen endpoint (from its log).
+  uint16_t sam_metrics_port() {
+    EXPECT_TRUE(wait_until([&] { return metrics_port_in_log(sam_->log()).has_value(); }, std::chrono::seconds(10)));
+    return metrics_port_in_log(sam_->log()).value_or(0);
+  }
 
   CommandResult urs(std::vector<std::string> args, std::chrono::milliseconds timeout = std::chrono::seconds(20)) {
     std::vector<std::string> argv{URS_CLI_BIN, "--server", server_address(), "--token-file", dir_ + "/token"};
@@ -74,10 +83,10 @@ class SpaceTest : public ::testing::Test {
 
   // `urs watch PATTERN`, exiting after `count` events (0: no limit) or `for_ms`; its output in watch.log.
   std::unique_ptr<Process> watch(const std::string& pattern, int count, int for_ms) {
-    return std::make_unique<Process>(std::vector<std::string>{URS_CLI_BIN, "--server", server_address(), "--token-file",
-                                                              dir_ + "/token", "watch", pattern, "--count",
-                                                              std::to_string(count), "--for-ms", std::to_string(for_ms)},
-                                     dir_ + "/watch.log");
+    return std::make_unique<Process>(
+        std::vector<std::string>{URS_CLI_BIN, "--server", server_address(), "--token-file", dir_ + "/token", "watch",
+                                 pattern, "--count", std::to_string(count), "--for-ms", std::to_string(for_ms)},
+        dir_ + "/watch.log");
   }
 
   static void write(const std::string& path, const std::string& text) { std::ofstream(path) << text; }

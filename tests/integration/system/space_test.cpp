@@ -1,10 +1,11 @@
 // The CAMUS space end to end on loopback: CLI → server → SAM → diagnostic agent, with faults.
 
+#include <gmock/gmock.h>
+
+#include <regex>
 #include <thread>
 
 #include "Diagnostic.pb.h"
-#include <gmock/gmock.h>
-
 #include "space_fixture.hpp"
 #include "urs/planet/client.hpp"
 
@@ -80,8 +81,8 @@ TEST_F(SpaceTest, ACallWithoutDeadlineGetsTheOneTheServiceAdvertised) {
 
 TEST_F(SpaceTest, WrongTokenIsRefusedWithTheReason) {
   write(dir_ + "/bad-token", "wrong\n");
-  auto r = run_command({URS_CLI_BIN, "--server", server_address(), "--token-file", dir_ + "/bad-token",
-                        "--timeout-ms", "2000", "ls"});
+  auto r = run_command(
+      {URS_CLI_BIN, "--server", server_address(), "--token-file", dir_ + "/bad-token", "--timeout-ms", "2000", "ls"});
   EXPECT_EQ(r.exit_code, 3);
   EXPECT_THAT(r.err, HasSubstr("wrong token"));
 }
@@ -169,10 +170,10 @@ TEST_F(SpaceTest, TaskPublishStepSendsATypedEvent) {
       },
       10s));
   EXPECT_THAT(watcher.log(), HasSubstr(R"("content_type":"URS.Failure","payload":{"reason":"open","code":1})"));
-  EXPECT_THAT(watcher.log(), HasSubstr(R"("source":"camus-server")"));
+  // A task publishes as its owner: here the runner, the credential of --token-file.
+  EXPECT_THAT(watcher.log(), HasSubstr(R"("source":"space")"));
 
-  write(dir_ + "/bad.yaml",
-        "name: bad\nsteps:\n  - publish: {topic: door/front, type: URS.Nothing}\n");
+  write(dir_ + "/bad.yaml", "name: bad\nsteps:\n  - publish: {topic: door/front, type: URS.Nothing}\n");
   auto r = urs({"task", "run", "--file", dir_ + "/bad.yaml", "--wait"});
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_THAT(r.out, HasSubstr("no registered interface describes the type URS.Nothing"));
@@ -207,7 +208,8 @@ TEST_F(SpaceTest, ServerKilledAndRestartedSamReRegistersWithoutRestart) {
   auto restarted = std::chrono::steady_clock::now();
   ASSERT_TRUE(wait_for_service("diag", 2s)) << "diag not listed within 2 s of the restart";
   auto listed_after = std::chrono::steady_clock::now() - restarted;
-  RecordProperty("relisted_ms", std::to_string(std::chrono::duration_cast<std::chrono::milliseconds>(listed_after).count()));
+  RecordProperty("relisted_ms",
+                 std::to_string(std::chrono::duration_cast<std::chrono::milliseconds>(listed_after).count()));
   auto r = urs({"call", "diag", "echo", R"({"text":"after restart"})"});
   EXPECT_EQ(r.exit_code, 0) << r.err;
   EXPECT_TRUE(sam_->running());
@@ -273,6 +275,61 @@ TEST_F(SpaceTest, PythonClientCallsAndReceivesAnEventFromTheSpecAlone) {
   EXPECT_THAT(r.out, HasSubstr("echo reply: hola"));
   EXPECT_THAT(r.out, HasSubstr("sleep reply: DEADLINE_EXCEEDED"));
   EXPECT_THAT(r.out, HasSubstr("event: lab/python"));
+}
+
+// One call followed: the trace id `urs call` prints is on the server's line for the call and on
+// the SAM's line for serving it (both log at debug level here).
+TEST_F(SpaceTest, OneCallsTraceIdIsOnTheServersAndTheSamsLinesForIt) {
+  auto r = urs({"call", "diag", "echo", R"({"text":"followed"})", "--show-trace"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  std::smatch match;
+  ASSERT_TRUE(std::regex_search(r.err, match, std::regex("trace ([0-9a-f]{32})\n"))) << r.err;
+  const std::string id = match[1];
+  const std::regex server_line("trace=" + id + " call diag\\.echo from space: OK in [0-9]+ us");
+  const std::regex sam_line("trace=" + id + " served diag\\.echo: OK in [0-9]+ us");
+  EXPECT_TRUE(wait_until([&] { return std::regex_search(server_->log(), server_line); }, 5s)) << server_->log();
+  EXPECT_TRUE(wait_until([&] { return std::regex_search(sam_->log(), sam_line); }, 5s)) << sam_->log();
+  // Another call is another trace.
+  r = urs({"call", "diag", "echo", R"({"text":"again"})", "--show-trace"});
+  ASSERT_TRUE(std::regex_search(r.err, match, std::regex("trace ([0-9a-f]{32})\n")));
+  EXPECT_NE(match[1], id);
+  // A caller's trace is taken and carried on; a value that is not one is refused before calling.
+  const std::string given = "4bf92f3577b34da6a3ce929d0e0e4736";
+  r = urs({"call", "diag", "echo", R"({"text":"given"})", "--traceparent", "00-" + given + "-00f067aa0ba902b7-01",
+           "--show-trace"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.err, HasSubstr("trace " + given + "\n"));
+  const std::regex given_line("trace=" + given + " served diag\\.echo: OK in [0-9]+ us");
+  EXPECT_TRUE(wait_until([&] { return std::regex_search(sam_->log(), given_line); }, 5s)) << sam_->log();
+  r = urs({"call", "diag", "echo", "{}", "--traceparent", "00-" + given + "-0000000000000000-01"});
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.err, HasSubstr("--traceparent: "));
+}
+
+TEST_F(SpaceTest, SamMetricsCountTheCallsItServedAndItsReadiness) {
+  const uint16_t port = sam_metrics_port();
+  for (int i = 0; i < 2; ++i) ASSERT_EQ(urs({"call", "diag", "echo", R"({"text":"x"})"}).exit_code, 0);
+  ASSERT_EQ(urs({"call", "diag", "fail", R"({"reason":"r","code":1})"}).exit_code, 1);
+  auto response = http_get(port, "/metrics");
+  ASSERT_EQ(response.status, 200);
+  const std::string& text = response.body;
+  auto served = [&](const std::string& operation, const std::string& status) {
+    return metric_value(text, "urslink_served_calls_total",
+                        {{"via", "planet"}, {"service", "diag"}, {"operation", operation}, {"status", status}});
+  };
+  EXPECT_EQ(served("echo", "OK"), 2);
+  EXPECT_EQ(served("fail", "USER_EXCEPTION"), 1);
+  EXPECT_EQ(metric_value(text, "urslink_build_info", {{"program", "urs-sam"}, {"space", "lab"}}), 1);
+  auto checked = promtool_check_metrics(text);
+  EXPECT_EQ(checked.out + checked.err, "") << text;
+  auto ready = http_get(port, "/readyz");
+  EXPECT_EQ(ready.status, 200);
+  EXPECT_EQ(ready.body, "ok agents registered\n");
+  // Without its server the SAM is alive but not ready.
+  server_.reset();
+  EXPECT_TRUE(wait_until([&] { return http_get(port, "/readyz").status == 503; }, 10s));
+  EXPECT_THAT(http_get(port, "/readyz").body, HasSubstr("not ready agents registered: not connected to"));
+  EXPECT_EQ(http_get(port, "/healthz").status, 200);
 }
 
 }  // namespace

@@ -1,22 +1,20 @@
 // AgentHost: decoding, validation, worker-pool dispatch and encoding of outcomes.
 
 #include <gmock/gmock.h>
+#include <google/protobuf/descriptor.pb.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <condition_variable>
 #include <future>
 #include <mutex>
 #include <thread>
 
-#include <google/protobuf/descriptor.pb.h>
-
-#include <algorithm>
-
 #include "Diagnostic.pb.h"
-#include "urs/diagnostic/diagnostic_agent.hpp"
 #include "sam_config.hpp"
 #include "urs/agent/agent.hpp"
 #include "urs/agent/camus.hpp"
+#include "urs/diagnostic/diagnostic_agent.hpp"
 #include "urs/util/cli.hpp"
 
 namespace urs::agent {
@@ -47,7 +45,7 @@ class HostTest : public ::testing::Test {
   }
 
   call::Reply call(const std::string& service, const std::string& op, const std::string& payload,
-                          uint32_t deadline_ms = 0) {
+                   uint32_t deadline_ms = 0) {
     call::Request request;
     request.service = service;
     request.operation = op;
@@ -56,8 +54,10 @@ class HostTest : public ::testing::Test {
     request.caller = {"lab", "tester", "client"};
     auto promise = std::make_shared<std::promise<call::Reply>>();
     auto future = promise->get_future();
-    host_.dispatch(std::move(request), call::Responder::from_callback([promise](call::Reply r) { promise->set_value(r); }));
-    if (future.wait_for(5s) != std::future_status::ready) return call::Reply::error(call::Status::INTERNAL, "no answer");
+    host_.dispatch(std::move(request),
+                   call::Responder::from_callback([promise](call::Reply r) { promise->set_value(r); }));
+    if (future.wait_for(5s) != std::future_status::ready)
+      return call::Reply::error(call::Status::INTERNAL, "no answer");
     return future.get();
   }
 
@@ -218,9 +218,9 @@ TEST_F(HostTest, AOnewayCallGetsNoReply) {
   // The responder is destroyed unanswered once the call ran: its callback then sees INTERNAL
   // ("dropped"), never the agent's OK.
   host_.dispatch(std::move(request), call::Responder::from_callback([replied, dropped](call::Reply r) {
-    replied->set_value(r);
-    dropped->set_value();
-  }));
+                   replied->set_value(r);
+                   dropped->set_value();
+                 }));
   ASSERT_EQ(done.wait_for(5s), std::future_status::ready);
   EXPECT_EQ(reply.get().status, call::Status::INTERNAL);
   EXPECT_EQ(probe->service, "probe");
@@ -235,9 +235,9 @@ TEST_F(HostTest, InlineOperationsAreAnsweredOnTheReceivingThreadOthersOnAWorker)
     auto thread = std::make_shared<std::promise<std::thread::id>>();
     auto answered = thread->get_future();
     host_.dispatch(std::move(request), call::Responder::from_callback([thread](call::Reply r) {
-      EXPECT_TRUE(r.ok()) << r.message;
-      thread->set_value(std::this_thread::get_id());
-    }));
+                     EXPECT_TRUE(r.ok()) << r.message;
+                     thread->set_value(std::this_thread::get_id());
+                   }));
     EXPECT_EQ(answered.wait_for(5s), std::future_status::ready);
     return answered.get();
   };
@@ -326,9 +326,9 @@ TEST(AgentHostStop, QueuedCallsAreAnsweredWhenTheHostStops) {
   std::vector<call::Status> answers;
   for (int i = 0; i < 3; ++i) {
     host.dispatch(request, call::Responder::from_callback([&](call::Reply r) {
-      std::lock_guard<std::mutex> lock(mutex);
-      answers.push_back(r.status);
-    }));
+                    std::lock_guard<std::mutex> lock(mutex);
+                    answers.push_back(r.status);
+                  }));
   }
   host.stop();
   std::lock_guard<std::mutex> lock(mutex);
@@ -338,6 +338,85 @@ TEST(AgentHostStop, QueuedCallsAreAnsweredWhenTheHostStops) {
   EXPECT_EQ(std::count(answers.begin(), answers.end(), call::Status::UNAVAILABLE) +
                 std::count(answers.begin(), answers.end(), call::Status::OK),
             3);
+}
+
+// Blocks every call until opened; says when a call entered.
+class GateAgent : public ServiceAgent {
+ public:
+  const google::protobuf::ServiceDescriptor& interface() const override {
+    return *URS::Diagnostic_echo_Request::descriptor()->file()->FindServiceByName("Diagnostic");
+  }
+  Outcome invoke(const google::protobuf::MethodDescriptor&, const google::protobuf::Message&,
+                 google::protobuf::Message&, const CallContext&) override {
+    std::unique_lock<std::mutex> lock(mutex);
+    ++entered;
+    changed.notify_all();
+    changed.wait(lock, [&] { return open; });
+    return Outcome::ok();
+  }
+  void open_gate() {
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      open = true;
+    }
+    changed.notify_all();
+  }
+  std::mutex mutex;
+  std::condition_variable changed;
+  int entered = 0;
+  bool open = false;
+};
+
+TEST(AgentHostQueue, ACallBeyondTheConfiguredQueueIsRefusedNamingTheLimit) {
+  std::mutex mutex;  // before the host: its answers may come as it stops
+  std::condition_variable answered;
+  std::vector<call::Reply> answers;
+  RecordingSink sink;
+  AgentHost host(HostOptions{1, 2, "workers.queue"}, sink);
+  auto gate = std::make_shared<GateAgent>();
+  // Whatever happens below, the gate opens before the host stops (which waits for its worker).
+  struct Opener {
+    GateAgent& gate;
+    ~Opener() { gate.open_gate(); }
+  } opener{*gate};
+  host.add({"gate", gate, {}, 0});
+  host.start();
+  URS::Diagnostic_echo_Request echo;
+  echo.set_text("x");
+  call::Request request;
+  request.service = "gate";
+  request.operation = "echo";
+  request.payload = echo.SerializeAsString();
+  auto dispatch = [&] {
+    host.dispatch(request, call::Responder::from_callback([&](call::Reply r) {
+                    std::lock_guard<std::mutex> lock(mutex);
+                    answers.push_back(r);
+                    answered.notify_all();
+                  }));
+  };
+  dispatch();  // runs on the one worker, held by the gate
+  {
+    std::unique_lock<std::mutex> lock(gate->mutex);
+    ASSERT_TRUE(gate->changed.wait_for(lock, 5s, [&] { return gate->entered == 1; }));
+  }
+  dispatch();  // waits (1 of 2)
+  dispatch();  // waits (2 of 2)
+  dispatch();  // beyond the queue: refused at once, on this thread
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    ASSERT_EQ(answers.size(), 1u);
+    EXPECT_EQ(answers[0].status, call::Status::RESOURCE_EXHAUSTED);
+    EXPECT_EQ(answers[0].message,
+              "gate.echo refused: 2 calls already wait for the host's 1 workers (workers.queue 2); try again later");
+  }
+  gate->open_gate();
+  {
+    std::unique_lock<std::mutex> lock(mutex);
+    ASSERT_TRUE(answered.wait_for(lock, 5s, [&] { return answers.size() == 4; }));
+    EXPECT_EQ(std::count_if(answers.begin(), answers.end(), [](const call::Reply& r) { return r.ok(); }), 3)
+        << "the calls within the queue were served";
+  }
+  host.stop();
 }
 
 }  // namespace

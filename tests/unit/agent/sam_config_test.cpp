@@ -1,14 +1,14 @@
 // urs-sam configuration: validated once, every error reported with its key and value.
 
+#include "sam_config.hpp"
+
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
-
 #include <unistd.h>
 
 #include <cstdio>
 #include <fstream>
 
-#include "sam_config.hpp"
 #include "urs/util/cli.hpp"
 
 namespace urs::sam {
@@ -76,8 +76,9 @@ TEST(SamConfig, EmptyAgentListAndBadYamlAreRefused) {
 }
 
 TEST(SamConfig, PluginsAreHandedToTheLoaderBeforeTypesAreChecked) {
-  auto path = write_temp("plugins: [calc, /opt/x/libgrip.so]\nplugin_path: [/tmp]\n"
-                         "agents: [{name: c, type: calculator, params: {label: l}}]\n");
+  auto path = write_temp(
+      "plugins: [calc, /opt/x/libgrip.so]\nplugin_path: [/tmp]\n"
+      "agents: [{name: c, type: calculator, params: {label: l}}]\n");
   std::vector<std::string> seen;
   auto config = load_sam_config(path, "h", [&seen](const SamConfig& partial) {
     seen = partial.plugins;
@@ -92,8 +93,9 @@ TEST(SamConfig, PluginsAreHandedToTheLoaderBeforeTypesAreChecked) {
 }
 
 TEST(SamConfig, BadPluginKeysAreReportedWithTheOtherErrors) {
-  auto error = error_of("plugins: calc\nplugin_path: [/tmp, /nonexistent-folder]\n"
-                        "agents: [{name: a, type: laser}]\n");
+  auto error = error_of(
+      "plugins: calc\nplugin_path: [/tmp, /nonexistent-folder]\n"
+      "agents: [{name: a, type: laser}]\n");
   EXPECT_THAT(error, HasSubstr("plugins: must be a list of strings"));
   EXPECT_THAT(error, HasSubstr("plugin_path[1]: '/nonexistent-folder' is not a folder"));
   EXPECT_THAT(error, HasSubstr("agents[0].type: unknown agent type 'laser'"));

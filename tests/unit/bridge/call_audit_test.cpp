@@ -1,7 +1,7 @@
 // The audit log of calls from other spaces: one JSON line per call, written when answered,
 // rotated by size, never a payload or a reply's message.
 
-#include "urs/bridge/call_audit.hpp"
+#include "urs/bridge/dds/call_audit.hpp"
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -9,7 +9,7 @@
 #include <filesystem>
 #include <fstream>
 
-#include "urs/bridge/call_authorization.hpp"
+#include "urs/bridge/dds/call_authorization.hpp"
 
 namespace urs::bridge {
 namespace {
@@ -32,7 +32,7 @@ class CallAuditTest : public ::testing::Test {
 TEST(AuditLine, HoldsWhoWhatOutcomeAndDuration) {
   AuditEntry entry;
   entry.time = std::chrono::system_clock::time_point(std::chrono::microseconds(1795857615123456));
-  entry.caller = {"kr", "dds:kr", kVerifiedSpaceRole};
+  entry.caller = {"kr", "dds:kr", federation::kVerifiedSpaceRole};
   entry.service = "rt.Diagnostic0";
   entry.operation = "ping";
   entry.status = call::Status::OK;
@@ -41,7 +41,7 @@ TEST(AuditLine, HoldsWhoWhatOutcomeAndDuration) {
             "{\"time\":\"2026-11-28T09:20:15.123456Z\",\"caller_space\":\"kr\",\"caller\":\"dds:kr\","
             "\"space_verified\":true,\"service\":\"rt.Diagnostic0\",\"operation\":\"ping\",\"oneway\":false,"
             "\"status\":\"OK\",\"duration_us\":812}");
-  entry.caller.role = kDeclaredSpaceRole;
+  entry.caller.role = federation::kDeclaredSpaceRole;
   entry.caller.space = "k\"r";
   entry.status = call::Status::PERMISSION_DENIED;
   entry.refusal = "space k\"r may not call jp/rt.Diagnostic0";
@@ -52,13 +52,26 @@ TEST(AuditLine, HoldsWhoWhatOutcomeAndDuration) {
       << line;
 }
 
+TEST(AuditLine, HoldsTheCallsTraceIdWhenItCameWithOne) {
+  AuditEntry entry;
+  entry.service = "rt.Diagnostic0";
+  entry.operation = "ping";
+  entry.trace_id = "4bf92f3577b34da6a3ce929d0e0e4736";
+  entry.duration = std::chrono::microseconds(5);
+  const std::string line = audit_line(entry);
+  EXPECT_NE(line.find("\"status\":\"OK\",\"trace_id\":\"4bf92f3577b34da6a3ce929d0e0e4736\",\"duration_us\":5}"),
+            std::string::npos)
+      << line;
+}
+
 TEST_F(CallAuditTest, RecordsAnswersAndRefusalsWithoutPayloads) {
   auto audit = CallAudit::open({file_, 1u << 20, 2});
   call::Request request;
   request.service = "rt.Diagnostic0";
   request.operation = "ping";
   request.payload = "SECRET-PAYLOAD";
-  request.caller = {"kr", "dds:kr", kVerifiedSpaceRole};
+  request.caller = {"kr", "dds:kr", federation::kVerifiedSpaceRole};
+  request.traceparent = "00-4bf92f3577b34da6a3ce929d0e0e4736-00f067aa0ba902b7-01";
   std::optional<call::Reply> delivered;
   call::Responder responder = audit->recording(request, std::chrono::steady_clock::now(),
                                                call::Responder::from_callback([&](call::Reply r) { delivered = r; }));
@@ -73,7 +86,8 @@ TEST_F(CallAuditTest, RecordsAnswersAndRefusalsWithoutPayloads) {
 
   const auto lines = lines_of(file_);
   ASSERT_EQ(lines.size(), 3u);
-  EXPECT_NE(lines[0].find("\"status\":\"OK\""), std::string::npos) << lines[0];
+  EXPECT_NE(lines[0].find("\"status\":\"OK\",\"trace_id\":\"4bf92f3577b34da6a3ce929d0e0e4736\""), std::string::npos)
+      << lines[0];
   EXPECT_NE(lines[1].find("\"status\":\"PERMISSION_DENIED\",\"reason\":\"space kr may not call"), std::string::npos);
   EXPECT_NE(lines[2].find("\"oneway\":true"), std::string::npos) << lines[2];
   for (const auto& line : lines) EXPECT_EQ(line.find("SECRET"), std::string::npos) << line;
@@ -82,7 +96,7 @@ TEST_F(CallAuditTest, RecordsAnswersAndRefusalsWithoutPayloads) {
 TEST_F(CallAuditTest, RotatesBySizeKeepingTheFilesConfigured) {
   auto audit = CallAudit::open({file_, 1024, 2});
   AuditEntry entry;
-  entry.caller = {"kr", "dds:kr", kVerifiedSpaceRole};
+  entry.caller = {"kr", "dds:kr", federation::kVerifiedSpaceRole};
   entry.service = "rt.Diagnostic0";
   entry.operation = "ping";
   for (int i = 0; i < 40; ++i) audit->record(entry);  // ~200 bytes each: 8 KB through 1 KB files

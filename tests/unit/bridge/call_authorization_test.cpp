@@ -1,7 +1,7 @@
 // Who may call which exported service (dds.export.callers): the first rule naming the service
 // decides, callers by space or space/name (globs), unproven spaces only where trusted.
 
-#include "urs/bridge/call_authorization.hpp"
+#include "urs/bridge/dds/call_authorization.hpp"
 
 #include <gtest/gtest.h>
 
@@ -12,7 +12,7 @@ call::Request request_from(const std::string& space, const std::string& service,
   call::Request request;
   request.service = service;
   request.operation = "ping";
-  request.caller = {space, "dds:" + space, verified ? kVerifiedSpaceRole : kDeclaredSpaceRole};
+  request.caller = {space, "dds:" + space, verified ? federation::kVerifiedSpaceRole : federation::kDeclaredSpaceRole};
   return request;
 }
 
@@ -29,7 +29,7 @@ TEST(CallAuthorization, WithoutRulesEveryCallerPasses) {
 
 TEST(CallAuthorization, TheFirstRuleNamingTheServiceDecides) {
   EXPECT_FALSE(refusal(policy(), "jp", request_from("kr", "rt.Diagnostic0")));
-  EXPECT_FALSE(refusal(policy(), "jp", request_from("us", "rt.Diagnostic0")));  // by its bridge's name
+  EXPECT_FALSE(refusal(policy(), "jp", request_from("us", "rt.Diagnostic0")));     // by its bridge's name
   EXPECT_FALSE(refusal(policy(), "jp", request_from("ko", "robot1.navigation")));  // '*' rule, glob k?
   EXPECT_FALSE(refusal(policy(), "jp", request_from("eu-west", "robot1.navigation")));
   // rt.Secret0 matches the first rule (nobody) before '*', which would let kr in.
@@ -47,7 +47,7 @@ TEST(CallAuthorization, AServiceNoRuleNamesIsRefused) {
 }
 
 TEST(CallAuthorization, ANameInsideTheSpaceMustMatchWhenThePatternHasOne) {
-  const call::Identity bridge{"us", "dds:us", kVerifiedSpaceRole};
+  const call::Identity bridge{"us", "dds:us", federation::kVerifiedSpaceRole};
   EXPECT_TRUE(caller_matches("us", bridge));
   EXPECT_TRUE(caller_matches("us/dds:*", bridge));
   EXPECT_TRUE(caller_matches("*/dds:us", bridge));
@@ -66,9 +66,10 @@ TEST(CallAuthorization, ACallerNamedInsideItsSpaceIsJudgedAndRefusedByItsName) {
   EXPECT_FALSE(refusal(p, "jp", request));
   request.caller.name = "visitor";
   EXPECT_EQ(refusal(p, "jp", request), "kr/visitor may not call jp/rt.Diagnostic0");
-  request.caller.role = kDeclaredSpaceRole;
-  EXPECT_EQ(refusal(p, "jp", request), "kr/visitor may not call jp/rt.Diagnostic0: its space is only declared, not "
-                                       "proven by a certificate of the link (dds.export.trust_declared_space is off)");
+  request.caller.role = federation::kDeclaredSpaceRole;
+  EXPECT_EQ(refusal(p, "jp", request),
+            "kr/visitor may not call jp/rt.Diagnostic0: its space is only declared, not "
+            "proven by a certificate of the link (dds.export.trust_declared_space is off)");
 }
 
 TEST(CallAuthorization, CallerNameProblemsAreNamed) {
@@ -81,7 +82,7 @@ TEST(CallAuthorization, CallerNameProblemsAreNamed) {
   EXPECT_EQ(caller_name_problem("ann\\n"), "");  // a backslash is printable
   EXPECT_EQ(caller_name_problem(std::string("ann\x00", 4)), "holds white space or a character outside printable ASCII");
   EXPECT_EQ(caller_name_problem("task:square-path/r3"), "");  // a CAMUS task's calls
-  EXPECT_TRUE(caller_matches("kr/task:*", {"kr", "task:square-path/r3", kVerifiedSpaceRole}));
+  EXPECT_TRUE(caller_matches("kr/task:*", {"kr", "task:square-path/r3", federation::kVerifiedSpaceRole}));
   EXPECT_EQ(caller_name_problem("dds:kr"), "'dds:kr' begins with 'dds:' (the bridges' own names)");
 }
 
@@ -89,8 +90,9 @@ TEST(CallAuthorization, ADeclaredSpaceIsJudgedOnlyWhereTrusted) {
   CallerPolicy p = policy();
   const auto refused = refusal(p, "jp", request_from("kr", "rt.Diagnostic0", false));
   ASSERT_TRUE(refused);
-  EXPECT_EQ(*refused, "space kr may not call jp/rt.Diagnostic0: its space is only declared, not proven by a "
-                      "certificate of the link (dds.export.trust_declared_space is off)");
+  EXPECT_EQ(*refused,
+            "space kr may not call jp/rt.Diagnostic0: its space is only declared, not proven by a "
+            "certificate of the link (dds.export.trust_declared_space is off)");
   p.trust_declared_space = true;
   EXPECT_FALSE(refusal(p, "jp", request_from("kr", "rt.Diagnostic0", false)));
   EXPECT_EQ(refusal(p, "jp", request_from("kr", "rt.Secret0", false)), "space kr may not call jp/rt.Secret0");
@@ -98,7 +100,8 @@ TEST(CallAuthorization, ADeclaredSpaceIsJudgedOnlyWhereTrusted) {
 
 TEST(CallAuthorization, PatternProblemsAreNamed) {
   for (const char* good : {"kr", "kr/operator-*", "*"}) EXPECT_EQ(caller_pattern_problem(good), "") << good;
-  for (const char* bad : {"", "a/b/c", "/a", "a/", "a b"}) EXPECT_NE(caller_pattern_problem(bad), "") << "'" << bad << "'";
+  for (const char* bad : {"", "a/b/c", "/a", "a/", "a b"})
+    EXPECT_NE(caller_pattern_problem(bad), "") << "'" << bad << "'";
 }
 
 }  // namespace

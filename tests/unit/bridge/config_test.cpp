@@ -1,12 +1,13 @@
 // urs-bridge configuration: what it accepts, its defaults, and every error named with its key.
 
+#include "urs/bridge/config.hpp"
+
 #include <gtest/gtest.h>
 #include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
 
-#include "urs/bridge/config.hpp"
 #include "urs/util/cli.hpp"
 
 namespace urs::bridge {
@@ -42,6 +43,14 @@ TEST_F(BridgeConfigTest, DefaultsWithoutDds) {
   EXPECT_TRUE(config.dds.state.events.empty());
   EXPECT_TRUE(config.dds.state.context_allow.empty());
   EXPECT_EQ(load("{}\n").name, "bridge@host1");
+}
+
+TEST_F(BridgeConfigTest, TheHostsQueueIsBoundedAndTheRegistryPollIsAFallback) {
+  const BridgeConfig defaults = load("name: b\n");
+  EXPECT_EQ(defaults.queue, 1024u);
+  EXPECT_EQ(defaults.camus_poll, std::chrono::milliseconds(10000));
+  EXPECT_EQ(load("queue: 0\n").queue, 0u);  // no limit
+  EXPECT_NE(refused("queue: 2000000\n").find("queue: 2000000 is outside 0..1000000"), std::string::npos);
 }
 
 TEST_F(BridgeConfigTest, SharedStateAndDiscoveryServer) {
@@ -105,6 +114,86 @@ TEST_F(BridgeConfigTest, EveryStateAndDiscoveryErrorIsNamedWithItsKey) {
             std::string::npos);
 }
 
+// The link over TCP (docs/sites.md): a listening site with the public address it announces, a
+// site connecting out to it, the discovery server on the listening port.
+TEST_F(BridgeConfigTest, TheLinkOverTcpListensOrConnects) {
+  using Transport = federation::DdsOptions::Transport;
+  EXPECT_EQ(load("dds: {domain: 3}\n").dds.link.transport, Transport::kUdp);
+  EXPECT_EQ(load("dds: {transport: udp}\n").dds.link.transport, Transport::kUdp);
+
+  const BridgeConfig listening = load("dds: {transport: tcp, tcp: {listen: 7400, public: \"198.51.100.2\"}}\n");
+  EXPECT_EQ(listening.dds.link.transport, Transport::kTcp);
+  EXPECT_EQ(listening.dds.link.tcp.listen, 7400);
+  EXPECT_EQ(listening.dds.link.tcp.public_address, "198.51.100.2");
+  EXPECT_EQ(listening.dds.link.tcp.public_port, 0);  // the listening port
+  EXPECT_TRUE(listening.dds.link.tcp.connect.empty());
+
+  const BridgeConfig forwarded = load("dds: {transport: tcp, tcp: {listen: 7400, public: \"198.51.100.2:443\"}}\n");
+  EXPECT_EQ(forwarded.dds.link.tcp.public_address, "198.51.100.2");
+  EXPECT_EQ(forwarded.dds.link.tcp.public_port, 443);
+
+  const BridgeConfig connecting =
+      load("dds: {transport: tcp, tcp: {connect: [\"site-a.example:7400\", \"10.0.0.2:443\"]}}\n");
+  EXPECT_EQ(connecting.dds.link.tcp.listen, 0);
+  EXPECT_EQ(connecting.dds.link.tcp.connect, (std::vector<std::string>{"site-a.example:7400", "10.0.0.2:443"}));
+  EXPECT_TRUE(connecting.dds.link.tcp.public_address.empty());
+  EXPECT_EQ(
+      load("dds: {transport: tcp, tcp: {connect: [\"a:7400\"], public: 192.168.10.2}}\n").dds.link.tcp.public_address,
+      "192.168.10.2");
+
+  const BridgeConfig server =
+      load("dds: {transport: tcp, tcp: {listen: 7400, public: 198.51.100.2}, discovery: {listen: \"0.0.0.0:7400\"}}\n");
+  EXPECT_EQ(server.dds.link.discovery_listen, "0.0.0.0:7400");
+  const BridgeConfig client = load("dds: {transport: tcp, discovery: {servers: [\"198.51.100.2:7400\"]}}\n");
+  EXPECT_EQ(client.dds.link.discovery_servers, std::vector<std::string>{"198.51.100.2:7400"});
+}
+
+TEST_F(BridgeConfigTest, EveryTcpErrorIsNamedWithItsKey) {
+  const std::string message = refused(
+      "dds:\n"
+      "  transport: tcp\n"
+      "  udp_only: true\n"
+      "  initial_peers: [a]\n"
+      "  tcp: {listen: 7400, connect: [\"no-port\", \"a:70000\"], colour: blue}\n");
+  for (const char* expected : {
+           "dds.udp_only: has no effect with dds.transport: tcp",
+           "dds.initial_peers: UDP only; over TCP the listening sites are dds.tcp.connect",
+           "dds.tcp.connect[0]: 'no-port' is not HOST:PORT",
+           "dds.tcp.connect[1]: 'a:70000' is not HOST:PORT",
+           "dds.tcp.colour",
+           "dds.tcp.public: missing: a listening site must announce the address",
+       }) {
+    EXPECT_NE(message.find(expected), std::string::npos) << "missing \"" << expected << "\" in:\n" << message;
+  }
+  EXPECT_NE(refused("dds: {transport: quic}\n").find("dds.transport: 'quic' is neither udp nor tcp"),
+            std::string::npos);
+  EXPECT_NE(refused("dds: {tcp: {listen: 7400}}\n").find("dds.tcp: only with dds.transport: tcp"), std::string::npos);
+  EXPECT_NE(refused("dds: {transport: tcp}\n").find("dds.tcp: missing: give 'listen'"), std::string::npos);
+  EXPECT_NE(refused("dds: {transport: tcp, tcp: {}}\n").find("dds.tcp: give 'listen' (this site listens) or 'connect'"),
+            std::string::npos);
+  EXPECT_NE(
+      refused("dds: {transport: tcp, tcp: {listen: 0, public: 1.2.3.4}}\n").find("dds.tcp.listen: must be a port"),
+      std::string::npos);
+  EXPECT_NE(refused("dds: {transport: tcp, tcp: {listen: 7400, public: site-a.example}}\n")
+                .find("dds.tcp.public: 'site-a.example' is not IPv4[:PORT]"),
+            std::string::npos);
+  EXPECT_NE(refused("dds: {transport: tcp, tcp: {listen: 7400, public: \"1.2.3.4:0\"}}\n")
+                .find("dds.tcp.public: '1.2.3.4:0' is not IPv4[:PORT]"),
+            std::string::npos);
+  EXPECT_NE(refused("dds: {transport: tcp, tcp: {connect: [\"a:7400\"], public: \"1.2.3.4:7400\"}}\n")
+                .find("dds.tcp.public: a site that does not listen announces an address only"),
+            std::string::npos);
+  EXPECT_NE(
+      refused("dds: {transport: tcp, tcp: {listen: 7400, public: 1.2.3.4}, discovery: {listen: \"0.0.0.0:11811\"}}\n")
+          .find("dds.discovery.listen: over TCP the discovery server listens on the link's port (dds.tcp.listen "
+                "7400), not on 11811"),
+      std::string::npos);
+  EXPECT_NE(refused("dds: {transport: tcp, tcp: {listen: 7400, public: 1.2.3.4}, discovery: {servers: [\"a:7400\"]},\n"
+                    "      security: {pki: x}}\n")
+                .find("dds.security: cannot be combined with dds.discovery"),
+            std::string::npos);
+}
+
 // DDS-Security: deploy/pki.sh's folder, or the files by name (a named file overriding the folder's);
 // one of the two, with a certificate, is required; unknown keys are named.
 TEST_F(BridgeConfigTest, SecurityTakesThePkiFolderOrTheFiles) {
@@ -113,8 +202,9 @@ TEST_F(BridgeConfigTest, SecurityTakesThePkiFolderOrTheFiles) {
   EXPECT_EQ(folder.dds.link.security.crl, "/etc/urs/crl.pem");
   EXPECT_FALSE(folder.dds.link.security.enabled());  // until the bridge fills it from the folder
 
-  const BridgeConfig files = load("dds: {security: {identity_ca: ca.pem, certificate: kr.pem, private_key: kr.key,\n"
-                                  "                  governance: g.p7s, permissions: p.p7s}}\n");
+  const BridgeConfig files = load(
+      "dds: {security: {identity_ca: ca.pem, certificate: kr.pem, private_key: kr.key,\n"
+      "                  governance: g.p7s, permissions: p.p7s}}\n");
   EXPECT_TRUE(files.dds.link.security.enabled());
   EXPECT_EQ(files.dds.link.security.documents_ca(), "ca.pem");
 
@@ -130,14 +220,15 @@ TEST_F(BridgeConfigTest, SecurityTakesThePkiFolderOrTheFiles) {
 // SPACE/NAME); trust_declared_space only with callers and never on a secured link; dds.audit's
 // file is taken from the configuration's folder, which must exist.
 TEST_F(BridgeConfigTest, CallersAndAuditAreReadInOrderWithEveryErrorNamed) {
-  const DdsConfig dds = load("dds:\n"
-                             "  export:\n"
-                             "    callers:\n"
-                             "      \"rt.Secret*\": []\n"
-                             "      \"rt.Diagnostic*\": [kr, \"jp/dds:jp\"]\n"
-                             "      \"*\": [\"*\"]\n"
-                             "    trust_declared_space: true\n"
-                             "  audit: {file: calls.jsonl, max_bytes: 4096, files: 2}\n")
+  const DdsConfig dds = load(
+                            "dds:\n"
+                            "  export:\n"
+                            "    callers:\n"
+                            "      \"rt.Secret*\": []\n"
+                            "      \"rt.Diagnostic*\": [kr, \"jp/dds:jp\"]\n"
+                            "      \"*\": [\"*\"]\n"
+                            "    trust_declared_space: true\n"
+                            "  audit: {file: calls.jsonl, max_bytes: 4096, files: 2}\n")
                             .dds;
   EXPECT_TRUE(dds.callers.enabled);
   EXPECT_TRUE(dds.callers.trust_declared_space);
@@ -206,10 +297,21 @@ TEST_F(BridgeConfigTest, ParticipantLeaseDefaultsLongAndIsNeverBelowTheLease) {
             std::string::npos);
   EXPECT_NE(refused("dds: {participant_lease_ms: 50}\n").find("dds.participant_lease_ms: 50 is outside 100..600000"),
             std::string::npos);
-  EXPECT_NE(refused("dds: {participant_lease_ms: 700000}\n")
-                .find("dds.participant_lease_ms: 700000 is outside 100..600000"),
-            std::string::npos);
+  EXPECT_NE(
+      refused("dds: {participant_lease_ms: 700000}\n").find("dds.participant_lease_ms: 700000 is outside 100..600000"),
+      std::string::npos);
   EXPECT_NE(refused("dds: {participant_lease_ms: soon}\n").find("dds.participant_lease_ms"), std::string::npos);
+}
+
+// How long a lost space's services stay, unreachable: 30 s by default, 0 (none) up to an hour.
+TEST_F(BridgeConfigTest, ALostSpacesServicesAreHeldThirtySecondsUnlessConfigured) {
+  EXPECT_EQ(load("dds: {domain: 3}\n").dds.hold_lost.count(), 30000);
+  EXPECT_EQ(load("dds: {hold_lost_ms: 0}\n").dds.hold_lost.count(), 0);
+  EXPECT_EQ(load("dds: {hold_lost_ms: 3600000}\n").dds.hold_lost.count(), 3600000);
+  EXPECT_NE(refused("dds: {hold_lost_ms: -1}\n").find("dds.hold_lost_ms: -1 is outside 0..3600000"), std::string::npos);
+  EXPECT_NE(refused("dds: {hold_lost_ms: 3600001}\n").find("dds.hold_lost_ms: 3600001 is outside 0..3600000"),
+            std::string::npos);
+  EXPECT_NE(refused("dds: {hold_lost_ms: later}\n").find("dds.hold_lost_ms"), std::string::npos);
 }
 
 }  // namespace

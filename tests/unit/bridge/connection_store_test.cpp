@@ -1,13 +1,13 @@
 // ConnectionStore: what the bridge keeps of its RTCs' connections survives a save and a load,
 // a malformed entry is skipped without losing the others, and no path keeps nothing.
 
+#include "urs/bridge/rt/connection_store.hpp"
+
 #include <gtest/gtest.h>
 #include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
-
-#include "urs/bridge/connection_store.hpp"
 
 namespace urs::bridge {
 namespace {
@@ -15,9 +15,8 @@ namespace {
 class ConnectionStoreTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = std::filesystem::temp_directory_path() /
-           ("urs-store-" + std::to_string(getpid()) + "-" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    dir_ = std::filesystem::temp_directory_path() / ("urs-store-" + std::to_string(getpid()) + "-" +
+                                                     ::testing::UnitTest::GetInstance()->current_test_info()->name());
     std::filesystem::create_directories(dir_);
   }
   void TearDown() override { std::filesystem::remove_all(dir_); }
@@ -27,8 +26,13 @@ class ConnectionStoreTest : public ::testing::Test {
 };
 
 SavedConnection consumer_connection() {
-  return {"camus:diag", "diagnostic", "5f0c-1", "MyConsumer0.myservice0: \"quoted\"", false,
-          {"IOR:0123abcd", ""}, {{"port.connection.strictness", "best_effort"}, {"weird key: #", "a\nb"}}};
+  return {"camus:diag",
+          "diagnostic",
+          "5f0c-1",
+          "MyConsumer0.myservice0: \"quoted\"",
+          false,
+          {"IOR:0123abcd", ""},
+          {{"port.connection.strictness", "best_effort"}, {"weird key: #", "a\nb"}}};
 }
 
 TEST_F(ConnectionStoreTest, WhatIsSavedIsLoadedBack) {

@@ -5,17 +5,17 @@
 
 #include "dds_identity.hpp"
 
+#include <fastdds/rtps/builtin/data/ParticipantProxyData.h>
+#include <fastdds/rtps/participant/ParticipantDiscoveryInfo.h>
 #include <gtest/gtest.h>
 #include <spdlog/sinks/ostream_sink.h>
 #include <spdlog/spdlog.h>
 
 #include <cstring>
 #include <fastdds/rtps/attributes/RTPSParticipantAllocationAttributes.hpp>
-#include <fastdds/rtps/builtin/data/ParticipantProxyData.h>
-#include <fastdds/rtps/participant/ParticipantDiscoveryInfo.h>
 #include <sstream>
 
-namespace urs::bridge {
+namespace urs::federation {
 namespace {
 
 namespace rtps = eprosima::fastrtps::rtps;
@@ -59,9 +59,9 @@ rtps::ParticipantProxyData participant(const std::string& subject, uint8_t tail,
   return data;
 }
 
-void discovered(DdsIdentities& identities, const rtps::ParticipantProxyData& data,
-                rtps::ParticipantDiscoveryInfo::DISCOVERY_STATUS status =
-                    rtps::ParticipantDiscoveryInfo::DISCOVERED_PARTICIPANT) {
+void discovered(
+    DdsIdentities& identities, const rtps::ParticipantProxyData& data,
+    rtps::ParticipantDiscoveryInfo::DISCOVERY_STATUS status = rtps::ParticipantDiscoveryInfo::DISCOVERED_PARTICIPANT) {
   rtps::ParticipantDiscoveryInfo info(data);
   info.status = status;
   identities.on_participant_discovery(nullptr, std::move(info));
@@ -88,8 +88,7 @@ TEST(DdsIdentities, OnASecuredLinkAParticipantSpeaksOnlyForTheSpaceItProved) {
   EXPECT_FALSE(identities.speaks_for(writer_of(spy, 1), "kr", "catalog entry", "diag"));
   EXPECT_FALSE(identities.speaks_for(writer_of(kr, 1), "jp", "context entry", "room.temperature"));
 
-  EXPECT_EQ(log.count("a member proven as spy announced space kr's catalog entry kr/diag: ignored"), 1u)
-      << log.text();
+  EXPECT_EQ(log.count("a member proven as spy announced space kr's catalog entry kr/diag: ignored"), 1u) << log.text();
   EXPECT_EQ(log.count("a member proven as kr announced space jp's context entry jp/room.temperature: ignored"), 1u)
       << log.text();
 }
@@ -136,8 +135,45 @@ TEST(DdsIdentities, AProvenSpaceIsTakenFromThenOnAndToldOnce) {
   EXPECT_TRUE(identities.speaks_for(writer_of(kr, 1), "kr", "catalog entry", "diag"));
   discovered(identities, kr, rtps::ParticipantDiscoveryInfo::CHANGED_QOS_PARTICIPANT);  // nothing new proven
   EXPECT_EQ(told, 1);
-  discovered(identities, kr, rtps::ParticipantDiscoveryInfo::REMOVED_PARTICIPANT);
-  EXPECT_FALSE(identities.speaks_for(writer_of(kr, 1), "kr", "catalog entry", "diag"));
+}
+
+// What a certificate proves is kept by its participant key: a participant gone (or dropped, and
+// told so after it was found again) leaves samples that are still its space's, and a bridge
+// restarted with the same certificate speaks for its space even before its discovery is told.
+TEST(DdsIdentities, AProvenSpaceOutlivesItsParticipant) {
+  int told = 0;
+  DdsIdentities identities(true, [&] { ++told; });
+  const auto kr = participant(subject_of("kr"), 1);
+  discovered(identities, kr);
+  discovered(identities, kr, rtps::ParticipantDiscoveryInfo::DROPPED_PARTICIPANT);
+  EXPECT_TRUE(identities.speaks_for(writer_of(kr, 1), "kr", "catalog entry", "diag"));
+  EXPECT_FALSE(identities.speaks_for(writer_of(kr, 1), "jp", "catalog entry", "diag"));
+
+  const auto restarted = participant(subject_of("kr"), 7);  // the same certificate, another process
+  EXPECT_TRUE(identities.speaks_for(writer_of(restarted, 1), "kr", "catalog entry", "diag"));
+  EXPECT_EQ(identities.caller(writer_of(restarted, 1), "jp").space, "kr");
+  discovered(identities, restarted);
+  EXPECT_EQ(told, 1);  // nothing new was proven
+
+  // A participant of another certificate proves nothing by it.
+  const auto jp = participant(subject_of("jp"), 1);
+  EXPECT_FALSE(identities.speaks_for(writer_of(jp, 1), "jp", "catalog entry", "diag"));
+}
+
+// The memory is bounded: subjects announced without end push the oldest out, not the process.
+TEST(DdsIdentities, TheMemoryOfProvenSpacesIsBounded) {
+  CapturedLog log;
+  DdsIdentities identities(true);
+  const auto first = participant(subject_of("first"), 1);
+  discovered(identities, first);
+  discovered(identities, first, rtps::ParticipantDiscoveryInfo::REMOVED_PARTICIPANT);
+  for (int i = 0; i < 1024; ++i) {
+    const auto other = participant(subject_of("s" + std::to_string(i)), 1);
+    discovered(identities, other);
+    discovered(identities, other, rtps::ParticipantDiscoveryInfo::REMOVED_PARTICIPANT);
+  }
+  EXPECT_FALSE(identities.speaks_for(writer_of(first, 1), "first", "catalog entry", "diag"));
+  EXPECT_TRUE(identities.speaks_for(writer_of(participant(subject_of("s1023"), 1), 1), "s1023", "catalog entry", "x"));
 }
 
 TEST(DdsIdentities, OnAPlainLinkEverySampleIsTakenAsTheSpaceItNames) {
@@ -153,4 +189,4 @@ TEST(DdsIdentities, OnAPlainLinkEverySampleIsTakenAsTheSpaceItNames) {
 }
 
 }  // namespace
-}  // namespace urs::bridge
+}  // namespace urs::federation

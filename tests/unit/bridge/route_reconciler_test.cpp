@@ -2,14 +2,16 @@
 // sides from their offers and the rules (creation, withdrawal, loop prevention, rule matching and
 // name templates, restarts, refusals retried, duplicate names).
 
+#include "urs/bridge/core/route_reconciler.hpp"
+
 #include <gtest/gtest.h>
 
 #include <map>
+#include <memory>
+#include <optional>
 #include <set>
 #include <string>
 #include <vector>
-
-#include "urs/bridge/core/route_reconciler.hpp"
 
 namespace urs::bridge::core {
 namespace {
@@ -27,6 +29,16 @@ Offer make_offer(const std::string& key, const std::string& name, const std::str
   offer.source = "memory:" + key;
   return offer;
 }
+
+// The source of every route here: the reconciler hands it to the target's offer(), which (below)
+// records the route without asking it for calls.
+class NoCalls : public ServiceSource {
+ public:
+  std::string kind() const override { return "Memory"; }
+  std::optional<std::vector<Offer>> offers() override { return std::vector<Offer>{}; }
+  std::shared_ptr<agent::ServiceAgent> serve(const Route&) override { return nullptr; }
+};
+NoCalls no_calls;
 
 // One side of the bridge held in memory: its own services, and the stand-ins a reconciler offers
 // on it (which carry an origin, as the real adapters' do).
@@ -65,7 +77,7 @@ class MemorySide : public ServiceOffering {
   int offered = 0, withdrawn = 0, updated = 0;
 
   // ServiceOffering
-  OfferOutcome offer(const Route& route) override {
+  OfferOutcome offer(const Route& route, ServiceSource&) override {
     if (refusing.count(route.name)) return OfferOutcome::refuse(route.name + " is refused by " + side_);
     EXPECT_EQ(stand_ins_.count(route.name), 0u) << route.name << " offered twice on " << side_;
     stand_ins_[route.name] = route;
@@ -104,7 +116,7 @@ RouteRule rule(std::vector<std::string> allow, std::string name, std::vector<std
 
 // Routes every offer to `target` under its own name.
 RouteReconciler route_everything(ServiceOffering& target, const std::string& direction = "CAMUS -> RT") {
-  return RouteReconciler(direction, {rule({"*"}, "{name}")}, target, 10s);
+  return RouteReconciler(direction, {rule({"*"}, "{name}")}, no_calls, target, 10s);
 }
 
 TEST(BridgeCoreTest, OffersWhatTheRulesAdmitUnderTheirTemplate) {
@@ -112,7 +124,7 @@ TEST(BridgeCoreTest, OffersWhatTheRulesAdmitUnderTheirTemplate) {
   camus.add_own("tts");
   camus.add_own("nav");
   camus.add_own("secret");
-  RouteReconciler routes("CAMUS -> RT", {rule({"*"}, "Camus{name}", {"secret"})}, rt, 10s);
+  RouteReconciler routes("CAMUS -> RT", {rule({"*"}, "Camus{name}", {"secret"})}, no_calls, rt, 10s);
 
   const auto changes = routes.reconcile(camus.offers());
 
@@ -182,15 +194,18 @@ TEST(BridgeCoreTest, TwoDirectionsBetweenTheSameSidesMakeNoLoop) {
 
 TEST(BridgeCoreTest, TheFirstMatchingRuleNamesTheStandIn) {
   MemorySide rt("rt"), camus("camus");
-  const Offer nav = make_offer("c1|nav", "lab.host_cxt/Robot0.rtc", "URC::Navigation", {{"instance", "Robot0"}, {"port", "nav"}});
-  const Offer arm = make_offer("c2|arm", "lab.host_cxt/Arm0.rtc", "URC::Manipulator", {{"instance", "Arm0"}, {"port", "arm"}});
-  const Offer other = make_offer("c3|x", "lab.host_cxt/Other.rtc", "URC::Navigation", {{"instance", "Other"}, {"port", "x"}});
+  const Offer nav =
+      make_offer("c1|nav", "lab.host_cxt/Robot0.rtc", "URC::Navigation", {{"instance", "Robot0"}, {"port", "nav"}});
+  const Offer arm =
+      make_offer("c2|arm", "lab.host_cxt/Arm0.rtc", "URC::Manipulator", {{"instance", "Arm0"}, {"port", "arm"}});
+  const Offer other =
+      make_offer("c3|x", "lab.host_cxt/Other.rtc", "URC::Navigation", {{"instance", "Other"}, {"port", "x"}});
   RouteRule navigation = rule({"*/Robot*.rtc"}, "robot.{instance}.{port}");
   navigation.interface = "URC::Navigation";
   navigation.deadline_ms = 500;
   RouteRule any_arm = rule({"*/*.rtc"}, "{instance}");
   any_arm.interface = "URC::Manipulator";
-  RouteReconciler routes("RT -> CAMUS", {navigation, any_arm}, camus, 10s);
+  RouteReconciler routes("RT -> CAMUS", {navigation, any_arm}, no_calls, camus, 10s);
 
   routes.reconcile({nav, arm, other});
 
@@ -213,7 +228,7 @@ TEST(BridgeCoreTest, RuleMatchingAndTemplates) {
   elsewhere.name = "cn/tts";
   EXPECT_EQ(first_match(rules, elsewhere), nullptr);
   EXPECT_TRUE(glob_match("*/Robot?.rtc", "a.host_cxt/sub/Robot1.rtc"));  // '*' crosses '/'
-  EXPECT_FALSE(allowed("x", {}, {}));                                      // nothing allowed by default
+  EXPECT_FALSE(allowed("x", {}, {}));                                    // nothing allowed by default
 }
 
 TEST(BridgeCoreTest, TheTargetSideMakesTheNameUsable) {
@@ -230,7 +245,7 @@ TEST(BridgeCoreTest, ADisputedNameGoesToOneOfferAndPassesOnWhenItLeaves) {
   camus.add_own("a.tts");
   camus.own("a.tts").fields = {{"short", "tts"}};
   camus.own("b.tts").fields = {{"short", "tts"}};
-  RouteReconciler routes("CAMUS -> RT", {rule({"*"}, "{short}")}, rt, 10s);
+  RouteReconciler routes("CAMUS -> RT", {rule({"*"}, "{short}")}, no_calls, rt, 10s);
   const auto t0 = Clock::now();
 
   const auto first = routes.reconcile(camus.offers(), t0);

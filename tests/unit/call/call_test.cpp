@@ -1,5 +1,7 @@
 // The neutral call model: status names and numbers, Reply's helpers, the Responder contract.
 
+#include "urs/call/call.hpp"
+
 #include <gtest/gtest.h>
 
 #include <optional>
@@ -7,8 +9,6 @@
 #include <stdexcept>
 #include <thread>
 #include <vector>
-
-#include "urs/call/call.hpp"
 
 namespace urs::call {
 namespace {
@@ -90,9 +90,8 @@ TEST(CallResponder, AssignedOverUnansweredAnswersInternal) {
 }
 
 TEST(CallResponder, ACallbackThatThrowsWhenDroppedIsContained) {
-  EXPECT_NO_THROW({
-    Responder responder = Responder::from_callback([](Reply) { throw std::runtime_error("link closed"); });
-  });
+  EXPECT_NO_THROW(
+      { Responder responder = Responder::from_callback([](Reply) { throw std::runtime_error("link closed"); }); });
 }
 
 TEST(CallResponder, DefaultConstructedAnswersNowhere) {

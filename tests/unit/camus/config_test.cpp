@@ -30,9 +30,9 @@ std::string refusal(std::vector<const char*> args) {
 TEST(Config, ParsesEveryFlag) {
   TempDir dir;
   std::string data = dir.file("data");
-  auto config = parse({"--space", "kr", "--listen", "127.0.0.1:0", "--data-dir", data.c_str(), "--heartbeat-ms",
-                       "200", "--heartbeat-timeout-ms", "900", "--default-deadline-ms", "1500", "--event-retention",
-                       "50", "--log-level", "debug", "--port-file", "p"});
+  auto config = parse({"--space", "kr", "--listen", "127.0.0.1:0", "--data-dir", data.c_str(), "--heartbeat-ms", "200",
+                       "--heartbeat-timeout-ms", "900", "--default-deadline-ms", "1500", "--event-retention", "50",
+                       "--log-level", "debug", "--port-file", "p"});
   ASSERT_TRUE(config);
   EXPECT_EQ(config->space, "kr");
   EXPECT_EQ(config->listen.port, 0);
@@ -57,11 +57,38 @@ TEST(Config, BadValuesNameTheFlag) {
 }
 
 TEST(Config, CredentialsAndLimits) {
-  auto config = parse({"--space", "kr", "--listen", "h:1", "--credentials", "c.yaml", "--token-file", "t",
-                       "--token-role", "sam", "--token-name", "kr-shared", "--max-topic-bytes", "1024",
-                       "--max-topic-levels", "16", "--max-subscriptions-per-session", "10", "--max-subscriptions", "100",
-                       "--max-pending-calls-per-session", "5", "--max-pending-calls", "50", "--max-deadline-ms",
-                       "60000", "--event-queue", "7", "--event-queue-per-session", "3", "--event-queue-bytes", "100000"});
+  auto config = parse({"--space",
+                       "kr",
+                       "--listen",
+                       "h:1",
+                       "--credentials",
+                       "c.yaml",
+                       "--token-file",
+                       "t",
+                       "--token-role",
+                       "sam",
+                       "--token-name",
+                       "kr-shared",
+                       "--max-topic-bytes",
+                       "1024",
+                       "--max-topic-levels",
+                       "16",
+                       "--max-subscriptions-per-session",
+                       "10",
+                       "--max-subscriptions",
+                       "100",
+                       "--max-pending-calls-per-session",
+                       "5",
+                       "--max-pending-calls",
+                       "50",
+                       "--max-deadline-ms",
+                       "60000",
+                       "--event-queue",
+                       "7",
+                       "--event-queue-per-session",
+                       "3",
+                       "--event-queue-bytes",
+                       "100000"});
   ASSERT_TRUE(config);
   EXPECT_EQ(config->credentials.credentials_file, "c.yaml");
   EXPECT_EQ(config->credentials.token_file, "t");

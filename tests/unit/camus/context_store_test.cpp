@@ -57,11 +57,15 @@ TEST_F(ContextTest, UnknownKeyAndBadInputAreNamed) {
   EXPECT_EQ(store.get("nope").status(), planet::NOT_FOUND);
   EXPECT_EQ(store.get("nope").message(), "no context entry 'nope'");
   EXPECT_EQ(store.remove("nope", "x").message(), "no context entry 'nope'");
-  EXPECT_EQ(store.set(set_request("a/*", 1), "x").message(), "context key 'a/*' is not valid: level 2 ('*') holds a wildcard");
+  EXPECT_EQ(store.set(set_request("a/*", 1), "x").message(),
+            "context key 'a/*' is not valid: level 2 ('*') holds a wildcard");
   camus::ContextSetRequest no_value;
   no_value.set_key("k");
   EXPECT_EQ(store.set(no_value, "x").message(), "context entry 'k': value is missing (use Delete to remove an entry)");
   EXPECT_EQ(store.list("a/#/b").message(), "invalid pattern 'a/#/b': '#' is only allowed as the last level");
+  // A 10 MB key is quoted by its first 64 bytes and its size, not echoed back.
+  const std::string huge(10'000'000, 'k');
+  EXPECT_EQ(store.get(huge).message(), "no context entry '" + huge.substr(0, 64) + "...' (10000000 bytes)");
   EXPECT_TRUE(sink.events().empty());
 }
 
@@ -124,7 +128,7 @@ TEST_F(ContextTest, ListFiltersWithTopicPatterns) {
   EXPECT_EQ(store.list("*/pose")->size(), 2u);
   EXPECT_EQ(store.list("robot1/*")->size(), 2u);  // glob
   EXPECT_EQ(store.list("robot?/pose")->size(), 2u);
-  EXPECT_EQ(store.list("#")->size(), 3u);         // topic pattern
+  EXPECT_EQ(store.list("#")->size(), 3u);  // topic pattern
 }
 
 TEST_F(ContextTest, EntriesAndVersionsSurviveReopen) {

@@ -1,5 +1,6 @@
 #include "urs/camus_server/event_bus.hpp"
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <thread>
@@ -46,7 +47,8 @@ TEST(EventBus, SequencesAcknowledgesAndDeliversInOrder) {
   bus.subscribe(1, subscribe_to(10, "#"), all.deliver(), all.ack());
   bus.subscribe(1, subscribe_to(11, "robot1/*"), robot1.deliver(), robot1.ack());
   Acks acks;
-  for (int i = 0; i < 100; ++i) bus.publish(event_on(i % 2 == 0 ? "robot1/pose" : "robot2/pose", std::to_string(i)), acks.fn());
+  for (int i = 0; i < 100; ++i)
+    bus.publish(event_on(i % 2 == 0 ? "robot1/pose" : "robot2/pose", std::to_string(i)), acks.fn());
   bus.flush();
   auto got = acks.get();
   ASSERT_EQ(got.size(), 100u);
@@ -91,6 +93,36 @@ TEST(EventBus, DuplicatePublishIsAckedWithOriginalSeqAndNotRedelivered) {
   auto events = sub.events();
   ASSERT_EQ(events.size(), 3u);
   EXPECT_EQ(events[2].payload(), "other session");
+}
+
+// The publishing sessions remembered for de-duplication are kept in fair shares: a credential
+// publishing from many sessions pushes out only its own, so another's resend is still known.
+TEST(EventBus, OneCredentialsPublishingSessionsNeverPushOutAnothersIds) {
+  ManualClock clock;
+  EventBusOptions options;
+  options.max_publishers = 8;
+  options.max_publishers_per_credential = 4;
+  EventBus bus("", options, clock);
+  Acks acks;
+  PublishInput victim = event_on("a/x", "victim", 1, 1);
+  victim.source = "viewer";
+  bus.publish(victim, acks.fn());
+  for (uint64_t session = 100; session < 150; ++session) {
+    PublishInput churn = event_on("a/churn", "x", session, 1);
+    churn.source = "mallory";
+    bus.publish(churn, acks.fn());
+  }
+  victim.payload = "victim again";  // resent after a reconnect
+  bus.publish(victim, acks.fn());
+  PublishInput forgotten = event_on("a/churn", "x", 100, 1);  // mallory's first session: its own went
+  forgotten.source = "mallory";
+  bus.publish(forgotten, acks.fn());
+  bus.flush();
+  auto got = acks.get();
+  ASSERT_EQ(got.size(), 53u);
+  EXPECT_EQ(got[51].status(), planet::OK);
+  EXPECT_EQ(got[51].seq(), got[0].seq()) << "the victim's resend was taken for a new event";
+  EXPECT_NE(got[52].seq(), got[1].seq());  // mallory's oldest session was forgotten: delivered again
 }
 
 TEST(EventBus, ResumeReplaysThenGoesLiveWithoutGapOrDuplicate) {
@@ -191,7 +223,8 @@ TEST(EventBus, ReceiverGoneEndsTheSubscription) {
   ManualClock clock;
   EventBus bus("", {}, clock);
   int calls = 0;
-  bus.subscribe(1, subscribe_to(1, "a"), [&calls](const planet::Event&) { return ++calls < 0; }, nullptr);
+  bus.subscribe(
+      1, subscribe_to(1, "a"), [&calls](const planet::Event&) { return ++calls < 0; }, nullptr);
   bus.publish(event_on("a", "1"), nullptr);
   bus.publish(event_on("a", "2"), nullptr);
   bus.flush();
@@ -269,7 +302,11 @@ TEST(EventBus, ServerTopicsArePublishedByTheServerAlone) {
   EXPECT_EQ(got[0].message(),
             "event on 'registry/diag' not accepted: topics under 'registry/' are published by the server alone "
             "(registry/, context/ and task/ are server topics)");
-  EXPECT_TRUE(bus.publish(event_on("registry/diag", "real"), nullptr));  // the server itself
+  PublishInput real = event_on("registry/diag", "real");
+  real.source = kServerPeerName;  // the server itself
+  EXPECT_TRUE(bus.publish(real, nullptr));
+  // Anyone else without a session (a task, publishing as its owner) is held to the same rule.
+  EXPECT_FALSE(bus.publish(event_on("registry/diag", "from a task"), acks.fn()));
   EXPECT_TRUE(bus.publish(event_on("registryx/diag", "fine", 5, 2), nullptr));
   ASSERT_TRUE(sub.wait_events(2));
   EXPECT_EQ(sub.events()[0].payload(), "real");
@@ -324,7 +361,7 @@ TEST(EventBus, PublishersAreDeduplicatedApartAndTheLeastRecentIsForgotten) {
   Acks acks;
   bus.publish(event_on("a", "p1", 1, 1), acks.fn());
   bus.publish(event_on("a", "p2", 2, 1), acks.fn());
-  bus.publish(event_on("a", "p3", 3, 1), acks.fn());   // forgets publisher 1
+  bus.publish(event_on("a", "p3", 3, 1), acks.fn());  // forgets publisher 1
   bus.publish(event_on("a", "p1 again", 1, 1), acks.fn());
   bus.publish(event_on("a", "p3 again", 3, 1), acks.fn());
   bus.flush();
@@ -397,8 +434,9 @@ TEST(EventBus, ABusBehindRefusesWithResourceExhaustedAndLosesNothingAcknowledged
   ASSERT_EQ(refused.size(), 2u);
   EXPECT_EQ(refused[0].status(), planet::RESOURCE_EXHAUSTED);
   EXPECT_EQ(refused[0].message(),
-            "event on 'fast' not accepted: the event bus is behind: 4 operations are queued (event_queue 4); retry "
-            "later");
+            "event on 'fast' not accepted: the event bus is behind: the server holds 4 operations queued for client "
+            "credentials, its limit (event_queue 4 less the 0 kept for sam and operator sessions, reserved_percent "
+            "20); credential 'tester' holds 4, over its fair share of 4; retry later");
   gate.open();
   bus.flush();
   size_t ok = 0;
@@ -442,41 +480,58 @@ TEST(EventBus, QueueBytesAreBoundedToo) {
   Acks acks;
   EXPECT_FALSE(bus.publish(event_on("big", std::string(500, 'x'), 9, 2), acks.fn()));
   EXPECT_EQ(acks.get().at(0).status(), planet::RESOURCE_EXHAUSTED);
-  EXPECT_NE(acks.get().at(0).message().find("(event_queue_bytes 1000)"), std::string::npos) << acks.get()[0].message();
+  EXPECT_NE(acks.get().at(0).message().find("(event_queue_bytes 1000 less the 200 kept"), std::string::npos)
+      << acks.get()[0].message();
   gate.open();
   bus.flush();
 }
 
-TEST(EventBus, SubscriptionsAreBoundedPerSessionAndInTotal) {
+TEST(EventBus, SubscriptionsAreBoundedPerSessionPerCredentialAndInFairShares) {
   ManualClock clock;
   EventBusOptions options;
   options.max_subscriptions_per_session = 2;
-  options.max_subscriptions = 3;
+  options.max_subscriptions_per_credential = 3;
+  options.max_subscriptions = 5;
+  options.reserved_percent = 20;  // 1 of 5 kept for sam and operator sessions
   EventBus bus("", options, clock);
+  const planet::ShareHolder mallory{"mallory", false};
+  const planet::ShareHolder viewer{"viewer", false};
+  const planet::ShareHolder sam{"sam-robot1", true};
   EventCollector sub;
-  bus.subscribe(1, subscribe_to(1, "a"), sub.deliver(), sub.ack());
-  bus.subscribe(1, subscribe_to(2, "b"), sub.deliver(), sub.ack());
-  bus.subscribe(1, subscribe_to(3, "c"), sub.deliver(), sub.ack());
-  bus.subscribe(2, subscribe_to(1, "a"), sub.deliver(), sub.ack());
-  bus.subscribe(3, subscribe_to(1, "a"), sub.deliver(), sub.ack());
+  bus.subscribe(1, subscribe_to(1, "a"), sub.deliver(), sub.ack(), mallory);
+  bus.subscribe(1, subscribe_to(2, "b"), sub.deliver(), sub.ack(), mallory);
+  bus.subscribe(1, subscribe_to(3, "c"), sub.deliver(), sub.ack(), mallory);  // 3rd on the session
+  bus.subscribe(2, subscribe_to(1, "a"), sub.deliver(), sub.ack(), mallory);
+  bus.subscribe(3, subscribe_to(1, "a"), sub.deliver(), sub.ack(), mallory);  // 4th of the credential
+  bus.subscribe(4, subscribe_to(1, "a"), sub.deliver(), sub.ack(), viewer);
+  bus.subscribe(4, subscribe_to(2, "b"), sub.deliver(), sub.ack(), viewer);  // the clients' pool is full,
+  bus.subscribe(5, subscribe_to(1, "a"), sub.deliver(), sub.ack(), sam);     // the reserve is not
   bus.subscribe_internal(TopicPattern::parse("#").value(), 0, [](const planet::Event&) { return true; });
   bus.flush();
   auto acks = sub.acks();
-  ASSERT_EQ(acks.size(), 5u);
-  EXPECT_EQ(acks[2].status(), planet::RESOURCE_EXHAUSTED);
+  ASSERT_EQ(acks.size(), 8u);
+  std::vector<planet::Status> statuses;
+  for (const auto& ack : acks) statuses.push_back(ack.status());
+  EXPECT_EQ(statuses, (std::vector<planet::Status>{planet::OK, planet::OK, planet::RESOURCE_EXHAUSTED, planet::OK,
+                                                   planet::RESOURCE_EXHAUSTED, planet::OK, planet::OK, planet::OK}));
   EXPECT_EQ(acks[2].message(),
             "subscription to 'c' not accepted: this session already has 2 subscriptions "
             "(max_subscriptions_per_session 2)");
-  EXPECT_EQ(acks[3].status(), planet::OK);
-  EXPECT_EQ(acks[4].status(), planet::RESOURCE_EXHAUSTED);
   EXPECT_EQ(acks[4].message(),
-            "subscription to 'a' not accepted: the server already holds 3 subscriptions (max_subscriptions 3)");
-  EXPECT_EQ(bus.subscriptions(), 4u);  // the server's own is not counted against the limits
+            "subscription to 'a' not accepted: credential 'mallory' holds 3 subscriptions "
+            "(max_subscriptions_per_credential 3)");
+  // viewer's second passes the clients' pool (4), within its fair share (2 of 4).
+  EXPECT_EQ(bus.subscriptions(), 7u);  // the server's own is not counted against the limits
+  bus.subscribe(6, subscribe_to(1, "c"), sub.deliver(), sub.ack(), viewer);
+  bus.flush();
+  EXPECT_EQ(sub.acks().back().status(), planet::RESOURCE_EXHAUSTED);
+  EXPECT_THAT(sub.acks().back().message(),
+              ::testing::HasSubstr("credential 'viewer' holds 2, over its fair share of 2"));
   bus.drop_owner(1);
-  bus.subscribe(3, subscribe_to(1, "a"), sub.deliver(), sub.ack());
+  bus.subscribe(3, subscribe_to(1, "a"), sub.deliver(), sub.ack(), mallory);
   bus.flush();
   EXPECT_EQ(sub.acks().back().status(), planet::OK);
-  EXPECT_EQ(bus.subscriptions(), 3u);
+  EXPECT_EQ(bus.subscriptions(), 6u);
 }
 
 TEST(EventBus, OversizedPatternsAndTopicsAreRefusedBeforeTheyAreKept) {
@@ -513,12 +568,13 @@ TEST(EventBus, EventsReachOnlyMatchingSubscriptionsAmongManyOthers) {
   EventBus bus("", {}, clock);
   std::atomic<int> wrong{0};
   for (uint64_t i = 0; i < 2000; ++i) {
-    bus.subscribe(100 + i / 500, subscribe_to(i, "kr/robot" + std::to_string(i) + "/#"),
-                  [&wrong](const planet::Event&) {
-                    ++wrong;
-                    return true;
-                  },
-                  nullptr);
+    bus.subscribe(
+        100 + i / 500, subscribe_to(i, "kr/robot" + std::to_string(i) + "/#"),
+        [&wrong](const planet::Event&) {
+          ++wrong;
+          return true;
+        },
+        nullptr);
   }
   EventCollector wanted;
   bus.subscribe(1, subscribe_to(1, "kr/*/arrived"), wanted.deliver(), wanted.ack());

@@ -21,9 +21,9 @@
 #include "urs/camus_server/event_bus.hpp"
 #include "urs/camus_server/registry.hpp"
 #include "urs/camus_server/session_handler.hpp"
-#include "urs/planet/call_adapter.hpp"
 #include "urs/camus_server/task_manager.hpp"
 #include "urs/camus_server/timer.hpp"
+#include "urs/planet/call_adapter.hpp"
 
 namespace urs::camus_server::test {
 
@@ -44,6 +44,8 @@ class FakeSession final : public planet::Session {
     identity_.role = role;
     identity_.session = session != 0 ? session : 1000 + id;
   }
+  // The peer name it declares, when not its identity's.
+  void declare_peer_name(const std::string& peer) { hello_.set_peer_name(peer); }
   uint64_t id() const override { return id_; }
   const planet::Hello& hello() const override { return hello_; }
   const planet::Identity& identity() const override { return identity_; }
@@ -187,8 +189,8 @@ class TempDir {
  public:
   TempDir() {
     const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    std::string name = std::string("camus-") + info->test_suite_name() + "-" + info->name() + "-" +
-                       std::to_string(::getpid());
+    std::string name =
+        std::string("camus-") + info->test_suite_name() + "-" + info->name() + "-" + std::to_string(::getpid());
     for (auto& c : name) {
       if (c == '/') c = '_';
     }
@@ -215,7 +217,8 @@ inline std::string navigation_descriptor_set() {
   file.set_name("test/navigation.proto");
   file.set_package("test");
   file.set_syntax("proto3");
-  auto message = [&file](const std::string& name, std::vector<std::pair<std::string, gp::FieldDescriptorProto::Type>> fields) {
+  auto message = [&file](const std::string& name,
+                         std::vector<std::pair<std::string, gp::FieldDescriptorProto::Type>> fields) {
     auto* m = file.add_message_type();
     m->set_name(name);
     int number = 1;

@@ -2,6 +2,10 @@
 
 #include <gtest/gtest.h>
 
+#include <condition_variable>
+#include <map>
+#include <mutex>
+
 #include "fakes.hpp"
 
 namespace urs::camus_server::test {
@@ -21,8 +25,8 @@ class RouterTest : public ::testing::Test {
     registry.add_builtin("camus.registry", *file->FindServiceByName("Registry"));
   }
 
-  planet::Request request(uint64_t call_id, const std::string& service, const std::string& op,
-                          uint64_t deadline_ms = 0, bool oneway = false) {
+  planet::Request request(uint64_t call_id, const std::string& service, const std::string& op, uint64_t deadline_ms = 0,
+                          bool oneway = false) {
     planet::Request r;
     r.set_call_id(call_id);
     r.set_service(service);
@@ -71,7 +75,7 @@ TEST_F(RouterTest, ForwardsWithServerCallIdAndMapsTheReplyBack) {
   EXPECT_EQ(first.service(), "robot1.navigation");
   EXPECT_EQ(first.operation(), "moveTo");
   EXPECT_EQ(first.payload(), "args");
-  EXPECT_EQ(first.deadline_ms(), 1000u);  // the server default, passed on to the provider
+  EXPECT_EQ(first.deadline_ms(), 1000u);         // the server default, passed on to the provider
   EXPECT_EQ(first.caller().name(), "cli@host");  // who calls, as the server authenticated it
   EXPECT_EQ(first.caller().role(), planet::CLIENT);
   EXPECT_EQ(router.pending(), 2u);
@@ -177,6 +181,129 @@ TEST_F(RouterTest, SendToAClosedProviderAnswersProviderGoneAtOnce) {
   ASSERT_TRUE(reply);
   EXPECT_EQ(reply->reply().status(), planet::PROVIDER_GONE);
   EXPECT_EQ(router.pending(), 0u);
+}
+
+// Two providers of one service: replicas of one SAM (the same credential, sessions of their own).
+class TwoProvidersTest : public RouterTest {
+ protected:
+  void SetUp() override {
+    RouterTest::SetUp();
+    ASSERT_TRUE(registry.register_service(replica_, navigation_registration("robot1.navigation")).ok());
+  }
+  // Who got each of the calls sent so far: "p" (provider) or "r" (replica), in call id order.
+  std::string receivers() const {
+    std::map<uint64_t, char> by_id;
+    for (const auto& f : provider->frames()) by_id[f.request().call_id()] = 'p';
+    for (const auto& f : replica_->frames()) by_id[f.request().call_id()] = 'r';
+    std::string out;
+    for (const auto& [id, who] : by_id) out += who;
+    return out;
+  }
+  uint64_t last_call_id(const FakeSession& session) const { return session.frames().back().request().call_id(); }
+  static RouterOptions roomy() {
+    RouterOptions o = options();
+    o.max_pending_calls = o.max_pending_calls_per_credential = o.max_pending_calls_per_session = 100;
+    return o;
+  }
+  std::shared_ptr<FakeSession> replica_ = std::make_shared<FakeSession>(3, "sam@robot1", planet::SAM);
+  Router routes_{roomy(), registry, builtins, timers};  // limits out of the way
+};
+
+TEST_F(TwoProvidersTest, ACallGoesToTheProviderWithFewestPendingAndOfEqualsToTheLeastRecentlyChosen) {
+  for (uint64_t id = 1; id <= 4; ++id) routes_.on_request(caller, request(id, "robot1.navigation", "moveTo"));
+  EXPECT_EQ(receivers(), "prpr");
+  EXPECT_EQ(routes_.pending_at(provider->id()), 2u);
+  EXPECT_EQ(routes_.pending_at(replica_->id()), 2u);
+  // The provider answers one: it has the fewest pending, so it gets the next call, twice not.
+  routes_.on_reply(*provider, reply_from_provider(provider->frames()[0].request().call_id(), "done"));
+  routes_.on_request(caller, request(5, "robot1.navigation", "moveTo"));
+  routes_.on_request(caller, request(6, "robot1.navigation", "moveTo"));
+  EXPECT_EQ(receivers(), "prprpr");
+  EXPECT_EQ(caller->count(planet::Frame::kReply), 1u);
+}
+
+TEST_F(TwoProvidersTest, AProviderLeavingFailsOnlyItsOwnCallsAndTheOtherServesTheNextOnes) {
+  for (uint64_t id = 1; id <= 4; ++id) routes_.on_request(caller, request(id, "robot1.navigation", "moveTo"));
+  ASSERT_EQ(receivers(), "prpr");
+  registry.remove_session(provider->id());
+  routes_.on_session_closed(provider->id());
+  // Its two calls end PROVIDER_GONE (they may have run: they are not sent again); the replica's go on.
+  ASSERT_EQ(caller->count(planet::Frame::kReply), 2u);
+  for (const auto& frame : caller->frames()) {
+    EXPECT_EQ(frame.reply().status(), planet::PROVIDER_GONE);
+    EXPECT_EQ(frame.reply().message(), "provider sam@robot1 of robot1.navigation disconnected");
+    EXPECT_TRUE(frame.reply().call_id() == 1 || frame.reply().call_id() == 3) << frame.reply().call_id();
+  }
+  EXPECT_EQ(replica_->count(planet::Frame::kRequest), 2u) << "nothing was sent again";
+  EXPECT_EQ(routes_.pending(), 2u);
+  routes_.on_request(caller, request(5, "robot1.navigation", "moveTo"));
+  routes_.on_reply(*replica_, reply_from_provider(last_call_id(*replica_), "served"));
+  auto last = caller->frames().back().reply();
+  EXPECT_EQ(last.call_id(), 5u);
+  EXPECT_EQ(last.status(), planet::OK);
+  EXPECT_EQ(last.payload(), "served");
+  EXPECT_EQ(provider->count(planet::Frame::kRequest), 2u);
+}
+
+TEST_F(TwoProvidersTest, ACallAClosedConnectionRefusedGoesToTheNextProvider) {
+  // Closed, not yet removed: its connection refuses the frame, so nobody received the call.
+  provider->mark_closed();
+  routes_.on_request(caller, request(4, "robot1.navigation", "moveTo"));
+  routes_.on_request(caller, request(5, "robot1.navigation", "moveTo", 0, /*oneway=*/true));
+  EXPECT_EQ(provider->count(planet::Frame::kRequest), 0u);
+  ASSERT_EQ(replica_->count(planet::Frame::kRequest), 2u);
+  EXPECT_EQ(caller->count(planet::Frame::kReply), 0u);
+  routes_.on_reply(*replica_, reply_from_provider(replica_->frames()[0].request().call_id(), "served"));
+  ASSERT_EQ(caller->count(planet::Frame::kReply), 1u);
+  EXPECT_EQ(caller->frames()[0].reply().status(), planet::OK);
+  EXPECT_EQ(routes_.pending(), 0u);
+  EXPECT_EQ(routes_.pending_at(replica_->id()), 0u);
+
+  // Both refuse: PROVIDER_GONE at once.
+  replica_->mark_closed();
+  routes_.on_request(caller, request(6, "robot1.navigation", "moveTo"));
+  ASSERT_EQ(caller->count(planet::Frame::kReply), 2u);
+  EXPECT_EQ(caller->frames()[1].reply().status(), planet::PROVIDER_GONE);
+  EXPECT_EQ(routes_.pending(), 0u);
+}
+
+TEST_F(TwoProvidersTest, AProviderSilentPastADeadlineIsPassedOverUntilItAnswersAgain) {
+  routes_.on_request(caller, request(1, "robot1.navigation", "moveTo", 250));
+  routes_.on_request(caller, request(2, "robot1.navigation", "moveTo", 250));
+  ASSERT_EQ(receivers(), "pr");
+  const uint64_t stuck = provider->frames()[0].request().call_id();
+  routes_.on_reply(*replica_, reply_from_provider(last_call_id(*replica_), "ok"));
+  timers.advance(std::chrono::milliseconds(250));  // the provider said nothing: paused, hung
+  EXPECT_EQ(caller->frames().back().reply().status(), planet::DEADLINE_EXCEEDED);
+  EXPECT_TRUE(routes_.suspected(provider->id()));
+  EXPECT_FALSE(routes_.suspected(replica_->id()));
+  // It has no call pending now, yet the next calls go to the replica, however many it holds.
+  for (uint64_t id = 3; id <= 5; ++id) routes_.on_request(caller, request(id, "robot1.navigation", "moveTo"));
+  EXPECT_EQ(receivers(), "prrrr");
+  // Its late reply shows it runs again: it is chosen again.
+  routes_.on_reply(*provider, reply_from_provider(stuck, "late"));
+  EXPECT_FALSE(routes_.suspected(provider->id()));
+  routes_.on_request(caller, request(6, "robot1.navigation", "moveTo"));
+  EXPECT_EQ(receivers(), "prrrrp");
+}
+
+TEST_F(TwoProvidersTest, ASlowProviderThatAnswersOthersIsNotSuspected) {
+  routes_.on_request(caller, request(1, "robot1.navigation", "moveTo", 250));
+  routes_.on_request(caller, request(2, "robot1.navigation", "moveTo", 1000));
+  routes_.on_request(caller, request(3, "robot1.navigation", "moveTo", 1000));
+  ASSERT_EQ(receivers(), "prp");
+  // The provider answers call 3 but not call 1: slow on one, not stuck.
+  routes_.on_reply(*provider, reply_from_provider(last_call_id(*provider), "ok"));
+  timers.advance(std::chrono::milliseconds(250));
+  EXPECT_FALSE(routes_.suspected(provider->id()));
+}
+
+TEST_F(RouterTest, ASuspectedProviderAloneStillGetsTheCalls) {
+  router.on_request(caller, request(1, "robot1.navigation", "moveTo", 100));
+  timers.advance(std::chrono::milliseconds(100));
+  ASSERT_TRUE(router.suspected(provider->id()));
+  router.on_request(caller, request(2, "robot1.navigation", "moveTo", 100));
+  EXPECT_EQ(provider->count(planet::Frame::kRequest), 2u);
 }
 
 TEST_F(RouterTest, CallerGoneDropsItsEntries) {
@@ -285,7 +412,9 @@ TEST_F(RouterTest, DeadlineAboveTheMaximumIsRefusedNotTruncated) {
   EXPECT_EQ(provider->frames()[0].request().deadline_ms(), 60000u);
 }
 
-TEST_F(RouterTest, PendingCallsAreBoundedPerSessionAndServerWide) {
+// Server-wide, a full pool refuses the credential over its fair share, not the next caller;
+// the reserve (20% of 5) is kept for sam and operator sessions and the server's own calls.
+TEST_F(RouterTest, PendingCallsAreBoundedPerSessionAndInFairSharesServerWide) {
   for (uint64_t id = 1; id <= 4; ++id) router.on_request(caller, request(id, "robot1.navigation", "moveTo"));
   EXPECT_EQ(router.pending(), 3u);
   ASSERT_EQ(caller->count(planet::Frame::kReply), 1u);
@@ -293,18 +422,58 @@ TEST_F(RouterTest, PendingCallsAreBoundedPerSessionAndServerWide) {
   EXPECT_EQ(caller->frames()[0].reply().status(), planet::RESOURCE_EXHAUSTED);
   EXPECT_EQ(caller->frames()[0].reply().message(),
             "this connection already has 3 calls pending (max_pending_calls_per_session 3)");
+  // The clients' pool (5 less 1 reserved) is full after one more call of another credential;
+  // it still gets its fair share (2), and only then is refused.
   auto other = std::make_shared<FakeSession>(5, "cli2", planet::CLIENT);
   for (uint64_t id = 1; id <= 3; ++id) router.on_request(other, request(id, "robot1.navigation", "moveTo"));
   EXPECT_EQ(router.pending(), 5u);
   ASSERT_EQ(other->count(planet::Frame::kReply), 1u);
-  EXPECT_EQ(other->frames()[0].reply().message(), "the server already has 5 calls pending (max_pending_calls 5)");
+  EXPECT_EQ(other->frames()[0].reply().status(), planet::RESOURCE_EXHAUSTED);
+  EXPECT_EQ(other->frames()[0].reply().message(),
+            "the server holds 5 calls pending for client credentials, its limit (max_pending_calls 5 less the 1 kept "
+            "for sam and operator sessions, reserved_percent 20); credential 'cli2' holds 2, over its fair share of "
+            "2; retry later");
+  // A sam session (and the server itself) call on.
+  auto sam = std::make_shared<FakeSession>(6, "sam@robot2", planet::SAM);
+  router.on_request(sam, request(1, "robot1.navigation", "moveTo"));
+  EXPECT_EQ(sam->count(planet::Frame::kReply), 0u);
+  bool completed = false;
+  router.call(Caller{nullptr, "task:t/r1", planet::OPERATOR}, request(0, "camus.registry", "List"),
+              [&](planet::CallResult r) { completed = r.status != planet::RESOURCE_EXHAUSTED; });
+  EXPECT_TRUE(completed);
   // Oneways hold nothing and are not counted.
   router.on_request(caller, request(9, "robot1.navigation", "setSpeed", 0, true));
-  EXPECT_EQ(provider->count(planet::Frame::kRequest), 6u);
+  EXPECT_EQ(provider->count(planet::Frame::kRequest), 7u);
   // Answered calls free their places.
+  EXPECT_EQ(router.pending(), 6u);
   router.on_reply(*provider, reply_from_provider(provider->frames()[0].request().call_id(), "done"));
-  router.on_request(caller, request(10, "robot1.navigation", "moveTo"));
   EXPECT_EQ(router.pending(), 5u);
+}
+
+// One credential on many connections: max_pending_calls_per_credential counts them together.
+TEST_F(RouterTest, PendingCallsAreBoundedPerCredentialAcrossItsConnections) {
+  RouterOptions o = options();
+  o.max_pending_calls = 100;
+  o.max_pending_calls_per_credential = 4;
+  Router bounded(o, registry, builtins, timers);
+  std::vector<std::shared_ptr<FakeSession>> connections;
+  for (uint64_t i = 0; i < 3; ++i) {
+    connections.push_back(std::make_shared<FakeSession>(10 + i, "mallory", planet::CLIENT));
+    for (uint64_t id = 1; id <= 2; ++id)
+      bounded.on_request(connections.back(), request(id, "robot1.navigation", "moveTo"));
+  }
+  EXPECT_EQ(bounded.pending(), 4u);
+  ASSERT_EQ(connections[2]->count(planet::Frame::kReply), 2u);
+  EXPECT_EQ(connections[2]->frames()[0].reply().message(),
+            "credential 'mallory' holds 4 calls pending (max_pending_calls_per_credential 4)");
+  bounded.on_request(caller, request(1, "robot1.navigation", "moveTo"));
+  EXPECT_EQ(caller->count(planet::Frame::kReply), 0u);
+  EXPECT_EQ(bounded.pending(), 5u);
+  // A closed connection gives its calls back to the credential.
+  bounded.on_session_closed(connections[0]->id());
+  bounded.on_request(connections[2], request(3, "robot1.navigation", "moveTo"));
+  EXPECT_EQ(bounded.pending(), 4u);
+  EXPECT_EQ(connections[2]->count(planet::Frame::kReply), 2u);
 }
 
 TEST_F(RouterTest, BuiltinOperationsNeedTheirRole) {
@@ -326,6 +495,29 @@ TEST_F(RouterTest, ShutdownAnswersPendingAndLaterCallsUnavailable) {
   EXPECT_EQ(caller->frames()[0].reply().message(), "server is shutting down; no reply from robot1.navigation.moveTo");
   router.on_request(caller, request(2, "robot1.navigation", "moveTo"));
   EXPECT_EQ(caller->frames()[1].reply().message(), "server is shutting down; robot1.navigation.moveTo not called");
+}
+
+// A call answered long before its deadline leaves nothing in the timer thread: 10,000 calls with
+// 24 h deadlines, each answered, hold no timer.
+TEST(TimerThread, ACancelledTimerIsForgottenAtOnce) {
+  TimerThread timers;
+  std::vector<Scheduler::TimerId> ids;
+  for (int i = 0; i < 10000; ++i) ids.push_back(timers.schedule_after(std::chrono::hours(24), [] {}));
+  EXPECT_EQ(timers.pending(), 10000u);
+  for (auto id : ids) EXPECT_TRUE(timers.cancel(id));
+  EXPECT_EQ(timers.pending(), 0u);
+  EXPECT_FALSE(timers.cancel(ids.front()));
+  // The thread still runs what is due.
+  std::mutex mutex;
+  std::condition_variable ran;
+  bool done = false;
+  timers.schedule_after(std::chrono::milliseconds(1), [&] {
+    std::lock_guard<std::mutex> lock(mutex);
+    done = true;
+    ran.notify_all();
+  });
+  std::unique_lock<std::mutex> lock(mutex);
+  EXPECT_TRUE(ran.wait_for(lock, std::chrono::seconds(10), [&] { return done; }));
 }
 
 }  // namespace

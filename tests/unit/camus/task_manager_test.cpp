@@ -1,13 +1,14 @@
 #include "urs/camus_server/task_manager.hpp"
-#include "urs/camus_server/tasks_agent.hpp"
 
 #include <google/protobuf/util/json_util.h>
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <map>
 #include <sstream>
 
 #include "fakes.hpp"
+#include "urs/camus_server/tasks_agent.hpp"
 #include "urs/util/cli.hpp"
 
 namespace urs::camus_server::test {
@@ -117,8 +118,9 @@ steps:
   ASSERT_TRUE(run.ok()) << run.message();
   auto arrived = [&](double x, int64_t count) {
     auto schema = registry.schema_with_message("test.Arrived");
-    auto payload = schema->json_to_payload(*schema->find_message("test.Arrived"),
-                                           "{\"x\": " + std::to_string(x) + ", \"count\": " + std::to_string(count) + "}");
+    auto payload =
+        schema->json_to_payload(*schema->find_message("test.Arrived"),
+                                "{\"x\": " + std::to_string(x) + ", \"count\": " + std::to_string(count) + "}");
     PublishInput in;
     in.topic = "robot1.navigation/arrived";
     in.payload = payload.value();
@@ -155,8 +157,8 @@ steps:
 
 TEST_F(TaskTest, StepFailuresArePrecise) {
   invoker.set_handler([](const planet::Request& request, std::function<void(planet::CallResult)> done) {
-    done(planet::CallResult::error(planet::DEADLINE_EXCEEDED,
-                                   "no reply from " + request.service() + "." + request.operation() + " within 5000 ms"));
+    done(planet::CallResult::error(planet::DEADLINE_EXCEEDED, "no reply from " + request.service() + "." +
+                                                                  request.operation() + " within 5000 ms"));
   });
   auto manager = make_manager();
   auto failed = [&](const std::string& yaml) {
@@ -181,8 +183,9 @@ TEST_F(TaskTest, StepFailuresArePrecise) {
   EXPECT_EQ(failed("repeat: 2\nsteps: [{wait_event: {pattern: never/happens, timeout_ms: 20}}]"),
             "iteration 1/2, steps[0] (wait_event never/happens) failed: DEADLINE_EXCEEDED: no event on "
             "'never/happens' within 20 ms");
-  EXPECT_EQ(failed("steps: [{wait_context: {key: k, exists: true, timeout_ms: 20}}]"),
-            "steps[0] (wait_context k) failed: DEADLINE_EXCEEDED: context entry 'k' did not come to exist within 20 ms");
+  EXPECT_EQ(
+      failed("steps: [{wait_context: {key: k, exists: true, timeout_ms: 20}}]"),
+      "steps[0] (wait_context k) failed: DEADLINE_EXCEEDED: context entry 'k' did not come to exist within 20 ms");
 }
 
 TEST_F(TaskTest, CancelStopsAWaitingRunAtOnce) {
@@ -267,7 +270,12 @@ TEST_F(TaskTest, DefineRunStatusAndList) {
 
 TEST_F(TaskTest, TriggerStartsARunPerMatchingEvent) {
   auto manager = make_manager();
-  ASSERT_TRUE(manager->define("greet", "trigger: {event: \"doorbell/#\"}\nsteps: [{call: {service: robot1.navigation, operation: getPosition}}]").ok());
+  ASSERT_TRUE(
+      manager
+          ->define(
+              "greet",
+              "trigger: {event: \"doorbell/#\"}\nsteps: [{call: {service: robot1.navigation, operation: getPosition}}]")
+          .ok());
   publish("doorbell/front", "{}");
   ASSERT_TRUE(invoker.wait_calls(1));
   camus::TaskStatusRequest by_task;
@@ -338,9 +346,7 @@ steps:
 
 TEST_F(TaskTest, BadTaskFileStopsStartWithItsName) {
   TempDir dir;
-  {
-    std::ofstream(dir.file("broken.yaml")) << "steps:\n  - call: {service: s}\n";
-  }
+  { std::ofstream(dir.file("broken.yaml")) << "steps:\n  - call: {service: s}\n"; }
   TaskManagerOptions options;
   options.tasks_dir = dir.file("");
   TaskManager manager("", options, invoker, bus, context, registry, sink, clock);
@@ -374,6 +380,54 @@ TEST_F(TaskTest, AgentServesTheTasksInterface) {
   auto outcome = agent.invoke(*iface.FindMethodByName("Status"), missing, run, ctx);
   EXPECT_EQ(outcome.status, call::Status::NOT_FOUND);
   EXPECT_EQ(outcome.message, "no task run 'r77'");
+}
+
+// A task's publish step speaks as the task's owner (who defined it, or ran it inline), under the
+// topic rules of any peer: never as the server, never on the server's topics.
+TEST_F(TaskTest, PublishStepsPublishAsTheOwnerUnderPeerRules) {
+  auto manager = make_manager();
+  EventCollector seen;
+  bus.subscribe(
+      99,
+      [] {
+        planet::Subscribe s;
+        s.set_subscription_id(1);
+        s.set_pattern("kr/#");
+        return s;
+      }(),
+      seen.deliver(), seen.ack());
+  ASSERT_TRUE(seen.wait_ack());
+  const std::string forged = R"(
+steps:
+  - publish: {topic: registry/diag, type: urs.camus.ServiceInfo, payload: {name: diag, state: gone}}
+)";
+  auto defined = manager->define("forge", "name: forge" + forged, "ops");
+  EXPECT_EQ(defined.status(), planet::BAD_ARGUMENTS);
+  EXPECT_NE(defined.message().find("topics under 'registry/' are published by the server alone"), std::string::npos)
+      << defined.message();
+  EXPECT_EQ(manager->run(inline_yaml(forged), "cli", "ops").status(), planet::BAD_ARGUMENTS);
+
+  ASSERT_TRUE(manager
+                  ->define("door", R"(
+name: door
+steps:
+  - publish: {topic: kr/door, type: test.Arrived, payload: {x: 1, count: 2}}
+)",
+                           "ops")
+                  .ok());
+  auto run = manager->run(by_name("door"), "cli", "someone-else");
+  ASSERT_TRUE(run.ok()) << run.message();
+  ASSERT_EQ(manager->wait_finished(run->run_id(), kWait)->state(), "succeeded");
+  auto inline_run = manager->run(
+      inline_yaml("steps:\n  - publish: {topic: kr/window, type: test.Arrived, payload: {x: 2, count: 1}}\n"), "cli",
+      "ops2");
+  ASSERT_TRUE(inline_run.ok()) << inline_run.message();
+  ASSERT_EQ(manager->wait_finished(inline_run->run_id(), kWait)->state(), "succeeded");
+  ASSERT_TRUE(seen.wait_events(2));
+  std::map<std::string, std::string> sources;
+  for (const auto& event : seen.events()) sources[event.topic()] = event.source();
+  EXPECT_EQ(sources["kr/door"], "ops");  // the definer's, whoever ran it
+  EXPECT_EQ(sources["kr/window"], "ops2");
 }
 
 }  // namespace

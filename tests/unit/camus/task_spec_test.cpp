@@ -106,8 +106,7 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"name: bad name\nsteps: [{sleep: {ms: 1}}]",
                 "task 't': name (line 1): task name 'bad name' is not valid: character ' ' is not allowed (use "
                 "letters, digits and . _ -)"},
-        BadCase{"steps:\n  - call: {service: s}\n",
-                "task 't': steps[0].call (line 2): missing 'operation'"},
+        BadCase{"steps:\n  - call: {service: s}\n", "task 't': steps[0].call (line 2): missing 'operation'"},
         BadCase{"steps:\n  - call: {service: s, operation: o, servce: x}\n",
                 "task 't': steps[0].call.servce (line 2): unknown key 'servce' (expected service, operation, args, "
                 "deadline_ms)"},
@@ -128,7 +127,8 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"steps:\n  - wait_event: {pattern: \"a/#/b\"}\n",
                 "task 't': steps[0].wait_event.pattern (line 2): invalid pattern 'a/#/b': '#' is only allowed as the "
                 "last level"},
-        BadCase{"steps:\n  - wait_context: {key: k}\n", "task 't': steps[0].wait_context (line 2): missing 'equals' or 'exists'"},
+        BadCase{"steps:\n  - wait_context: {key: k}\n",
+                "task 't': steps[0].wait_context (line 2): missing 'equals' or 'exists'"},
         BadCase{"steps:\n  - wait_context: {key: k, equals: 1, exists: true}\n",
                 "task 't': steps[0].wait_context (line 2): give either 'equals' or 'exists', not both"},
         BadCase{"steps:\n  - wait_context: {key: k, exists: maybe}\n",
@@ -146,8 +146,9 @@ INSTANTIATE_TEST_SUITE_P(
                 "number of milliseconds (0..4294967295)"}));
 
 TEST(TaskSpec, YamlToJsonFollowsTheCoreSchema) {
-  EXPECT_EQ(yaml_text_to_json("{a: 1, b: -2.5, c: true, d: null, e: hello, f: '12', g: [1, x], h: 1e3, i: +7}"),
-            "{\"a\":1,\"b\":-2.5,\"c\":true,\"d\":null,\"e\":\"hello\",\"f\":\"12\",\"g\":[1,\"x\"],\"h\":1000,\"i\":7}");
+  EXPECT_EQ(
+      yaml_text_to_json("{a: 1, b: -2.5, c: true, d: null, e: hello, f: '12', g: [1, x], h: 1e3, i: +7}"),
+      "{\"a\":1,\"b\":-2.5,\"c\":true,\"d\":null,\"e\":\"hello\",\"f\":\"12\",\"g\":[1,\"x\"],\"h\":1000,\"i\":7}");
   EXPECT_EQ(yaml_text_to_json("{q: \"say \\\"hi\\\"\\n\"}"), "{\"q\":\"say \\\"hi\\\"\\n\"}");
 }
 

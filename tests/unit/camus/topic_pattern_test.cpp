@@ -25,13 +25,12 @@ INSTANTIATE_TEST_SUITE_P(
     ::testing::Values(MatchCase{"a/b/c", "a/b/c", true}, MatchCase{"a/b/c", "a/b", false},
                       MatchCase{"a/b/c", "a/b/c/d", false}, MatchCase{"a/b", "a/bb", false},
                       MatchCase{"a/*/c", "a/x/c", true}, MatchCase{"a/*/c", "a/c", false},
-                      MatchCase{"a/*/c", "a/x/y/c", false}, MatchCase{"*", "a", true},
-                      MatchCase{"*", "a/b", false}, MatchCase{"*/*", "a/b", true},
-                      MatchCase{"a/#", "a", true},  // '#' matches zero levels
-                      MatchCase{"a/#", "a/b", true}, MatchCase{"a/#", "a/b/c/d", true},
-                      MatchCase{"a/#", "b/a", false}, MatchCase{"a/#", "ab", false}, MatchCase{"#", "a", true},
-                      MatchCase{"#", "x/y/z", true}, MatchCase{"*/arrived", "robot1.navigation/arrived", true},
-                      MatchCase{"*/#", "a", true}, MatchCase{"*/b/#", "a/b", true}, MatchCase{"*/b/#", "a/c", false},
+                      MatchCase{"a/*/c", "a/x/y/c", false}, MatchCase{"*", "a", true}, MatchCase{"*", "a/b", false},
+                      MatchCase{"*/*", "a/b", true}, MatchCase{"a/#", "a", true},  // '#' matches zero levels
+                      MatchCase{"a/#", "a/b", true}, MatchCase{"a/#", "a/b/c/d", true}, MatchCase{"a/#", "b/a", false},
+                      MatchCase{"a/#", "ab", false}, MatchCase{"#", "a", true}, MatchCase{"#", "x/y/z", true},
+                      MatchCase{"*/arrived", "robot1.navigation/arrived", true}, MatchCase{"*/#", "a", true},
+                      MatchCase{"*/b/#", "a/b", true}, MatchCase{"*/b/#", "a/c", false},
                       MatchCase{"context/robot1/#", "context/robot1/pose", true},
                       MatchCase{"task/square-path/*", "task/square-path/r1", true}));
 
@@ -57,8 +56,9 @@ INSTANTIATE_TEST_SUITE_P(
                       InvalidCase{"a//b", "invalid pattern 'a//b': level 2 is empty"},
                       InvalidCase{"/a", "invalid pattern '/a': level 1 is empty"},
                       InvalidCase{"a/", "invalid pattern 'a/': level 2 is empty"},
-                      InvalidCase{"a/b*", "invalid pattern 'a/b*': level 2 ('b*') mixes a wildcard with text; '*' and "
-                                          "'#' must be a whole level"},
+                      InvalidCase{"a/b*",
+                                  "invalid pattern 'a/b*': level 2 ('b*') mixes a wildcard with text; '*' and "
+                                  "'#' must be a whole level"},
                       InvalidCase{"a b", "invalid pattern 'a b': level 1 ('a b') holds white space"}));
 
 TEST(Topic, ProblemsAreNamed) {

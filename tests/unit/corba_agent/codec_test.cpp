@@ -81,12 +81,14 @@ TEST_F(Codec, ValuesIdlCannotHoldAreRefusedNamingTheField) {
   EXPECT_EQ(write_error(*scalars, "s: 40000"), "UrsTest.Scalars.s: short value 40000 is out of range -32768..32767");
   EXPECT_EQ(write_error(*scalars, "us: 70000 c: \"a\" wc: \"b\""),
             "UrsTest.Scalars.us: unsigned short value 70000 is out of range 0..65535");
-  EXPECT_EQ(write_error(*scalars, "o: 256 c: \"a\" wc: \"b\""), "UrsTest.Scalars.o: octet value 256 is out of range 0..255");
+  EXPECT_EQ(write_error(*scalars, "o: 256 c: \"a\" wc: \"b\""),
+            "UrsTest.Scalars.o: octet value 256 is out of range 0..255");
   EXPECT_EQ(write_error(*scalars, "c: \"ab\""),
             "UrsTest.Scalars.c: a char must be exactly one character of ISO 8859-1, not 'ab'");
   EXPECT_EQ(write_error(*scalars, "c: \"€\""),
             "UrsTest.Scalars.c: a char must be exactly one character of ISO 8859-1, not '€'");
-  EXPECT_EQ(write_error(*scalars, "c: \"a\" wc: \"\""), "UrsTest.Scalars.wc: a wchar must be exactly one character, not ''");
+  EXPECT_EQ(write_error(*scalars, "c: \"a\" wc: \"\""),
+            "UrsTest.Scalars.wc: a wchar must be exactly one character, not ''");
   EXPECT_EQ(write_error(*scalars, R"(c: "a" wc: "b" str: "a\000b")"),
             "UrsTest.Scalars.str: a CORBA string cannot hold a NUL character");
   EXPECT_EQ(write_error(*scalars, R"(c: "a" wc: "b" bounded: "123456789")"),
@@ -105,7 +107,8 @@ TEST_F(Codec, ValuesIdlCannotHoldAreRefusedNamingTheField) {
             "UrsTest.Containers.short_strings[1]: a string of 5 is over the bound of 4");
   EXPECT_EQ(write_error(*containers, arrays + "rows { items: [1, 2, 3] }"),
             "UrsTest.Containers.rows[0]: holds 3 elements; the array has 4");
-  EXPECT_EQ(write_error(*URC::Marker::descriptor(), "corners { }"), "URC.Marker.corners: holds 1 elements; the array has 4");
+  EXPECT_EQ(write_error(*URC::Marker::descriptor(), "corners { }"),
+            "URC.Marker.corners: holds 1 elements; the array has 4");
 
   auto colors = parse(*containers, arrays);
   colors->GetReflection()->AddEnumValue(colors.get(), containers->FindFieldByName("colors"), 7);

@@ -21,7 +21,7 @@ namespace urs::test {
 struct Sample {
   std::string idl_name;  // "UrsTest::Scalars"
   const google::protobuf::Descriptor* type;
-  std::string text;      // Protobuf text format
+  std::string text;  // Protobuf text format
 };
 
 inline const std::vector<Sample>& samples() {
@@ -75,7 +75,8 @@ inline std::vector<const google::protobuf::Descriptor*> sample_types() {
 }
 
 // A message of `type` parsed from `text`; throws std::invalid_argument if the text does not parse.
-inline std::unique_ptr<google::protobuf::Message> parse(const google::protobuf::Descriptor& type, const std::string& text) {
+inline std::unique_ptr<google::protobuf::Message> parse(const google::protobuf::Descriptor& type,
+                                                        const std::string& text) {
   std::unique_ptr<google::protobuf::Message> message(
       google::protobuf::MessageFactory::generated_factory()->GetPrototype(&type)->New());
   if (!google::protobuf::TextFormat::ParseFromString(text, message.get())) {

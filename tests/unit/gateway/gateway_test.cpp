@@ -1,5 +1,7 @@
 // The gateway's picture against in-memory sources and client: what each source reports becomes
 // channels, services and the connection graph.
+#include "urs/gateway/gateway.hpp"
+
 #include <google/protobuf/struct.pb.h>
 #include <google/protobuf/util/json_util.h>
 #include <gtest/gtest.h>
@@ -7,7 +9,7 @@
 #include <mutex>
 
 #include "Diagnostic.pb.h"
-#include "urs/gateway/gateway.hpp"
+#include "urs/schema/json.hpp"
 
 namespace gp = google::protobuf;
 namespace gw = urs::gateway;
@@ -36,7 +38,8 @@ class Outbox : public gw::Outbox {
     std::vector<gp::Struct> out;
     for (const auto& text : texts) {
       gp::Value value;
-      if (gp::util::JsonStringToMessage(text, &value).ok() && value.struct_value().fields().at("op").string_value() == op) {
+      if (gp::util::JsonStringToMessage(text, &value).ok() &&
+          value.struct_value().fields().at("op").string_value() == op) {
         out.push_back(value.struct_value());
       }
     }
@@ -116,8 +119,9 @@ TEST_F(GatewayTest, EachSourceReplacesItsOwnPart) {
   const auto& last = snapshots.back().fields().at("services").list_value();
   ASSERT_EQ(last.values_size(), 2);
   std::set<std::string> names;
-  for (const auto& s : last.values()) names.insert(s.struct_value().fields().at("space").string_value() + "/" +
-                                                   s.struct_value().fields().at("name").string_value());
+  for (const auto& s : last.values())
+    names.insert(s.struct_value().fields().at("space").string_value() + "/" +
+                 s.struct_value().fields().at("name").string_value());
   EXPECT_EQ(names, (std::set<std::string>{"lab/diag", "jp/robot1.navigation"}));
   // The same picture again is not sent again.
   const std::size_t sent = client->on(1).size();
@@ -208,4 +212,48 @@ TEST_F(GatewayTest, ContextKeysEndAndAreNotReplayed) {
   gateway.context(entry);
   hub.receive_text(id, subscribe(1, gateway.channel("/context")));
   EXPECT_TRUE(client->on(1).empty());
+}
+
+TEST_F(GatewayTest, EachRobotsChannelIsInTheConnectionGraph) {
+  hub.receive_text(id, "{\"op\":\"subscribeConnectionGraph\"}");
+  gateway.pose(gw::pose_of("jp", "robot1", 1.5, 1.0, 0.1, std::chrono::system_clock::now(), "dds"));
+  bool published = false;
+  for (const auto& update : client->json("connectionGraphUpdate")) {
+    for (const auto& t : update.fields().at("publishedTopics").list_value().values()) {
+      const auto& topic = t.struct_value().fields();
+      published = published || (topic.at("name").string_value() == "/jp/robot1/pose" &&
+                                topic.at("publisherIds").list_value().values(0).string_value() == "space:jp");
+    }
+  }
+  EXPECT_TRUE(published);
+}
+
+TEST_F(GatewayTest, ValueFieldsOfCallsTravelAsJsonText) {
+  gw::Operation op;
+  op.name = "ctx/Echo";
+  op.type = "Test.Echo";
+  op.space = "lab";
+  op.service = "ctx";
+  op.request = gw::ContextEntry::descriptor();
+  op.response = gw::ContextEntry::descriptor();
+  std::string received;
+  op.handler = [&received](const gw::Caller&, std::string json, std::function<void(gw::CallReply)> reply) {
+    received = json;
+    reply(gw::CallReply::success(json));  // the canonical form back
+  };
+  gateway.operations("camus", {op});
+  const auto advertised = client->json("advertiseServices");
+  ASSERT_EQ(advertised.size(), 1u);
+  const auto service_id = static_cast<uint32_t>(
+      advertised[0].fields().at("services").list_value().values(0).struct_value().fields().at("id").number_value());
+  std::string request(1, '\x02');
+  for (uint32_t v : {service_id, 5u, 4u}) {
+    for (int i = 0; i < 4; ++i) request += static_cast<char>((v >> (8 * i)) & 0xff);
+  }
+  hub.receive_binary(id, request + "json" + R"({"key":"k","value":"[1,2]"})");
+  gw::ContextEntry entry;
+  ASSERT_EQ(urs::schema::json_to_message(received, entry), "") << received;
+  EXPECT_EQ(entry.value().list_value().values_size(), 2) << "the handler got the value itself";
+  ASSERT_EQ(client->responses.size(), 1u);
+  EXPECT_NE(client->responses[0].find(R"("value":"[1,2]")"), std::string::npos) << "the reply carries JSON text";
 }

@@ -1,16 +1,17 @@
 // The hub against in-memory outboxes: what each client is sent, and only that.
+#include "urs/gateway/hub.hpp"
+
 #include <google/protobuf/struct.pb.h>
 #include <google/protobuf/util/json_util.h>
 #include <gtest/gtest.h>
 
 #include <mutex>
-
-#include "urs/gateway/hub.hpp"
+#include <tuple>
 
 namespace fg = urs::gateway::foxglove;
 namespace gp = google::protobuf;
-using urs::gateway::CallReply;
 using urs::gateway::Caller;
+using urs::gateway::CallReply;
 using urs::gateway::Hub;
 using urs::gateway::Latch;
 using urs::gateway::Role;
@@ -120,8 +121,8 @@ TEST_F(HubTest, OnlySubscribersGetMessagesAndLatchedOnesComeFirst) {
   hub.connect(b, Role::viewer, "");
   hub.receive_text(ca, R"({"op":"subscribe","subscriptions":[{"id":7,"channelId":)" + std::to_string(poses) +
                            R"(},{"id":8,"channelId":)" + std::to_string(events) + "}]}");
-  EXPECT_EQ(a->data(), (std::vector<std::pair<uint32_t, std::string>>{
-                           {7, "robot1@1"}, {7, "robot2@0"}, {8, "e1"}, {8, "e2"}}));
+  EXPECT_EQ(a->data(),
+            (std::vector<std::pair<uint32_t, std::string>>{{7, "robot1@1"}, {7, "robot2@0"}, {8, "e1"}, {8, "e2"}}));
   hub.publish(poses, payload("robot1@2"), 5, "robot1");
   EXPECT_EQ(a->data().back(), (std::pair<uint32_t, std::string>{7, "robot1@2"}));
   EXPECT_TRUE(b->data().empty()) << "b subscribed to nothing";
@@ -170,11 +171,12 @@ TEST_F(HubTest, BadInputGetsAStatusAndChangesNothing) {
 TEST_F(HubTest, ServiceCallsNeedAnOperatorAndAreAnswered) {
   std::vector<std::string> got;
   std::vector<std::function<void(CallReply)>> pending;
-  const uint32_t echo = hub.add_service({0, "diag/echo", "URS.Diagnostic.echo", {}, {}},
-                                        [&](const Caller& caller, std::string json, std::function<void(CallReply)> reply) {
-                                          got.push_back(caller.login + " " + json);
-                                          pending.push_back(std::move(reply));
-                                        });
+  const uint32_t echo =
+      hub.add_service({0, "diag/echo", "URS.Diagnostic.echo", {}, {}},
+                      [&](const Caller& caller, std::string json, std::function<void(CallReply)> reply) {
+                        got.push_back(caller.login + " " + json);
+                        pending.push_back(std::move(reply));
+                      });
   const uint64_t viewer = hub.connect(a, Role::viewer, "");
   const uint64_t op = hub.connect(b, Role::operator_, "login-1");
   hub.receive_binary(viewer, service_call(echo, 1, "json", R"({"text":"hi"})"));
@@ -190,7 +192,8 @@ TEST_F(HubTest, ServiceCallsNeedAnOperatorAndAreAnswered) {
   EXPECT_EQ(got, (std::vector<std::string>{R"(login-1 {"text":"hi"})", "login-1 {}"}));
   const auto failures = b->json("serviceCallFailure");
   ASSERT_EQ(failures.size(), 3u);
-  EXPECT_EQ(failures[0].fields().at("message").string_value(), "encoding 'cbor' is not supported (supportedEncodings: json)");
+  EXPECT_EQ(failures[0].fields().at("message").string_value(),
+            "encoding 'cbor' is not supported (supportedEncodings: json)");
   EXPECT_EQ(failures[1].fields().at("message").string_value(), "unknown service id 99");
   EXPECT_EQ(failures[2].fields().at("callId").number_value(), 5);
   pending[0](CallReply::success(R"({"result":"hi"})"));
@@ -198,13 +201,15 @@ TEST_F(HubTest, ServiceCallsNeedAnOperatorAndAreAnswered) {
   bool answered = false;
   for (const auto& frame : b->frames) {
     if (!frame.text && frame.bytes[0] == 0x03) {
-      EXPECT_EQ(frame.bytes, std::string("\x03", 1) + std::string({static_cast<char>(echo), 0, 0, 0, 1, 0, 0, 0, 4, 0, 0, 0}) +
-                                 "json" + R"({"result":"hi"})");
+      EXPECT_EQ(frame.bytes, std::string("\x03", 1) +
+                                 std::string({static_cast<char>(echo), 0, 0, 0, 1, 0, 0, 0, 4, 0, 0, 0}) + "json" +
+                                 R"({"result":"hi"})");
       answered = true;
     }
   }
   EXPECT_TRUE(answered);
-  EXPECT_EQ(b->json("serviceCallFailure").back().fields().at("message").string_value(), "USER_EXCEPTION URS.Failure {}");
+  EXPECT_EQ(b->json("serviceCallFailure").back().fields().at("message").string_value(),
+            "USER_EXCEPTION URS.Failure {}");
   // A reply to a client that left goes nowhere.
   hub.receive_binary(op, service_call(echo, 6, "json", "{}"));
   hub.disconnect(op);
@@ -248,8 +253,16 @@ TEST_F(HubTest, ConnectionGraphGoesToItsSubscribersAsChanges) {
   ASSERT_EQ(updates.size(), 2u);
   EXPECT_EQ(updates[1].fields().at("removedServices").list_value().values(0).string_value(), "kr/diag");
   EXPECT_EQ(updates[1].fields().at("advertisedServices").list_value().values_size(), 0);
-  EXPECT_EQ(updates[1].fields().at("publishedTopics").list_value().values(0).struct_value().fields().at("publisherIds")
-                .list_value().values_size(),
+  EXPECT_EQ(updates[1]
+                .fields()
+                .at("publishedTopics")
+                .list_value()
+                .values(0)
+                .struct_value()
+                .fields()
+                .at("publisherIds")
+                .list_value()
+                .values_size(),
             2);
   EXPECT_TRUE(b->json("connectionGraphUpdate").empty()) << "b did not subscribe to the graph";
   hub.receive_text(ca, R"({"op":"unsubscribeConnectionGraph"})");
@@ -264,4 +277,58 @@ TEST_F(HubTest, KeyedChannelsKeepBoundedKeys) {
   const uint64_t ca = hub.connect(a, Role::viewer, "");
   hub.receive_text(ca, R"({"op":"subscribe","subscriptions":[{"id":1,"channelId":)" + std::to_string(context) + "}]}");
   EXPECT_EQ(a->data().size(), 2u) << "max_keys_per_channel is 2 here";
+}
+
+TEST(HubPublish, OnlyOfferedWhenPlayingAndOnlyToOperators) {
+  Hub live{urs::gateway::HubOptions{}};
+  auto client = std::make_shared<RecordingOutbox>();
+  const uint64_t id = live.connect(client, Role::operator_, "");
+  live.receive_text(id,
+                    R"({"op":"advertise","channels":[{"id":1,"topic":"/poses","encoding":"json","schemaName":"P"}]})");
+  ASSERT_EQ(client->statuses().size(), 1u);
+  EXPECT_EQ(client->statuses()[0].rfind("'advertise' is not supported by this server", 0), 0u) << client->statuses()[0];
+
+  urs::gateway::HubOptions options;
+  options.client_publish = true;
+  options.max_client_channels = 2;
+  Hub playing{options};
+  std::vector<std::tuple<std::string, std::string, std::string>> taken;
+  playing.set_publish_handler([&taken](const urs::gateway::Caller& caller, const std::string& topic,
+                                       const std::string& schema, const std::string& data) -> std::string {
+    EXPECT_EQ(caller.role, Role::operator_);
+    if (topic == "/nowhere") return "not a topic of the gateway";
+    taken.emplace_back(topic, schema, data);
+    return {};
+  });
+  auto viewer = std::make_shared<RecordingOutbox>();
+  const uint64_t v = playing.connect(viewer, Role::viewer, "");
+  EXPECT_NE(viewer->json("serverInfo")[0].DebugString().find("clientPublish"), std::string::npos);
+  playing.receive_text(
+      v, R"({"op":"advertise","channels":[{"id":1,"topic":"/poses","encoding":"json","schemaName":"P"}]})");
+  EXPECT_EQ(viewer->statuses().back(),
+            "PERMISSION_DENIED: publishing needs the operator role; this connection is viewer");
+
+  auto op = std::make_shared<RecordingOutbox>();
+  const uint64_t o = playing.connect(op, Role::operator_, "");
+  playing.receive_text(o,
+                       R"({"op":"advertise","channels":[{"id":1,"topic":"/poses","encoding":"json","schemaName":"P"},)"
+                       R"({"id":2,"topic":"/nowhere","encoding":"json","schemaName":"N"},)"
+                       R"({"id":3,"topic":"/x","encoding":"cdr","schemaName":"X"},)"
+                       R"({"id":4,"topic":"/y","encoding":"json","schemaName":"Y"}]})");
+  ASSERT_EQ(op->statuses().size(), 2u);
+  EXPECT_EQ(op->statuses()[0], "advertise: channel 3 (/x): encoding 'cdr' is not supported (supportedEncodings: json)");
+  EXPECT_EQ(op->statuses()[1], "advertise: at most 2 channels per connection");
+  playing.receive_binary(o, std::string("\x01\x01\x00\x00\x00", 5) + R"({"x":1})");
+  ASSERT_EQ(taken.size(), 1u);
+  EXPECT_EQ(std::get<0>(taken[0]), "/poses");
+  EXPECT_EQ(std::get<1>(taken[0]), "P");
+  EXPECT_EQ(std::get<2>(taken[0]), R"({"x":1})");
+  playing.receive_binary(o, std::string("\x01\x02\x00\x00\x00", 5) + "{}");
+  EXPECT_EQ(op->statuses().back(), "/nowhere: not a topic of the gateway");
+  playing.receive_binary(o, std::string("\x01\x09\x00\x00\x00", 5) + "{}");
+  EXPECT_EQ(op->statuses().back(), "client message data: unknown channel 9 (advertise it first)");
+  playing.receive_text(o, R"({"op":"unadvertise","channelIds":[1]})");
+  playing.receive_binary(o, std::string("\x01\x01\x00\x00\x00", 5) + "{}");
+  EXPECT_EQ(op->statuses().back(), "client message data: unknown channel 1 (advertise it first)");
+  EXPECT_EQ(taken.size(), 1u);
 }

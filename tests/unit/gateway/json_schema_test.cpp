@@ -1,4 +1,6 @@
 // JSON schemas are derived from descriptors alone and say what the canonical JSON mapping prints.
+#include "urs/gateway/json_schema.hpp"
+
 #include <google/protobuf/struct.pb.h>
 #include <google/protobuf/util/json_util.h>
 #include <gtest/gtest.h>
@@ -6,7 +8,6 @@
 #include "AllTypes.pb.h"
 #include "Diagnostic.pb.h"
 #include "gateway.pb.h"
-#include "urs/gateway/json_schema.hpp"
 #include "urs/schema/json.hpp"
 
 namespace gp = google::protobuf;
@@ -27,27 +28,25 @@ std::string type_of(const gp::Struct& property) {
   return type.kind_case() == gp::Value::kStringValue ? type.string_value() : "(list)";
 }
 
-// Every key the JSON mapping prints for `message` is a property of its schema, recursively.
-void expect_described(const gp::Struct& printed, const gp::Struct& schema, const gp::Struct& root,
-                      const std::string& where) {
+// Every key the JSON mapping prints for `message` is a property of its schema, recursively (an
+// object cut at a recursion lists none).
+void expect_described(const gp::Struct& printed, const gp::Struct& schema, const std::string& where) {
   const gp::Struct* s = &schema;
-  if (s->fields().count("$ref")) {
-    const std::string ref = s->fields().at("$ref").string_value();
-    s = &object(object(root, "$defs"), ref.substr(std::string("#/$defs/").size()));
-  }
   ASSERT_TRUE(s->fields().count("properties")) << where;
+  if (object(*s, "properties").fields().empty() && !s->fields().count("additionalProperties")) return;
   const gp::Struct& properties = object(*s, "properties");
   for (const auto& [key, value] : printed.fields()) {
     ASSERT_TRUE(properties.fields().count(key)) << where << "." << key << " is printed but not in the schema";
     const gp::Struct& property = properties.fields().at(key).struct_value();
     if (value.kind_case() == gp::Value::kStructValue && property.fields().count("properties")) {
-      expect_described(value.struct_value(), property, root, where + "." + key);
+      expect_described(value.struct_value(), property, where + "." + key);
     }
     if (value.kind_case() == gp::Value::kListValue) {
       EXPECT_EQ(type_of(property), "array") << where << "." << key;
       const gp::Struct& items = object(property, "items");
       for (const auto& item : value.list_value().values()) {
-        if (item.kind_case() == gp::Value::kStructValue) expect_described(item.struct_value(), items, root, where + "." + key + "[]");
+        if (item.kind_case() == gp::Value::kStructValue)
+          expect_described(item.struct_value(), items, where + "." + key + "[]");
       }
     }
   }
@@ -67,10 +66,9 @@ TEST(JsonSchema, ScalarsMapToTheirJsonTypes) {
   EXPECT_EQ(type_of(object(p, "d")), "number");
   EXPECT_EQ(type_of(object(p, "b")), "boolean");
   EXPECT_EQ(type_of(object(p, "str")), "string");
-  // 64-bit integers print as decimal strings; both forms are accepted.
-  const auto& ll = object(p, "ll").fields().at("type").list_value();
-  EXPECT_EQ(ll.values(0).string_value(), "integer");
-  EXPECT_EQ(ll.values(1).string_value(), "string");
+  // 64-bit integers print as decimal strings: one type, as Foxglove and Lichtblick require.
+  EXPECT_EQ(type_of(object(p, "ll")), "string");
+  EXPECT_EQ(object(p, "ull").fields().at("pattern").string_value(), "^[0-9]+$");
 }
 
 TEST(JsonSchema, ContainersEnumsBytesAndNestedMessages) {
@@ -79,6 +77,7 @@ TEST(JsonSchema, ContainersEnumsBytesAndNestedMessages) {
   EXPECT_EQ(object(p, "blob").fields().at("contentEncoding").string_value(), "base64");
   EXPECT_EQ(type_of(object(p, "longs")), "array");
   EXPECT_EQ(type_of(object(object(p, "longs"), "items")), "integer");
+  EXPECT_EQ(type_of(object(object(p, "colors"), "items")), "string");
   const auto& colors = object(object(p, "colors"), "items").fields().at("enum").list_value();
   ASSERT_EQ(colors.values_size(), 3);
   EXPECT_EQ(colors.values(2).string_value(), "COLOR_LIGHT_BLUE");
@@ -87,18 +86,32 @@ TEST(JsonSchema, ContainersEnumsBytesAndNestedMessages) {
   EXPECT_TRUE(object(point, "properties").fields().count("x"));
 }
 
-TEST(JsonSchema, RecursiveTypesAreReferenced) {
+TEST(JsonSchema, RecursiveTypesAreCutWhereTheyRecur) {
+  // Neither Foxglove nor Lichtblick follows "$ref": the type inside itself is any object.
   const gp::Struct schema = schema_of(*UrsTest::Node::descriptor());
-  const gp::Struct& children = object(object(schema, "properties"), "children");
-  EXPECT_EQ(object(children, "items").fields().at("$ref").string_value(), "#/$defs/UrsTest.Node");
-  EXPECT_TRUE(object(object(object(schema, "$defs"), "UrsTest.Node"), "properties").fields().count("children"));
+  EXPECT_FALSE(schema.fields().count("$defs"));
+  const gp::Struct& items = object(object(object(schema, "properties"), "children"), "items");
+  EXPECT_EQ(type_of(items), "object");
+  EXPECT_EQ(items.fields().at("title").string_value(), "UrsTest.Node");
+  EXPECT_TRUE(object(items, "properties").fields().empty());
 }
 
-TEST(JsonSchema, WellKnownTypes) {
+TEST(JsonSchema, BytesInAnArrayHaveAPatternNotAnEncoding) {
+  const gp::Struct schema = schema_of(*UrsTest::Containers::descriptor());
+  const gp::Struct& digest = object(object(object(schema, "properties"), "chunks"), "items");
+  EXPECT_FALSE(digest.fields().count("contentEncoding"));
+  EXPECT_EQ(type_of(digest), "string");
+}
+
+TEST(JsonSchema, ValuesAreJsonTextAndStructsObjects) {
   const gp::Struct schema = schema_of(*urs::gateway::ContextEntry::descriptor());
   const gp::Struct& value = object(object(schema, "properties"), "value");
   EXPECT_EQ(value.fields().at("title").string_value(), "google.protobuf.Value");
-  EXPECT_FALSE(value.fields().count("type"));  // any JSON value
+  EXPECT_EQ(type_of(value), "string");
+  EXPECT_EQ(value.fields().at("contentMediaType").string_value(), "application/json");
+  const gp::Struct any = schema_of(*gp::Struct::descriptor());
+  EXPECT_EQ(type_of(any), "object");
+  EXPECT_TRUE(any.fields().count("properties"));
 }
 
 TEST(JsonSchema, EveryPrintedFieldIsDescribed) {
@@ -121,6 +134,6 @@ TEST(JsonSchema, EveryPrintedFieldIsDescribed) {
     gp::Value printed;
     ASSERT_TRUE(gp::util::JsonStringToMessage(json, &printed).ok());
     const gp::Struct schema = schema_of(*message->GetDescriptor());
-    expect_described(printed.struct_value(), schema, schema, message->GetDescriptor()->full_name());
+    expect_described(printed.struct_value(), schema, message->GetDescriptor()->full_name());
   }
 }

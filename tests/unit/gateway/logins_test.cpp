@@ -1,8 +1,8 @@
 // Logins in a space without a CAMUS server: the gateway compares the credential itself.
 // (Against a real CAMUS server: tests/integration/gateway.)
-#include <gtest/gtest.h>
-
 #include "urs/gateway/logins.hpp"
+
+#include <gtest/gtest.h>
 
 using urs::gateway::LoginOptions;
 using urs::gateway::Logins;

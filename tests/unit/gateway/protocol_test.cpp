@@ -1,10 +1,10 @@
 // The Foxglove WebSocket protocol as foxglove/ws-protocol docs/spec.md gives it: what clients send
 // is parsed (and refused with a precise reason), what the server sends is laid out byte for byte.
+#include "urs/gateway/protocol.hpp"
+
 #include <google/protobuf/struct.pb.h>
 #include <google/protobuf/util/json_util.h>
 #include <gtest/gtest.h>
-
-#include "urs/gateway/protocol.hpp"
 
 namespace fg = urs::gateway::foxglove;
 namespace gp = google::protobuf;
@@ -31,7 +31,8 @@ std::string bytes(std::initializer_list<int> values) {
 }  // namespace
 
 TEST(FoxgloveParse, SubscribeCarriesEverySubscription) {
-  auto message = fg::parse_text(R"({"op":"subscribe","subscriptions":[{"id":0,"channelId":3},{"id":1,"channelId":5}]})");
+  auto message =
+      fg::parse_text(R"({"op":"subscribe","subscriptions":[{"id":0,"channelId":3},{"id":1,"channelId":5}]})");
   auto* subscribe = std::get_if<fg::Subscribe>(&message);
   ASSERT_NE(subscribe, nullptr) << error_of(message);
   ASSERT_EQ(subscribe->subscriptions.size(), 2u);
@@ -44,8 +45,10 @@ TEST(FoxgloveParse, UnsubscribeAndGraphOps) {
   auto* unsubscribe = std::get_if<fg::Unsubscribe>(&message);
   ASSERT_NE(unsubscribe, nullptr) << error_of(message);
   EXPECT_EQ(unsubscribe->subscription_ids, (std::vector<uint32_t>{0, 4294967295u}));
-  EXPECT_TRUE(std::holds_alternative<fg::SubscribeConnectionGraph>(fg::parse_text(R"({"op":"subscribeConnectionGraph"})")));
-  EXPECT_TRUE(std::holds_alternative<fg::UnsubscribeConnectionGraph>(fg::parse_text(R"({"op":"unsubscribeConnectionGraph"})")));
+  EXPECT_TRUE(
+      std::holds_alternative<fg::SubscribeConnectionGraph>(fg::parse_text(R"({"op":"subscribeConnectionGraph"})")));
+  EXPECT_TRUE(
+      std::holds_alternative<fg::UnsubscribeConnectionGraph>(fg::parse_text(R"({"op":"unsubscribeConnectionGraph"})")));
 }
 
 TEST(FoxgloveParse, BadInputIsRefusedWithItsReason) {
@@ -70,12 +73,40 @@ TEST(FoxgloveParse, BadInputIsRefusedWithItsReason) {
 }
 
 TEST(FoxgloveParse, OperationsOfOtherCapabilitiesAreUnsupported) {
-  for (const char* op : {"advertise", "getParameters", "fetchAsset"}) {
+  for (const char* op : {"getParameters", "setParameters", "fetchAsset"}) {
     auto message = fg::parse_text(std::string(R"({"op":")") + op + "\"}");
     auto* unsupported = std::get_if<fg::Unsupported>(&message);
     ASSERT_NE(unsupported, nullptr) << op;
     EXPECT_EQ(unsupported->op, op);
   }
+}
+
+TEST(FoxgloveParse, ClientPublishMessages) {
+  auto message = fg::parse_text(
+      R"({"op":"advertise","channels":[{"id":3,"topic":"/poses","encoding":"json","schemaName":"urs.gateway.Pose",
+          "schema":"{}"}]})");
+  auto* advertise = std::get_if<fg::ClientAdvertise>(&message);
+  ASSERT_NE(advertise, nullptr) << error_of(message);
+  ASSERT_EQ(advertise->channels.size(), 1u);
+  EXPECT_EQ(advertise->channels[0].id, 3u);
+  EXPECT_EQ(advertise->channels[0].topic, "/poses");
+  EXPECT_EQ(advertise->channels[0].schema_name, "urs.gateway.Pose");
+  message = fg::parse_text(R"({"op":"unadvertise","channelIds":[3,4]})");
+  ASSERT_NE(std::get_if<fg::ClientUnadvertise>(&message), nullptr) << error_of(message);
+  EXPECT_EQ(std::get<fg::ClientUnadvertise>(message).channel_ids.size(), 2u);
+  auto data = fg::parse_binary(bytes({0x01, 3, 0, 0, 0}) + "{\"x\":1}");
+  ASSERT_NE(std::get_if<fg::ClientMessageData>(&data), nullptr) << error_of(data);
+  EXPECT_EQ(std::get<fg::ClientMessageData>(data).channel_id, 3u);
+  EXPECT_EQ(std::get<fg::ClientMessageData>(data).payload, "{\"x\":1}");
+  // Refusals name the field.
+  EXPECT_EQ(error_of(fg::parse_text(R"({"op":"advertise","channels":[{"id":1,"encoding":"json","schemaName":"s"}]})")),
+            "advertise: channels[0].topic must be a string");
+  EXPECT_EQ(error_of(fg::parse_text(R"({"op":"advertise","channels":[{"id":1,"topic":"","encoding":"json",)"
+                                    R"("schemaName":"s"}]})")),
+            "advertise: channels[0].topic must have 1..256 bytes");
+  EXPECT_EQ(error_of(fg::parse_text(R"({"op":"advertise","channels":[{"id":-1}]})")),
+            "advertise: channels[0].id must be an integer in 0..4294967295");
+  EXPECT_EQ(error_of(fg::parse_binary(bytes({0x01, 3, 0}))), "client message data: 3 bytes (at least 5)");
 }
 
 TEST(FoxgloveParse, ServiceCallRequestLayout) {
@@ -98,7 +129,6 @@ TEST(FoxgloveParse, BadBinaryInputIsRefused) {
             "service call request: encoding length 5 exceeds the message or 64 bytes");
   EXPECT_EQ(error_of(fg::parse_binary(bytes({0x02, 1, 0, 0, 0, 1, 0, 0, 0, -1, -1, -1, -1}) + "json")),
             "service call request: encoding length 4294967295 exceeds the message or 64 bytes");
-  EXPECT_TRUE(std::holds_alternative<fg::Unsupported>(fg::parse_binary(bytes({0x01, 1, 0, 0, 0}))));
 }
 
 TEST(FoxgloveEncode, MessageDataHeaderIsLittleEndian) {
@@ -132,13 +162,14 @@ TEST(FoxgloveEncode, JsonMessagesHaveTheSpecFields) {
   EXPECT_EQ(advertised.at("schema").string_value(), "{\"type\":\"object\"}");
   EXPECT_EQ(parsed(fg::unadvertise({4, 5})).fields().at("channelIds").list_value().values_size(), 2);
 
-  fg::Service service{9, "diag/echo", "URS.Diagnostic.echo", {"json", "Req", "{}", "jsonschema"},
-                      {"json", "Rep", "{}", "jsonschema"}};
+  fg::Service service{
+      9, "diag/echo", "URS.Diagnostic.echo", {"json", "Req", "{}", "jsonschema"}, {"json", "Rep", "{}", "jsonschema"}};
   auto services = parsed(fg::advertise_services({&service}));
   const auto& one = services.fields().at("services").list_value().values(0).struct_value().fields();
   EXPECT_EQ(one.at("name").string_value(), "diag/echo");
   EXPECT_EQ(one.at("request").struct_value().fields().at("schemaName").string_value(), "Req");
-  EXPECT_EQ(one.at("requestSchema").string_value(), "{}");
+  EXPECT_FALSE(one.count("requestSchema")) << "the deprecated form is not sent";
+  EXPECT_FALSE(one.count("responseSchema"));
   auto failure = parsed(fg::service_call_failure(9, 2, "USER_EXCEPTION URS.Failure"));
   EXPECT_EQ(failure.fields().at("op").string_value(), "serviceCallFailure");
   EXPECT_EQ(failure.fields().at("callId").number_value(), 2);
@@ -147,8 +178,16 @@ TEST(FoxgloveEncode, JsonMessagesHaveTheSpecFields) {
   update.advertised_services.push_back({"jp/robot1.navigation", {"jp:bridge-jp"}});
   update.removed_topics.push_back("/old");
   auto graph = parsed(fg::connection_graph_update(update));
-  EXPECT_EQ(graph.fields().at("advertisedServices").list_value().values(0).struct_value().fields().at("providerIds")
-                .list_value().values(0).string_value(),
+  EXPECT_EQ(graph.fields()
+                .at("advertisedServices")
+                .list_value()
+                .values(0)
+                .struct_value()
+                .fields()
+                .at("providerIds")
+                .list_value()
+                .values(0)
+                .string_value(),
             "jp:bridge-jp");
   EXPECT_EQ(graph.fields().at("removedTopics").list_value().values(0).string_value(), "/old");
   EXPECT_EQ(graph.fields().at("publishedTopics").list_value().values_size(), 0);

@@ -1,10 +1,10 @@
 // The Planet edge of the call model: statuses, replies, requests and responders converted both ways.
 
+#include "urs/planet/call_adapter.hpp"
+
 #include <gtest/gtest.h>
 
 #include <optional>
-
-#include "urs/planet/call_adapter.hpp"
 
 namespace urs::planet {
 namespace {
@@ -86,14 +86,14 @@ TEST(PlanetCallAdapter, ResponderAnswersThePlanetResponder) {
 
 TEST(PlanetCallAdapter, ResponderDroppedUnansweredAnswersInternal) {
   std::optional<CallResult> result;
-  { call::Responder responder = to_call_responder([&](CallResult r) { result = r; }); }
+  {
+    call::Responder responder = to_call_responder([&](CallResult r) { result = r; });
+  }
   ASSERT_TRUE(result);
   EXPECT_EQ(result->status, INTERNAL);
 }
 
-TEST(PlanetCallAdapter, AOnewayResponderAnswersNowhere) {
-  EXPECT_FALSE(to_call_responder(Responder()).pending());
-}
+TEST(PlanetCallAdapter, AOnewayResponderAnswersNowhere) { EXPECT_FALSE(to_call_responder(Responder()).pending()); }
 
 }  // namespace
 }  // namespace urs::planet

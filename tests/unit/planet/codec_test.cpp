@@ -1,20 +1,21 @@
 // FrameDecoder, Reassembler, MessageDecoder and FrameEncoder on plain byte strings.
 
-#include <google/protobuf/util/message_differencer.h>
+#include "urs/planet/codec.hpp"
+
 #include <gmock/gmock.h>
+#include <google/protobuf/util/message_differencer.h>
 #include <gtest/gtest.h>
 
 #include <set>
 
 #include "sample_frames.hpp"
-#include "urs/planet/codec.hpp"
 
 namespace urs::planet {
 namespace {
 
+using google::protobuf::util::MessageDifferencer;
 using ::testing::AllOf;
 using ::testing::HasSubstr;
-using google::protobuf::util::MessageDifferencer;
 
 std::vector<Frame> decode_whole(FrameDecoder& decoder, const std::string& bytes) {
   std::vector<Frame> out;
@@ -25,8 +26,7 @@ std::vector<Frame> decode_whole(FrameDecoder& decoder, const std::string& bytes)
 std::vector<Frame> decode_bytewise(FrameDecoder& decoder, const std::string& bytes) {
   std::vector<Frame> out;
   for (char byte : bytes) {
-    decoder.feed(std::string_view(&byte, 1),
-                 [&](Frame&& frame) { out.push_back(std::move(frame)); });
+    decoder.feed(std::string_view(&byte, 1), [&](Frame&& frame) { out.push_back(std::move(frame)); });
   }
   return out;
 }
@@ -82,8 +82,7 @@ TEST(PlanetFrameDecoder, ManyFramesInOneSliceAndAcrossArbitrarySplits) {
     FrameDecoder decoder(1 << 16);
     std::vector<Frame> out;
     for (size_t at = 0; at < stream.size(); at += split) {
-      decoder.feed(std::string_view(stream).substr(at, split),
-                   [&](Frame&& frame) { out.push_back(std::move(frame)); });
+      decoder.feed(std::string_view(stream).substr(at, split), [&](Frame&& frame) { out.push_back(std::move(frame)); });
     }
     ASSERT_EQ(out.size(), frames.size());
     for (size_t i = 0; i < frames.size(); ++i) {
@@ -102,8 +101,7 @@ TEST(PlanetFrameDecoder, RejectsOversizedLengthBeforeReadingTheBody) {
   auto error = expect_protocol_error([&] { decode_whole(decoder, be32(0xffffffffu)); });
   EXPECT_EQ(error.code(), ProtocolErrorCode::kFrameTooLarge);
   EXPECT_EQ(error.status(), Status::PAYLOAD_TOO_LARGE);
-  EXPECT_THAT(error.what(), AllOf(HasSubstr("frame of 4294967295 bytes"),
-                                  HasSubstr("limit of 65536 bytes"),
+  EXPECT_THAT(error.what(), AllOf(HasSubstr("frame of 4294967295 bytes"), HasSubstr("limit of 65536 bytes"),
                                   HasSubstr("raise the receiver's chunk_bytes")));
   EXPECT_LE(decoder.buffered_bytes(), kLengthPrefixBytes);
 }
@@ -146,8 +144,7 @@ TEST(PlanetFrameDecoder, RejectsAFrameWithoutAKnownBody) {
 
 TEST(PlanetFrameDecoder, HttpRequestIsRejectedByItsLength) {
   FrameDecoder decoder(65536);
-  auto error =
-      expect_protocol_error([&] { decode_whole(decoder, "GET / HTTP/1.1\r\nHost: x\r\n\r\n"); });
+  auto error = expect_protocol_error([&] { decode_whole(decoder, "GET / HTTP/1.1\r\nHost: x\r\n\r\n"); });
   EXPECT_EQ(error.code(), ProtocolErrorCode::kFrameTooLarge);
 }
 
@@ -204,9 +201,7 @@ TEST(PlanetFrameEncoder, ChunksALargeFrameAndTheDecoderReassemblesIt) {
   }
 }
 
-TEST(PlanetFrameEncoder, RejectsATinyChunkSize) {
-  EXPECT_THROW(FrameEncoder(100), std::invalid_argument);
-}
+TEST(PlanetFrameEncoder, RejectsATinyChunkSize) { EXPECT_THROW(FrameEncoder(100), std::invalid_argument); }
 
 Chunk piece(uint64_t id, uint64_t total, uint64_t offset, std::string data, bool last) {
   Chunk chunk;
@@ -262,14 +257,12 @@ TEST(PlanetReassembler, ReusesARecycledBufferForTheNextMessage) {
   huge.reserve(Reassembler::kMaxRecycledBytes + 1);
   reassembler.recycle(std::move(huge));
   EXPECT_FALSE(reassembler.add(piece(3, 4, 0, "ab", false)));
-  EXPECT_LE(reassembler.add(piece(3, 4, 2, "cd", true))->capacity(),
-            Reassembler::kMaxRecycledBytes);
+  EXPECT_LE(reassembler.add(piece(3, 4, 2, "cd", true))->capacity(), Reassembler::kMaxRecycledBytes);
 }
 
 TEST(PlanetReassembler, RejectsTotalOverTheLimitBeforeAllocating) {
   Reassembler reassembler(small_limits());
-  auto error =
-      expect_protocol_error([&] { reassembler.add(piece(5, 1ull << 40, 0, "x", false)); });
+  auto error = expect_protocol_error([&] { reassembler.add(piece(5, 1ull << 40, 0, "x", false)); });
   EXPECT_EQ(error.code(), ProtocolErrorCode::kMessageTooLarge);
   EXPECT_EQ(error.status(), Status::PAYLOAD_TOO_LARGE);
   EXPECT_THAT(error.what(), AllOf(HasSubstr("1099511627776 bytes"), HasSubstr("limit of 1000"),
@@ -294,24 +287,33 @@ TEST(PlanetReassembler, DetectsInconsistentPieces) {
     const char* text;
   };
   const std::vector<Case> cases = {
-      {"total changes", {piece(1, 10, 0, "abc", false), piece(1, 11, 3, "d", false)},
-       ProtocolErrorCode::kInconsistentChunk, "total_bytes changed from 10 to 11"},
-      {"gap", {piece(1, 10, 0, "abc", false), piece(1, 10, 4, "d", false)},
-       ProtocolErrorCode::kInconsistentChunk, "piece at offset 4, expected offset 3"},
-      {"overflow", {piece(1, 4, 0, "abc", false), piece(1, 4, 3, "de", true)},
-       ProtocolErrorCode::kChunkOverflow, "more than total_bytes 4"},
-      {"first piece overflows", {piece(1, 2, 0, "abc", true)}, ProtocolErrorCode::kChunkOverflow,
+      {"total changes",
+       {piece(1, 10, 0, "abc", false), piece(1, 11, 3, "d", false)},
+       ProtocolErrorCode::kInconsistentChunk,
+       "total_bytes changed from 10 to 11"},
+      {"gap",
+       {piece(1, 10, 0, "abc", false), piece(1, 10, 4, "d", false)},
+       ProtocolErrorCode::kInconsistentChunk,
+       "piece at offset 4, expected offset 3"},
+      {"overflow",
+       {piece(1, 4, 0, "abc", false), piece(1, 4, 3, "de", true)},
+       ProtocolErrorCode::kChunkOverflow,
+       "more than total_bytes 4"},
+      {"first piece overflows",
+       {piece(1, 2, 0, "abc", true)},
+       ProtocolErrorCode::kChunkOverflow,
        "exceeds total_bytes 2"},
-      {"unknown id", {piece(9, 10, 5, "abc", false)}, ProtocolErrorCode::kUnknownChunk,
-       "never started"},
-      {"last too early", {piece(1, 10, 0, "abc", true)}, ProtocolErrorCode::kInconsistentChunk,
+      {"unknown id", {piece(9, 10, 5, "abc", false)}, ProtocolErrorCode::kUnknownChunk, "never started"},
+      {"last too early",
+       {piece(1, 10, 0, "abc", true)},
+       ProtocolErrorCode::kInconsistentChunk,
        "last piece ends at 3 of 10"},
-      {"complete but not last", {piece(1, 3, 0, "abc", false)},
-       ProtocolErrorCode::kInconsistentChunk, "not marked last"},
-      {"empty piece", {piece(1, 3, 0, "", false)}, ProtocolErrorCode::kInconsistentChunk,
-       "carries no data"},
-      {"zero total", {piece(1, 0, 0, "a", true)}, ProtocolErrorCode::kInconsistentChunk,
-       "total_bytes 0"},
+      {"complete but not last",
+       {piece(1, 3, 0, "abc", false)},
+       ProtocolErrorCode::kInconsistentChunk,
+       "not marked last"},
+      {"empty piece", {piece(1, 3, 0, "", false)}, ProtocolErrorCode::kInconsistentChunk, "carries no data"},
+      {"zero total", {piece(1, 0, 0, "a", true)}, ProtocolErrorCode::kInconsistentChunk, "total_bytes 0"},
   };
   for (const Case& test : cases) {
     SCOPED_TRACE(test.name);
@@ -435,13 +437,12 @@ TEST(PlanetReassembler, BoundsTheBytesHeldPerConnectionAndServerWide) {
 }
 
 TEST(PlanetProtocolError, NamesEveryCode) {
-  for (auto code : {ProtocolErrorCode::kFrameTooLarge, ProtocolErrorCode::kEmptyFrame,
-                    ProtocolErrorCode::kMalformedFrame, ProtocolErrorCode::kMessageTooLarge,
-                    ProtocolErrorCode::kTooManyPartialMessages,
-                    ProtocolErrorCode::kInconsistentChunk, ProtocolErrorCode::kUnknownChunk,
-                    ProtocolErrorCode::kChunkOverflow, ProtocolErrorCode::kNestedChunk,
-                    ProtocolErrorCode::kChunkBeforeHandshake, ProtocolErrorCode::kReassemblyLimit,
-                    ProtocolErrorCode::kServerBudget}) {
+  for (auto code :
+       {ProtocolErrorCode::kFrameTooLarge, ProtocolErrorCode::kEmptyFrame, ProtocolErrorCode::kMalformedFrame,
+        ProtocolErrorCode::kMessageTooLarge, ProtocolErrorCode::kTooManyPartialMessages,
+        ProtocolErrorCode::kInconsistentChunk, ProtocolErrorCode::kUnknownChunk, ProtocolErrorCode::kChunkOverflow,
+        ProtocolErrorCode::kNestedChunk, ProtocolErrorCode::kChunkBeforeHandshake, ProtocolErrorCode::kReassemblyLimit,
+        ProtocolErrorCode::kServerBudget}) {
     EXPECT_NE(protocol_error_name(code), "UNKNOWN_PROTOCOL_ERROR");
   }
 }

@@ -21,8 +21,7 @@ Frame request(uint64_t call_id, size_t payload_bytes) {
   frame.mutable_request()->set_call_id(call_id);
   frame.mutable_request()->set_service("svc");
   frame.mutable_request()->set_operation("op");
-  frame.mutable_request()->set_payload(
-      std::string(payload_bytes, static_cast<char>('a' + call_id)));
+  frame.mutable_request()->set_payload(std::string(payload_bytes, static_cast<char>('a' + call_id)));
   return frame;
 }
 
@@ -199,9 +198,8 @@ Frame reply(uint64_t call_id, size_t payload_bytes, size_t message_bytes) {
 // The Outbox sends the pieces of a large message straight from its fields (WireFrame): the bytes
 // on the wire must be exactly those of FrameEncoder, which serializes each Chunk frame.
 TEST(PlanetOutbox, ChunksAreByteForByteThoseOfTheEncoder) {
-  const std::vector<Frame> frames = {request(1, kImage), reply(7, kImage, 3000),
-                                     reply(8, 70000, 0),  event(9, 200000),
-                                     reply(10, 1, 100000), request(11, 3 * kChunk - 100)};
+  const std::vector<Frame> frames = {request(1, kImage), reply(7, kImage, 3000), reply(8, 70000, 0),
+                                     event(9, 200000),   reply(10, 1, 100000),   request(11, 3 * kChunk - 100)};
   for (uint32_t chunk : {kMinChunkBytes, 1000u, 4096u, kChunk}) {
     for (const Frame& original : frames) {
       for (bool moved : {false, true}) {

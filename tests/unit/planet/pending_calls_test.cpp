@@ -1,11 +1,12 @@
 // The client's table of calls in flight: queueing while disconnected, deadlines, at most once.
 
+#include "client/pending_calls.hpp"
+
 #include <gtest/gtest.h>
 
 #include <optional>
 #include <string>
 
-#include "client/pending_calls.hpp"
 #include "recording_sink.hpp"
 
 namespace urs::planet::detail {

@@ -1,12 +1,13 @@
 // The client's publishes until acknowledged: kept while disconnected, resent after a reconnect
 // until the server acknowledges them (at least once), bounded with the calls by one budget.
 
+#include "client/publish_queue.hpp"
+
 #include <gtest/gtest.h>
 
 #include <future>
 #include <thread>
 
-#include "client/publish_queue.hpp"
 #include "recording_sink.hpp"
 
 namespace urs::planet::detail {
@@ -85,9 +86,8 @@ TEST(PublishQueue, PublishAndWaitReturnsTheServersAnswer) {
   PublishQueue queue(budget);
   auto sink = std::make_shared<RecordingSink>();
   queue.open(sink, UINT64_MAX);
-  auto refused = std::async(std::launch::async, [&] {
-    return queue.publish_and_wait("bad topic", "", "", milliseconds(60000));
-  });
+  auto refused =
+      std::async(std::launch::async, [&] { return queue.publish_and_wait("bad topic", "", "", milliseconds(60000)); });
   sink->wait_for_frames(1);
   queue.on_ack(ack_of(sink->frames().at(0), Status::BAD_ARGUMENTS));
   const CallResult result = refused.get();
@@ -105,9 +105,8 @@ TEST(PublishQueue, PublishAndWaitTimesOutKeepingTheEventAndFailsWhenClosed) {
 
   auto sink = std::make_shared<RecordingSink>();
   queue.open(sink, UINT64_MAX);
-  auto waiting = std::async(std::launch::async, [&] {
-    return queue.publish_and_wait("t", "", "", milliseconds(60000));
-  });
+  auto waiting =
+      std::async(std::launch::async, [&] { return queue.publish_and_wait("t", "", "", milliseconds(60000)); });
   sink->wait_for_frames(2);  // the first event resent, then this one
   queue.close();
   EXPECT_EQ(waiting.get().status, Status::UNAVAILABLE);

@@ -1,5 +1,7 @@
 // status_name() and the Responder contract (in-process, no sockets).
 
+#include "urs/planet/status.hpp"
+
 #include <gtest/gtest.h>
 
 #include <optional>
@@ -8,7 +10,6 @@
 
 #include "urs/planet/client.hpp"
 #include "urs/planet/reply.hpp"
-#include "urs/planet/status.hpp"
 
 namespace urs::planet {
 namespace {

@@ -1,6 +1,8 @@
 // The client's subscriptions: resumed after the last event on every session, duplicates dropped,
 // and unsubscribe() waiting for a running handler.
 
+#include "client/subscriptions.hpp"
+
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -8,7 +10,6 @@
 #include <thread>
 #include <vector>
 
-#include "client/subscriptions.hpp"
 #include "recording_sink.hpp"
 
 namespace urs::planet::detail {
@@ -25,7 +26,8 @@ Event event(uint64_t subscription, uint64_t seq) {
 TEST(Subscriptions, ResumesAfterTheLastEventAndDeliversAReplayOnce) {
   Subscriptions subscriptions("example.org:7000");
   std::vector<uint64_t> seen;
-  const uint64_t id = subscriptions.subscribe("t/*", [&](const Event& e) { seen.push_back(e.seq()); }, 0);
+  const uint64_t id = subscriptions.subscribe(
+      "t/*", [&](const Event& e) { seen.push_back(e.seq()); }, 0);
   auto first = std::make_shared<RecordingSink>();
   subscriptions.open(first);
   ASSERT_EQ(first->frames().size(), 1u);
@@ -56,7 +58,8 @@ TEST(Subscriptions, UnsubscribeTellsTheServerAndDropsLaterEvents) {
   auto sink = std::make_shared<RecordingSink>();
   subscriptions.open(sink);
   int calls = 0;
-  const uint64_t id = subscriptions.subscribe("t/*", [&](const Event&) { ++calls; }, 0);
+  const uint64_t id = subscriptions.subscribe(
+      "t/*", [&](const Event&) { ++calls; }, 0);
   subscriptions.unsubscribe(id);
   subscriptions.on_event(event(id, 1));
   EXPECT_EQ(calls, 0);
@@ -89,10 +92,13 @@ TEST(Subscriptions, AHandlerMayUnsubscribeItself) {
   Subscriptions subscriptions("example.org:7000");
   uint64_t id = 0;
   int calls = 0;
-  id = subscriptions.subscribe("t/*", [&](const Event&) {
-    ++calls;
-    subscriptions.unsubscribe(id);
-  }, 0);
+  id = subscriptions.subscribe(
+      "t/*",
+      [&](const Event&) {
+        ++calls;
+        subscriptions.unsubscribe(id);
+      },
+      0);
   subscriptions.on_event(event(id, 1));
   subscriptions.on_event(event(id, 2));
   EXPECT_EQ(calls, 1);

@@ -1,7 +1,8 @@
 // Pieces of the RT runtime that need no peer: naming paths, NVList helpers, the connector
-// properties tools compute, connector ids, the manager's configuration file.
+// properties tools compute, connector ids, the manager's configuration file, the ORB's flags.
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
@@ -13,6 +14,7 @@
 #include "urs/rtc/naming.hpp"
 #include "urs/rtc/nvlist.hpp"
 #include "urs/rtc/orb.hpp"
+#include "urs/rtc/orb_flags.hpp"
 #include "urs/rtc/port.hpp"
 #include "urs/rtc/tools.hpp"
 #include "urs/util/cli.hpp"
@@ -84,19 +86,21 @@ RTC::PortProfile port_profile(const std::string& name, const std::string& type,
 
 TEST_F(RtcUnit, ConnectorPropertiesMapARequiredInterfaceToItsOnlyProvider) {
   const auto consumer = port_profile("Caller0.diagnostic", "CorbaPort", {{"mine", "URS::Diagnostic", RTC::REQUIRED}});
-  const auto provider = port_profile("Diagnostic0.diagnostic", "CorbaPort", {{"diagnostic", "URS::Diagnostic", RTC::PROVIDED}});
+  const auto provider =
+      port_profile("Diagnostic0.diagnostic", "CorbaPort", {{"diagnostic", "URS::Diagnostic", RTC::PROVIDED}});
   const auto props = connector_properties({consumer, provider}, {});
   EXPECT_EQ(nv_string(props, "Caller0.port.diagnostic.required.URS::Diagnostic.mine"),
             "Diagnostic0.port.diagnostic.provided.URS::Diagnostic.diagnostic");
   EXPECT_FALSE(nv_has(props, "dataport.interface_type"));  // no data port involved
 
   // Two providers of the type: the choice is the caller's, nothing is guessed.
-  const auto other = port_profile("Diagnostic1.diagnostic", "CorbaPort", {{"diagnostic", "URS::Diagnostic", RTC::PROVIDED}});
+  const auto other =
+      port_profile("Diagnostic1.diagnostic", "CorbaPort", {{"diagnostic", "URS::Diagnostic", RTC::PROVIDED}});
   EXPECT_FALSE(nv_has(connector_properties({consumer, provider, other}, {}),
                       "Caller0.port.diagnostic.required.URS::Diagnostic.mine"));
   // What the caller sets wins.
-  const auto given = connector_properties(
-      {consumer, provider}, nv_from({{"Caller0.port.diagnostic.required.URS::Diagnostic.mine", "x"}}));
+  const auto given = connector_properties({consumer, provider},
+                                          nv_from({{"Caller0.port.diagnostic.required.URS::Diagnostic.mine", "x"}}));
   EXPECT_EQ(nv_string(given, "Caller0.port.diagnostic.required.URS::Diagnostic.mine"), "x");
 }
 
@@ -123,8 +127,8 @@ TEST_F(RtcUnit, TypeNamesMatchAcrossScopedNamesRepositoryIdsAndBareNames) {
 TEST_F(RtcUnit, ConnectionMismatchNamesBothSides) {
   const auto my_service = port_profile("MyServiceConsumer0.MyService", "CorbaPort",
                                        {{"myservice0", "SimpleService::MyService", RTC::REQUIRED}});
-  const auto diagnostic = port_profile("Diagnostic0.diagnostic", "CorbaPort",
-                                       {{"diagnostic", "URS::Diagnostic", RTC::PROVIDED}});
+  const auto diagnostic =
+      port_profile("Diagnostic0.diagnostic", "CorbaPort", {{"diagnostic", "URS::Diagnostic", RTC::PROVIDED}});
   EXPECT_EQ(connection_mismatch(my_service, diagnostic),
             "MyServiceConsumer0.MyService requires SimpleService::MyService but Diagnostic0.diagnostic provides "
             "URS::Diagnostic");
@@ -153,7 +157,8 @@ class ConfigurationUnit : public RtcUnit {
  protected:
   void SetUp() override {
     RtcUnit::SetUp();
-    config_.declare({"radius", "1", number_between(0, 10), [this](const std::string& v) { applied_.push_back("radius=" + v); }});
+    config_.declare(
+        {"radius", "1", number_between(0, 10), [this](const std::string& v) { applied_.push_back("radius=" + v); }});
     config_.declare({"label", "a", {}, [this](const std::string& v) { applied_.push_back("label=" + v); }});
     config_.declare({"start", "0", {}, {}});  // read-only
   }
@@ -192,7 +197,8 @@ TEST_F(ConfigurationUnit, ChangingTheActiveSetTellsTheComponentAtOnce) {
   EXPECT_EQ(value("default", "label"), "a");  // the others are kept
   EXPECT_EQ(config_.active_value("radius"), "2.5");
   // The whole set sent back unchanged (as rtctree does) applies nothing more.
-  EXPECT_TRUE(config_.set_configuration_set_values(set("default", {{"radius", "2.5"}, {"label", "a"}, {"start", "0"}})));
+  EXPECT_TRUE(
+      config_.set_configuration_set_values(set("default", {{"radius", "2.5"}, {"label", "a"}, {"start", "0"}})));
   EXPECT_TRUE(config_.activate_configuration_set("default"));
   EXPECT_EQ(applied_.size(), 1u);
   // Numbers and booleans in Anys are kept as text.
@@ -227,16 +233,26 @@ TEST_F(ConfigurationUnit, SetsAreAddedActivatedAndRemoved) {
 }
 
 TEST_F(ConfigurationUnit, RefusalsSayWhatAndWhyAndChangeNothing) {
-  EXPECT_EQ(refusal([&] { config_.set_configuration_set_values(set("default", {{"label", "b"}, {"radius", "wide"}})); }),
+  EXPECT_EQ(refusal([&] {
+              config_.set_configuration_set_values(set("default", {{"label", "b"}, {"radius", "wide"}}));
+            }),
             "radius: 'wide' is not a number (set default unchanged)");
   EXPECT_EQ(value("default", "label"), "a");  // all or nothing
-  EXPECT_EQ(refusal([&] { config_.set_configuration_set_values(set("default", {{"radius", "11"}})); }),
+  EXPECT_EQ(refusal([&] {
+              config_.set_configuration_set_values(set("default", {{"radius", "11"}}));
+            }),
             "radius: '11' is outside 0 .. 10 (set default unchanged)");
-  EXPECT_EQ(refusal([&] { config_.set_configuration_set_values(set("default", {{"start", "5"}})); }),
+  EXPECT_EQ(refusal([&] {
+              config_.set_configuration_set_values(set("default", {{"start", "5"}}));
+            }),
             "start is read-only (its value stays '0')");
-  EXPECT_EQ(refusal([&] { config_.set_configuration_set_values(set("default", {{"gain", "5"}})); }),
+  EXPECT_EQ(refusal([&] {
+              config_.set_configuration_set_values(set("default", {{"gain", "5"}}));
+            }),
             "no configuration parameter 'gain' (parameters: radius, label, start)");
-  EXPECT_EQ(refusal([&] { config_.set_configuration_set_values(set("other", {{"radius", "5"}})); }),
+  EXPECT_EQ(refusal([&] {
+              config_.set_configuration_set_values(set("other", {{"radius", "5"}}));
+            }),
             "no configuration set 'other' (add it first)");
   EXPECT_EQ(refusal([&] { config_.add_configuration_set(set("default", {})); }),
             "configuration set 'default' already exists");
@@ -286,8 +302,26 @@ class ManagerConfigFile : public ::testing::Test {
     }
     return "no error";
   }
-  const std::string path_ = ::testing::TempDir() + "/manager-config.yaml";
+  // One file per test process: ctest runs each test of this suite as a process of its own, side by side.
+  const std::string path_ = ::testing::TempDir() + "/manager-config-" + std::to_string(::getpid()) + ".yaml";
 };
+
+// The calls in flight to one peer: 32 unless --max-calls-per-peer says otherwise, within 1..1024.
+TEST(OrbFlags, CallsPerPeerReachTheOrbsOptionsWithinTheirRange) {
+  OrbFlags flags;
+  EXPECT_EQ(orb_options_from(flags, "").max_calls_per_peer, 32u);
+  flags.max_calls_per_peer = 2;
+  EXPECT_EQ(orb_options_from(flags, "").max_calls_per_peer, 2u);
+  for (const unsigned refused : {0u, 1025u}) {
+    flags.max_calls_per_peer = refused;
+    try {
+      orb_options_from(flags, "");
+      ADD_FAILURE() << refused << " was accepted";
+    } catch (const util::ConfigError& e) {
+      EXPECT_EQ(std::string(e.what()), "--max-calls-per-peer: " + std::to_string(refused) + " is outside 1..1024");
+    }
+  }
+}
 
 TEST_F(ManagerConfigFile, ReadsComponentsWithDefaults) {
   const ManagerConfig config = load(
@@ -316,9 +350,9 @@ TEST_F(ManagerConfigFile, ReportsEveryErrorWithItsKey) {
       "  - type: Diagnostic\n    rate: 0\n    activate: maybe\n"
       "  - just a string\n");
   EXPECT_NE(error.find("has 6 error(s)"), std::string::npos) << error;
-  for (const char* expected : {"rate: 'fast' is not a valid value", "speed: unknown key", "components[0].type: missing",
-                               "components[1].rate: 0 is not a positive rate", "components[1].activate",
-                               "components[2]: must be a map"}) {
+  for (const char* expected :
+       {"rate: 'fast' is not a valid value", "speed: unknown key", "components[0].type: missing",
+        "components[1].rate: 0 is not a positive rate", "components[1].activate", "components[2]: must be a map"}) {
     EXPECT_NE(error.find(expected), std::string::npos) << expected << " in " << error;
   }
   EXPECT_NE(error_of("components: 3\n").find("components: a list of components is required"), std::string::npos);

@@ -1,7 +1,6 @@
 // CDR layouts of urs::rtc_idl data types as OpenRTM-aist's CORBA_CDR data ports carry them: the
 // raw CDR of the struct, aligned from offset 0, no encapsulation octet (docs/rtc.md).
 #include <gtest/gtest.h>
-
 #include <omniORB4/CORBA.h>
 
 #include <cstdint>
@@ -68,8 +67,7 @@ TEST_F(RtcIdlCdr, TimedLongBigEndianWhenTheConnectorAsksForIt) {
   cdrMemoryStream stream;
   stream.setByteSwapFlag(false);  // big-endian
   SampleTimedLong() >>= stream;
-  const std::vector<std::uint8_t> expected = {0x01, 0x02, 0x03, 0x04, 0x05, 0x06,
-                                              0x07, 0x08, 0xff, 0xff, 0xff, 0xfe};
+  const std::vector<std::uint8_t> expected = {0x01, 0x02, 0x03, 0x04, 0x05, 0x06, 0x07, 0x08, 0xff, 0xff, 0xff, 0xfe};
   EXPECT_EQ(Bytes(stream), expected);
 }
 

@@ -17,18 +17,13 @@ std::string Id(CORBA::TypeCode_ptr tc) { return tc->id(); }
 
 TEST(RtcIdlRepositoryId, RtcModuleUsesOmgOrgPrefix) {
   EXPECT_EQ(std::string(RTC::RTObject::_PD_repoId), "IDL:omg.org/RTC/RTObject:1.0");
-  EXPECT_EQ(std::string(RTC::LightweightRTObject::_PD_repoId),
-            "IDL:omg.org/RTC/LightweightRTObject:1.0");
+  EXPECT_EQ(std::string(RTC::LightweightRTObject::_PD_repoId), "IDL:omg.org/RTC/LightweightRTObject:1.0");
   EXPECT_EQ(std::string(RTC::ComponentAction::_PD_repoId), "IDL:omg.org/RTC/ComponentAction:1.0");
-  EXPECT_EQ(std::string(RTC::ExecutionContext::_PD_repoId),
-            "IDL:omg.org/RTC/ExecutionContext:1.0");
-  EXPECT_EQ(std::string(RTC::ExecutionContextService::_PD_repoId),
-            "IDL:omg.org/RTC/ExecutionContextService:1.0");
+  EXPECT_EQ(std::string(RTC::ExecutionContext::_PD_repoId), "IDL:omg.org/RTC/ExecutionContext:1.0");
+  EXPECT_EQ(std::string(RTC::ExecutionContextService::_PD_repoId), "IDL:omg.org/RTC/ExecutionContextService:1.0");
   EXPECT_EQ(std::string(RTC::PortService::_PD_repoId), "IDL:omg.org/RTC/PortService:1.0");
-  EXPECT_EQ(std::string(RTC::DataFlowComponent::_PD_repoId),
-            "IDL:omg.org/RTC/DataFlowComponent:1.0");
-  EXPECT_EQ(std::string(RTC::DataFlowComponentAction::_PD_repoId),
-            "IDL:omg.org/RTC/DataFlowComponentAction:1.0");
+  EXPECT_EQ(std::string(RTC::DataFlowComponent::_PD_repoId), "IDL:omg.org/RTC/DataFlowComponent:1.0");
+  EXPECT_EQ(std::string(RTC::DataFlowComponentAction::_PD_repoId), "IDL:omg.org/RTC/DataFlowComponentAction:1.0");
 
   EXPECT_EQ(Id(RTC::_tc_RTObject), "IDL:omg.org/RTC/RTObject:1.0");
   EXPECT_EQ(Id(RTC::_tc_ConnectorProfile), "IDL:omg.org/RTC/ConnectorProfile:1.0");
@@ -36,29 +31,22 @@ TEST(RtcIdlRepositoryId, RtcModuleUsesOmgOrgPrefix) {
   EXPECT_EQ(Id(RTC::_tc_PortInterfaceProfile), "IDL:omg.org/RTC/PortInterfaceProfile:1.0");
   EXPECT_EQ(Id(RTC::_tc_PortInterfacePolarity), "IDL:omg.org/RTC/PortInterfacePolarity:1.0");
   EXPECT_EQ(Id(RTC::_tc_ComponentProfile), "IDL:omg.org/RTC/ComponentProfile:1.0");
-  EXPECT_EQ(Id(RTC::_tc_ExecutionContextProfile),
-            "IDL:omg.org/RTC/ExecutionContextProfile:1.0");
+  EXPECT_EQ(Id(RTC::_tc_ExecutionContextProfile), "IDL:omg.org/RTC/ExecutionContextProfile:1.0");
   EXPECT_EQ(Id(RTC::_tc_ReturnCode_t), "IDL:omg.org/RTC/ReturnCode_t:1.0");
   EXPECT_EQ(Id(RTC::_tc_LifeCycleState), "IDL:omg.org/RTC/LifeCycleState:1.0");
   EXPECT_EQ(Id(RTC::_tc_ExecutionKind), "IDL:omg.org/RTC/ExecutionKind:1.0");
-  EXPECT_EQ(Id(RTC::_tc_ExecutionContextHandle_t),
-            "IDL:omg.org/RTC/ExecutionContextHandle_t:1.0");
+  EXPECT_EQ(Id(RTC::_tc_ExecutionContextHandle_t), "IDL:omg.org/RTC/ExecutionContextHandle_t:1.0");
   EXPECT_EQ(Id(RTC::_tc_NVList), "IDL:omg.org/RTC/NVList:1.0");
   EXPECT_EQ(Id(RTC::_tc_UniqueIdentifier), "IDL:omg.org/RTC/UniqueIdentifier:1.0");
 }
 
 TEST(RtcIdlRepositoryId, SdoPackageUsesReversedOrgOmgPrefix) {
   EXPECT_EQ(std::string(SDOPackage::SDO::_PD_repoId), "IDL:org.omg/SDOPackage/SDO:1.0");
-  EXPECT_EQ(std::string(SDOPackage::SDOSystemElement::_PD_repoId),
-            "IDL:org.omg/SDOPackage/SDOSystemElement:1.0");
-  EXPECT_EQ(std::string(SDOPackage::SDOService::_PD_repoId),
-            "IDL:org.omg/SDOPackage/SDOService:1.0");
-  EXPECT_EQ(std::string(SDOPackage::Configuration::_PD_repoId),
-            "IDL:org.omg/SDOPackage/Configuration:1.0");
-  EXPECT_EQ(std::string(SDOPackage::Monitoring::_PD_repoId),
-            "IDL:org.omg/SDOPackage/Monitoring:1.0");
-  EXPECT_EQ(std::string(SDOPackage::Organization::_PD_repoId),
-            "IDL:org.omg/SDOPackage/Organization:1.0");
+  EXPECT_EQ(std::string(SDOPackage::SDOSystemElement::_PD_repoId), "IDL:org.omg/SDOPackage/SDOSystemElement:1.0");
+  EXPECT_EQ(std::string(SDOPackage::SDOService::_PD_repoId), "IDL:org.omg/SDOPackage/SDOService:1.0");
+  EXPECT_EQ(std::string(SDOPackage::Configuration::_PD_repoId), "IDL:org.omg/SDOPackage/Configuration:1.0");
+  EXPECT_EQ(std::string(SDOPackage::Monitoring::_PD_repoId), "IDL:org.omg/SDOPackage/Monitoring:1.0");
+  EXPECT_EQ(std::string(SDOPackage::Organization::_PD_repoId), "IDL:org.omg/SDOPackage/Organization:1.0");
 
   EXPECT_EQ(Id(SDOPackage::_tc_NameValue), "IDL:org.omg/SDOPackage/NameValue:1.0");
   EXPECT_EQ(Id(SDOPackage::_tc_NVList), "IDL:org.omg/SDOPackage/NVList:1.0");
@@ -66,19 +54,16 @@ TEST(RtcIdlRepositoryId, SdoPackageUsesReversedOrgOmgPrefix) {
   EXPECT_EQ(Id(SDOPackage::_tc_DeviceProfile), "IDL:org.omg/SDOPackage/DeviceProfile:1.0");
   EXPECT_EQ(Id(SDOPackage::_tc_ServiceProfile), "IDL:org.omg/SDOPackage/ServiceProfile:1.0");
   EXPECT_EQ(Id(SDOPackage::_tc_NotAvailable), "IDL:org.omg/SDOPackage/NotAvailable:1.0");
-  EXPECT_EQ(Id(SDOPackage::_tc_InterfaceNotImplemented),
-            "IDL:org.omg/SDOPackage/InterfaceNotImplemented:1.0");
+  EXPECT_EQ(Id(SDOPackage::_tc_InterfaceNotImplemented), "IDL:org.omg/SDOPackage/InterfaceNotImplemented:1.0");
   EXPECT_EQ(Id(SDOPackage::_tc_InvalidParameter), "IDL:org.omg/SDOPackage/InvalidParameter:1.0");
   EXPECT_EQ(Id(SDOPackage::_tc_InternalError), "IDL:org.omg/SDOPackage/InternalError:1.0");
-  EXPECT_EQ(std::string(SDOPackage::NotAvailable::_PD_repoId),
-            "IDL:org.omg/SDOPackage/NotAvailable:1.0");
+  EXPECT_EQ(std::string(SDOPackage::NotAvailable::_PD_repoId), "IDL:org.omg/SDOPackage/NotAvailable:1.0");
 }
 
 TEST(RtcIdlRepositoryId, OpenRtmComponentUsesOpenRtmPrefix) {
   EXPECT_EQ(std::string(OpenRTM::DataFlowComponent::_PD_repoId),
             "IDL:openrtm.aist.go.jp/OpenRTM/DataFlowComponent:1.0");
-  EXPECT_EQ(Id(OpenRTM::_tc_DataFlowComponent),
-            "IDL:openrtm.aist.go.jp/OpenRTM/DataFlowComponent:1.0");
+  EXPECT_EQ(Id(OpenRTM::_tc_DataFlowComponent), "IDL:openrtm.aist.go.jp/OpenRTM/DataFlowComponent:1.0");
 }
 
 TEST(RtcIdlRepositoryId, DataPortTransferHasNoPrefix) {

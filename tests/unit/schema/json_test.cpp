@@ -112,9 +112,8 @@ TEST_F(Json, MalformedJsonIsAnError) {
 }
 
 TEST_F(Json, RoundTripsEveryFieldOfANestedMessage) {
-  const std::string in =
-      R"({"result":{"format":{"width":640,"height":480,"encoding":"IMAGE_ENCODING_RAW_RGB8"},)"
-      R"("stamp":{"sec":"1700000000","nsec":5},"data":"AAEC"}})";
+  const std::string in = R"({"result":{"format":{"width":640,"height":480,"encoding":"IMAGE_ENCODING_RAW_RGB8"},)"
+                         R"("stamp":{"sec":"1700000000","nsec":5},"data":"AAEC"}})";
   auto reply = make("URC.ImageRecognition_captureImage_Reply");
   ASSERT_EQ(json_to_message(in, *reply), "");
   std::string out;

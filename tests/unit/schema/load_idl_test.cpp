@@ -25,8 +25,10 @@ class ScopedEnv {
     ::setenv(name, value.c_str(), 1);
   }
   ~ScopedEnv() {
-    if (old_.empty()) ::unsetenv(name_);
-    else ::setenv(name_, old_.c_str(), 1);
+    if (old_.empty())
+      ::unsetenv(name_);
+    else
+      ::setenv(name_, old_.c_str(), 1);
   }
   ScopedEnv(const ScopedEnv&) = delete;
   ScopedEnv& operator=(const ScopedEnv&) = delete;
@@ -67,8 +69,8 @@ TEST(LoadIdl, RunTimeTranslationEqualsTheBuildTranslation) {
   ASSERT_TRUE(set.ParseFromString(load.descriptor_set));
   std::vector<std::string> names;
   for (const auto& file : set.file()) names.push_back(file.name());
-  EXPECT_THAT(names, ElementsAre("google/protobuf/descriptor.proto", "urs_options.proto", "Shared.proto",
-                                 "AllTypes.proto"));
+  EXPECT_THAT(names,
+              ElementsAre("google/protobuf/descriptor.proto", "urs_options.proto", "Shared.proto", "AllTypes.proto"));
 
   gp::FileDescriptorProto built;
   const gp::FileDescriptor* compiled = UrsTest::Scalars::descriptor()->file();

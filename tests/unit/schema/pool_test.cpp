@@ -41,7 +41,8 @@ std::string subset(const std::string& bytes, const std::vector<std::string>& kee
 
 TEST(DescriptorSet, HoldsTheFileAndItsImportsDependenciesFirst) {
   const std::string set = descriptor_set_for(*URS::Diagnostic_echo_Request::descriptor()->file());
-  EXPECT_THAT(file_names(set), ElementsAre("google/protobuf/descriptor.proto", "urs_options.proto", "Diagnostic.proto"));
+  EXPECT_THAT(file_names(set),
+              ElementsAre("google/protobuf/descriptor.proto", "urs_options.proto", "Diagnostic.proto"));
   const gp::FileDescriptorSet parsed = parse_set(set);
   EXPECT_FALSE(parsed.file(2).has_source_code_info());
   EXPECT_EQ(parsed.file(2).package(), "URS");

@@ -339,7 +339,8 @@ TEST(Translator, OnewayOperationsKeepAnEmptyReplyAndAreMarked) {
 TEST(Translator, InheritedOperationsReuseTheBaseMessages) {
   const gp::ServiceDescriptor* derived = all_types().FindServiceByName("Derived");
   ASSERT_NE(derived, nullptr);
-  EXPECT_THAT(method_names(*derived), ElementsAre("ping", "_get_count", "op", "_get_shade", "_set_shade", "fire", "walk"));
+  EXPECT_THAT(method_names(*derived),
+              ElementsAre("ping", "_get_count", "op", "_get_shade", "_set_shade", "fire", "walk"));
   EXPECT_EQ(derived->FindMethodByName("ping")->input_type()->full_name(), "UrsTest.Base_ping_Request");
   EXPECT_EQ(repository_id(*derived), "IDL:urs.example/UrsTest/Derived:1.0");
   ASSERT_EQ(derived->options().ExtensionSize(opt::service_bases), 1);
@@ -371,7 +372,8 @@ TEST(Translator, NestedModulesMapToANestedPackage) {
 }
 
 TEST(Translator, DiagnosticSchemaIsTheContractOthersCodeAgainst) {
-  const gp::ServiceDescriptor* diag = URS::Diagnostic_echo_Request::descriptor()->file()->FindServiceByName("Diagnostic");
+  const gp::ServiceDescriptor* diag =
+      URS::Diagnostic_echo_Request::descriptor()->file()->FindServiceByName("Diagnostic");
   ASSERT_NE(diag, nullptr);
   EXPECT_EQ(diag->full_name(), "URS.Diagnostic");
   EXPECT_THAT(method_names(*diag), ElementsAre("echo", "add", "sleep", "blob", "checksum", "fail", "notify"));
@@ -413,7 +415,9 @@ TEST(Translator, UrcInterfacesHaveTheServicesOfThePapers) {
   move.set_y(3.0);
   URC::Navigation_setSpeed_Request speed;  // mm/s
   speed.set_speed(500);
-  EXPECT_THAT(raises(*URC::Navigation_moveTo_Request::descriptor()->file()->FindServiceByName("Navigation")
+  EXPECT_THAT(raises(*URC::Navigation_moveTo_Request::descriptor()
+                          ->file()
+                          ->FindServiceByName("Navigation")
                           ->FindMethodByName("moveTo")),
               ElementsAre("URC.InvalidTarget", "URC.NotReady"));
   const FD& covariance = field(*URC::PoseWithCovariance::descriptor(), "covariance");
@@ -433,9 +437,11 @@ TEST(Signature, OperationsAndAttributesReadAsIdlDeclaresThem) {
     const gp::MethodDescriptor* m = s->FindMethodByName(name);
     return m == nullptr ? std::string("<no ") + name + ">" : idl_signature(*m);
   };
-  EXPECT_EQ(signature(derived, "op"), "long op(in long a, out string b, inout double c) raises (UrsTest::Oops, UrsTest::SharedError)");
+  EXPECT_EQ(signature(derived, "op"),
+            "long op(in long a, out string b, inout double c) raises (UrsTest::Oops, UrsTest::SharedError)");
   EXPECT_EQ(signature(derived, "fire"), "oneway void fire(in string what)");
-  EXPECT_EQ(signature(derived, "walk"), "UrsTest::Derived::Step walk(in sequence<UrsTest::Point> route, in UrsTest::Value how)");
+  EXPECT_EQ(signature(derived, "walk"),
+            "UrsTest::Derived::Step walk(in sequence<UrsTest::Point> route, in UrsTest::Value how)");
   EXPECT_EQ(signature(derived, "_get_shade"), "attribute UrsTest::Color shade");
   EXPECT_EQ(signature(derived, "_set_shade"), "");  // the attribute line covers it
   EXPECT_EQ(signature(base, "_get_count"), "readonly attribute long count");

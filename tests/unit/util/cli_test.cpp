@@ -1,11 +1,11 @@
 // urs::util: flag values are validated with messages that name the flag and the value.
 
+#include "urs/util/cli.hpp"
+
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <fstream>
-
-#include "urs/util/cli.hpp"
 
 namespace urs::util {
 namespace {

@@ -1,5 +1,7 @@
 // HeapTrimmer: the heap's free pages go back to the system while it runs.
 
+#include "urs/util/heap.hpp"
+
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -8,8 +10,6 @@
 #include <fstream>
 #include <thread>
 #include <vector>
-
-#include "urs/util/heap.hpp"
 
 namespace urs::util {
 namespace {

@@ -1,8 +1,8 @@
 // urs::util JSON text: string literals escaped as RFC 8259 asks, bytes as RFC 4648 base64.
 
-#include <gtest/gtest.h>
-
 #include "urs/util/json_text.hpp"
+
+#include <gtest/gtest.h>
 
 namespace urs::util {
 namespace {

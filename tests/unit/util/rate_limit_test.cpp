@@ -1,10 +1,10 @@
 // RateLimiter: a burst per window and key, then a count of what was suppressed.
 
+#include "urs/util/rate_limit.hpp"
+
 #include <gtest/gtest.h>
 
 #include <thread>
-
-#include "urs/util/rate_limit.hpp"
 
 namespace urs::util {
 namespace {

@@ -132,9 +132,9 @@ std::vector<int16_t> downmix(const std::vector<int16_t>& interleaved, uint16_t c
 
 std::vector<int16_t> resample(const std::vector<int16_t>& mono, uint32_t from_rate, uint32_t to_rate) {
   if (from_rate == to_rate || mono.empty()) return mono;
-  const double step = static_cast<double>(from_rate) / to_rate;           // input samples per output
+  const double step = static_cast<double>(from_rate) / to_rate;                            // input samples per output
   const double cutoff = kCutoffFraction * 0.5 * std::min(from_rate, to_rate) / from_rate;  // cycles/input sample
-  const double half_width = kZeroCrossings / (2.0 * cutoff);              // input samples
+  const double half_width = kZeroCrossings / (2.0 * cutoff);                               // input samples
   const std::size_t out_count = static_cast<std::size_t>(mono.size() / step);
   std::vector<int16_t> out(out_count);
   const long last = static_cast<long>(mono.size()) - 1;

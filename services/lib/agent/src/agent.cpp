@@ -5,6 +5,7 @@
 #include <stdexcept>
 #include <utility>
 
+#include "urs/util/trace.hpp"
 
 namespace urs::agent {
 
@@ -12,6 +13,7 @@ namespace gp = google::protobuf;
 
 WorkerPool::WorkerPool(unsigned threads) {
   if (threads == 0) threads = 1;
+  count_ = threads;
   threads_.reserve(threads);
   for (unsigned i = 0; i < threads; ++i) threads_.emplace_back([this] { run(); });
 }
@@ -28,6 +30,20 @@ void WorkerPool::post(Job job) {
     }
   }
   job(true);  // pool stopped: let the job answer its caller
+}
+
+bool WorkerPool::try_post(Job& job, std::size_t limit) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!stopping_) {
+      if (limit != 0 && jobs_.size() >= limit) return false;
+      jobs_.push_back(std::move(job));
+      wake_.notify_one();
+      return true;
+    }
+  }
+  job(true);  // pool stopped: let the job answer its caller
+  return true;
 }
 
 void WorkerPool::stop() {
@@ -60,10 +76,14 @@ void WorkerPool::run() {
   }
 }
 
-AgentHost::AgentHost(unsigned workers, EventSink& events, gp::MessageFactory* factory)
-    : events_(events),
+AgentHost::AgentHost(HostOptions options, EventSink& events, gp::MessageFactory* factory)
+    : options_(std::move(options)),
+      events_(events),
       factory_(factory != nullptr ? factory : gp::MessageFactory::generated_factory()),
-      pool_(workers) {}
+      pool_(options_.workers) {}
+
+AgentHost::AgentHost(unsigned workers, EventSink& events, gp::MessageFactory* factory)
+    : AgentHost(HostOptions{workers}, events, factory) {}
 
 AgentHost::~AgentHost() { stop(); }
 
@@ -147,6 +167,11 @@ Reply encode_failure(const Outcome& outcome) {
 }
 
 void AgentHost::dispatch(call::Request request, call::Responder responder) {
+  // The call's trace is current while it runs, here or on a worker: what its agent logs carries
+  // the trace id, and the calls it makes send the trace on.
+  std::optional<util::TraceContext> trace = util::TraceContext::parse(request.traceparent);
+  if (!trace && util::current_trace() != nullptr) trace = *util::current_trace();
+  const util::TraceScope scope(trace);
   const bool oneway = request.oneway;
   auto answer = [&responder, oneway](Reply reply) {
     if (!oneway) responder.reply(std::move(reply));
@@ -193,7 +218,9 @@ void AgentHost::dispatch(call::Request request, call::Responder responder) {
     return;
   }
   auto shared_responder = std::make_shared<call::Responder>(std::move(responder));
-  pool_.post([agent, method, parsed, reply_proto, ctx, shared_responder, oneway](bool cancelled) {
+  WorkerPool::Job job = [agent, method, parsed, reply_proto, ctx, shared_responder, oneway,
+                         trace = std::move(trace)](bool cancelled) {
+    const util::TraceScope scope(trace);
     if (cancelled) {
       if (!oneway) {
         shared_responder->reply(
@@ -203,13 +230,24 @@ void AgentHost::dispatch(call::Request request, call::Responder responder) {
     }
     if (std::chrono::steady_clock::now() > ctx->deadline) {
       if (!oneway) {
-        shared_responder->reply(Reply::error(Status::DEADLINE_EXCEEDED, "deadline passed before " + ctx->service +
-                                                                            "." + method->name() + " could start"));
+        shared_responder->reply(Reply::error(Status::DEADLINE_EXCEEDED, "deadline passed before " + ctx->service + "." +
+                                                                            method->name() + " could start"));
       }
       return;
     }
     run(*agent, *method, *parsed, *reply_proto, *ctx, *shared_responder, oneway);
-  });
+  };
+  if (pool_.try_post(job, options_.max_queued)) return;
+  if (oneway) {
+    spdlog::warn("{}.{}: oneway call dropped: {} calls wait for the host's {} workers ({} {})", ctx->service,
+                 method->name(), options_.max_queued, pool_.threads(), options_.limit_name, options_.max_queued);
+    return;
+  }
+  shared_responder->reply(
+      Reply::error(Status::RESOURCE_EXHAUSTED,
+                   ctx->service + "." + method->name() + " refused: " + std::to_string(options_.max_queued) +
+                       " calls already wait for the host's " + std::to_string(pool_.threads()) + " workers (" +
+                       options_.limit_name + " " + std::to_string(options_.max_queued) + "); try again later"));
 }
 
 void AgentHost::run(ServiceAgent& agent, const gp::MethodDescriptor& method, const gp::Message& request,

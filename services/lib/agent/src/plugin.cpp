@@ -113,7 +113,8 @@ std::vector<PluginAgent> load_one(const std::string& path, const std::set<std::s
   } catch (const std::exception& e) {
     throw std::runtime_error(std::string(kPluginRegisterSymbol) + " failed: " + e.what());
   } catch (...) {
-    throw std::runtime_error(std::string(kPluginRegisterSymbol) + " failed with an exception that is not a std::exception");
+    throw std::runtime_error(std::string(kPluginRegisterSymbol) +
+                             " failed with an exception that is not a std::exception");
   }
   if (rc != 0) throw std::runtime_error(std::string(kPluginRegisterSymbol) + " returned " + std::to_string(rc));
   auto added = registry.take();

@@ -1,5 +1,7 @@
 #include "urs/bridge/config.hpp"
 
+#include <arpa/inet.h>
+
 #include <filesystem>
 
 #include "urs/util/cli.hpp"
@@ -7,8 +9,8 @@
 
 namespace urs::bridge {
 
-DdsOptions bridge_link_defaults() {
-  DdsOptions options;
+federation::DdsOptions bridge_link_defaults() {
+  federation::DdsOptions options;
   options.participant_lease = std::chrono::milliseconds(20000);
   return options;
 }
@@ -80,7 +82,8 @@ YAML::Node list_of(const YAML::Node& section, const std::string& key, const std:
   return list;
 }
 
-std::vector<std::string> read_strings(const YAML::Node& node, const std::string& where, std::vector<std::string>& errors) {
+std::vector<std::string> read_strings(const YAML::Node& node, const std::string& where,
+                                      std::vector<std::string>& errors) {
   std::vector<std::string> out;
   if (!node.IsSequence()) {
     errors.push_back(where + ": a list is expected");
@@ -109,13 +112,14 @@ void read_state(const YAML::Node& node, uint32_t link_domain, StateConfig& state
   read_ms(node, "period_ms", "dds.state", state.period, errors);
   if (const YAML::Node poses = node["poses"]) {
     util::check_keys(poses, "dds.state.poses", {"domain", "source", "robots", "period_ms"}, errors);
-    PoseRelay relay;
+    federation::PoseRelay relay;
     if (!poses["domain"]) {
       errors.push_back("dds.state.poses.domain: missing (the devices' DDS domain)");
     } else if (util::read_scalar(poses["domain"], "dds.state.poses.domain", relay.domain, errors) &&
                (relay.domain > 232 || relay.domain == link_domain)) {
-      errors.push_back("dds.state.poses.domain: " + std::to_string(relay.domain) +
-                       (relay.domain > 232 ? " is outside 0..232" : " is the link's domain; give the devices their own"));
+      errors.push_back(
+          "dds.state.poses.domain: " + std::to_string(relay.domain) +
+          (relay.domain > 232 ? " is outside 0..232" : " is the link's domain; give the devices their own"));
     }
     std::string source = "localizer";
     if (poses["source"] && util::read_scalar(poses["source"], "dds.state.poses.source", source, errors) &&
@@ -189,16 +193,103 @@ void read_audit(const YAML::Node& node, const std::string& base, AuditConfig& au
   }
 }
 
+// The port of "HOST:PORT" (1..65535), or 0 if `address` is no HOST:PORT.
+uint16_t port_of(const std::string& address) {
+  const auto colon = address.rfind(':');
+  if (colon == std::string::npos || colon == 0) return 0;
+  const std::string digits = address.substr(colon + 1);
+  if (digits.empty() || digits.size() > 5 || digits.find_first_not_of("0123456789") != std::string::npos) return 0;
+  const int port = std::stoi(digits);
+  return port > 65535 ? 0 : static_cast<uint16_t>(port);
+}
+
+// Whether `text` is a dotted IPv4 address (four numbers 0..255).
+bool is_ipv4(const std::string& text) {
+  in_addr address{};
+  return inet_pton(AF_INET, text.c_str(), &address) == 1;
+}
+
+// dds.transport (udp | tcp) and dds.tcp {listen, public, connect}.
+void read_transport(const YAML::Node& node, federation::DdsOptions& link, std::vector<std::string>& errors) {
+  using Transport = federation::DdsOptions::Transport;
+  std::string transport = "udp";
+  if (node["transport"] && util::read_scalar(node["transport"], "dds.transport", transport, errors)) {
+    if (transport == "tcp") {
+      link.transport = Transport::kTcp;
+    } else if (transport != "udp") {
+      errors.push_back("dds.transport: '" + transport + "' is neither udp nor tcp");
+      return;
+    }
+  }
+  const YAML::Node tcp = node["tcp"];
+  if (link.transport != Transport::kTcp) {
+    if (tcp) errors.push_back("dds.tcp: only with dds.transport: tcp");
+    return;
+  }
+  if (node["initial_peers"]) {
+    errors.push_back("dds.initial_peers: UDP only; over TCP the listening sites are dds.tcp.connect");
+  }
+  if (node["udp_only"]) errors.push_back("dds.udp_only: has no effect with dds.transport: tcp");
+  const bool has_servers = node["discovery"] && node["discovery"]["servers"];
+  if (!tcp) {
+    if (!has_servers) {
+      errors.push_back("dds.tcp: missing: give 'listen' (this site listens) or 'connect' (the listening sites)");
+    }
+    return;
+  }
+  if (!tcp.IsMap()) {
+    errors.push_back("dds.tcp: a map is expected");
+    return;
+  }
+  util::check_keys(tcp, "dds.tcp", {"listen", "public", "connect"}, errors);
+  if (tcp["listen"] && util::read_scalar(tcp["listen"], "dds.tcp.listen", link.tcp.listen, errors) &&
+      link.tcp.listen == 0) {
+    errors.push_back("dds.tcp.listen: must be a port, 1..65535");
+  }
+  if (tcp["public"]) {
+    std::string text;
+    if (util::read_scalar(tcp["public"], "dds.tcp.public", text, errors)) {
+      const auto colon = text.rfind(':');
+      link.tcp.public_address = text.substr(0, colon);
+      if (colon != std::string::npos) link.tcp.public_port = port_of(text);
+      if (!is_ipv4(link.tcp.public_address) || (colon != std::string::npos && link.tcp.public_port == 0)) {
+        errors.push_back("dds.tcp.public: '" + text + "' is not IPv4[:PORT] (an address, not a name: it is announced)");
+      }
+    }
+  }
+  if (tcp["connect"]) {
+    link.tcp.connect = read_strings(tcp["connect"], "dds.tcp.connect", errors);
+    for (std::size_t i = 0; i < link.tcp.connect.size(); ++i) {
+      if (port_of(link.tcp.connect[i]) == 0) {
+        errors.push_back("dds.tcp.connect[" + std::to_string(i) + "]: '" + link.tcp.connect[i] + "' is not HOST:PORT");
+      }
+    }
+  }
+  if (link.tcp.listen != 0 && link.tcp.public_address.empty()) {
+    errors.push_back(
+        "dds.tcp.public: missing: a listening site must announce the address (and port) the other sites reach it at, "
+        "else they discover it but match none of its endpoints");
+  }
+  if (link.tcp.listen == 0 && link.tcp.public_port != 0) {
+    errors.push_back("dds.tcp.public: a site that does not listen announces an address only, no port");
+  }
+  if (link.tcp.listen == 0 && link.tcp.connect.empty() && !has_servers) {
+    errors.push_back("dds.tcp: give 'listen' (this site listens) or 'connect' (the listening sites), or both");
+  }
+}
+
 void read_dds(const YAML::Node& node, const std::string& base, DdsConfig& dds, std::vector<std::string>& errors) {
   dds.enabled = true;
   if (!node.IsMap()) {
     errors.push_back("dds: a map is expected");
     return;
   }
-  util::check_keys(node, "dds", {"domain", "lease_ms", "participant_lease_ms", "udp_only", "socket_buffer_bytes", "initial_peers", "discovery",
-                                 "security", "export", "import", "state", "audit"},
+  util::check_keys(node, "dds",
+                   {"domain", "lease_ms", "participant_lease_ms", "hold_lost_ms", "udp_only", "socket_buffer_bytes",
+                    "initial_peers", "transport", "tcp", "discovery", "security", "export", "import", "state", "audit"},
                    errors);
-  if (node["domain"] && util::read_scalar(node["domain"], "dds.domain", dds.link.domain, errors) && dds.link.domain > 232) {
+  if (node["domain"] && util::read_scalar(node["domain"], "dds.domain", dds.link.domain, errors) &&
+      dds.link.domain > 232) {
     errors.push_back("dds.domain: " + std::to_string(dds.link.domain) + " is outside 0..232");
   }
   if (node["lease_ms"]) {
@@ -217,36 +308,39 @@ void read_dds(const YAML::Node& node, const std::string& base, DdsConfig& dds, s
       dds.link.participant_lease = std::chrono::milliseconds(ms);
     }
   } else {
-    dds.link.participant_lease = std::max(dds.link.participant_lease, dds.link.lease);  // the default, never below the lease
+    dds.link.participant_lease =
+        std::max(dds.link.participant_lease, dds.link.lease);  // the default, never below the lease
   }
   if (dds.link.participant_lease < dds.link.lease) {
     errors.push_back("dds.participant_lease_ms: " + std::to_string(dds.link.participant_lease.count()) +
                      " is below dds.lease_ms " + std::to_string(dds.link.lease.count()) +
                      ": a participant would be dropped while its writers still count as alive");
   }
+  if (node["hold_lost_ms"]) {
+    int ms = 0;
+    if (util::read_scalar(node["hold_lost_ms"], "dds.hold_lost_ms", ms, errors)) {
+      if (ms < 0 || ms > 3600000)
+        errors.push_back("dds.hold_lost_ms: " + std::to_string(ms) + " is outside 0..3600000");
+      dds.hold_lost = std::chrono::milliseconds(ms);
+    }
+  }
   if (node["udp_only"]) util::read_scalar(node["udp_only"], "dds.udp_only", dds.link.udp_only, errors);
   if (node["socket_buffer_bytes"]) {
     util::read_scalar(node["socket_buffer_bytes"], "dds.socket_buffer_bytes", dds.link.socket_buffer_bytes, errors);
   }
   if (node["initial_peers"]) dds.link.initial_peers = read_strings(node["initial_peers"], "dds.initial_peers", errors);
+  read_transport(node, dds.link, errors);
   if (const YAML::Node discovery = node["discovery"]) {
     util::check_keys(discovery, "dds.discovery", {"listen", "id", "servers"}, errors);
     auto host_port = [&](const std::string& address, const std::string& where) {
-      const auto colon = address.rfind(':');
-      int port = 0;
-      try {
-        port = colon == std::string::npos ? 0 : std::stoi(address.substr(colon + 1));
-      } catch (const std::exception&) {
-      }
-      if (colon == 0 || port <= 0 || port > 65535) {
-        errors.push_back(where + ": '" + address + "' is not HOST:PORT");
-      }
+      if (port_of(address) == 0) errors.push_back(where + ": '" + address + "' is not HOST:PORT");
     };
     if (discovery["listen"] &&
         util::read_scalar(discovery["listen"], "dds.discovery.listen", dds.link.discovery_listen, errors)) {
       host_port(dds.link.discovery_listen, "dds.discovery.listen");
     }
-    if (discovery["id"] && util::read_scalar(discovery["id"], "dds.discovery.id", dds.link.discovery_server_id, errors) &&
+    if (discovery["id"] &&
+        util::read_scalar(discovery["id"], "dds.discovery.id", dds.link.discovery_server_id, errors) &&
         dds.link.discovery_server_id > 255) {
       errors.push_back("dds.discovery.id: " + std::to_string(dds.link.discovery_server_id) + " is outside 0..255");
     }
@@ -259,17 +353,29 @@ void read_dds(const YAML::Node& node, const std::string& base, DdsConfig& dds, s
     if (dds.link.discovery_listen.empty() && dds.link.discovery_servers.empty()) {
       errors.push_back("dds.discovery: give 'listen' (be the server) or 'servers' (use them)");
     }
+    const uint16_t listen_port = port_of(dds.link.discovery_listen);
+    if (dds.link.transport == federation::DdsOptions::Transport::kTcp && listen_port != 0 &&
+        listen_port != dds.link.tcp.listen) {
+      errors.push_back(
+          "dds.discovery.listen: over TCP the discovery server listens on the link's port (dds.tcp.listen" +
+          (dds.link.tcp.listen == 0 ? std::string(" is missing") : " " + std::to_string(dds.link.tcp.listen)) +
+          "), not on " + std::to_string(listen_port));
+    }
   }
   if (const YAML::Node security = node["security"]) {
-    util::check_keys(security, "dds.security",
-                     {"pki", "identity_ca", "certificate", "private_key", "permissions_ca", "governance", "permissions", "crl"},
-                     errors);
-    DdsSecurity& files = dds.link.security;
-    const std::vector<std::pair<const char*, std::string*>> fields{
-        {"pki", &dds.security_pki},           {"identity_ca", &files.identity_ca},
-        {"certificate", &files.certificate},  {"private_key", &files.private_key},
-        {"permissions_ca", &files.permissions_ca}, {"governance", &files.governance},
-        {"permissions", &files.permissions},  {"crl", &files.crl}};
+    util::check_keys(
+        security, "dds.security",
+        {"pki", "identity_ca", "certificate", "private_key", "permissions_ca", "governance", "permissions", "crl"},
+        errors);
+    federation::DdsSecurity& files = dds.link.security;
+    const std::vector<std::pair<const char*, std::string*>> fields{{"pki", &dds.security_pki},
+                                                                   {"identity_ca", &files.identity_ca},
+                                                                   {"certificate", &files.certificate},
+                                                                   {"private_key", &files.private_key},
+                                                                   {"permissions_ca", &files.permissions_ca},
+                                                                   {"governance", &files.governance},
+                                                                   {"permissions", &files.permissions},
+                                                                   {"crl", &files.crl}};
     for (const auto& [key, field] : fields) {
       if (security[key]) util::read_scalar(security[key], std::string("dds.security.") + key, *field, errors);
     }
@@ -279,8 +385,9 @@ void read_dds(const YAML::Node& node, const std::string& base, DdsConfig& dds, s
     if (!dds.link.discovery_listen.empty() || !dds.link.discovery_servers.empty()) {
       // DDS-Security rewrites each participant's GUID prefix from its certificate, so the
       // well-known prefix a discovery server's clients expect never matches (Fast DDS 2.9).
-      errors.push_back("dds.security: cannot be combined with dds.discovery (Fast DDS 2.9's discovery server "
-                       "does not work with DDS-Security); use dds.initial_peers between sites without multicast");
+      errors.push_back(
+          "dds.security: cannot be combined with dds.discovery (Fast DDS 2.9's discovery server "
+          "does not work with DDS-Security); use dds.initial_peers between sites without multicast");
     }
   }
   if (const YAML::Node out = node["export"]) {
@@ -295,8 +402,9 @@ void read_dds(const YAML::Node& node, const std::string& base, DdsConfig& dds, s
         errors.push_back("dds.export.trust_declared_space: has no effect without dds.export.callers");
       }
       if (node["security"]) {
-        errors.push_back("dds.export.trust_declared_space: a secured link proves each caller's space; a caller "
-                         "it cannot prove must not be judged by what it declares");
+        errors.push_back(
+            "dds.export.trust_declared_space: a secured link proves each caller's space; a caller "
+            "it cannot prove must not be judged by what it declares");
       }
     }
   }
@@ -323,8 +431,9 @@ BridgeConfig load_bridge_config(const std::string& path, const std::string& host
   std::vector<std::string> errors;
   BridgeConfig config;
   config.name = "bridge@" + host;
-  util::check_keys(root, "", {"name", "instance", "activate", "workers", "idl", "include_dirs", "rt_to_camus",
-                              "camus_to_rt", "data_to_camus", "events_to_rt", "dds"},
+  util::check_keys(root, "",
+                   {"name", "instance", "activate", "workers", "queue", "idl", "include_dirs", "rt_to_camus",
+                    "camus_to_rt", "data_to_camus", "events_to_rt", "dds"},
                    errors);
   read_string(root, "name", "", false, config.name, errors);
   read_string(root, "instance", "", false, config.instance, errors);
@@ -332,6 +441,9 @@ BridgeConfig load_bridge_config(const std::string& path, const std::string& host
   if (root["workers"] && util::read_scalar(root["workers"], "workers", config.workers, errors) &&
       (config.workers == 0 || config.workers > 256)) {
     errors.push_back("workers: " + std::to_string(config.workers) + " is outside 1..256");
+  }
+  if (root["queue"] && util::read_scalar(root["queue"], "queue", config.queue, errors) && config.queue > 1000000) {
+    errors.push_back("queue: " + std::to_string(config.queue) + " is outside 0..1000000");
   }
   config.idl = read_paths(root["idl"], "idl", base, errors);
   config.include_dirs = read_paths(root["include_dirs"], "include_dirs", base, errors);
@@ -345,13 +457,13 @@ BridgeConfig load_bridge_config(const std::string& path, const std::string& host
       if (const YAML::Node list = list_of(rt, "providers", "rt_to_camus", errors)) {
         util::for_each_map(list, "rt_to_camus.providers", "a match", {"match", "interface", "name", "deadline_ms"},
                            errors, [&](const YAML::Node& node, const std::string& where) {
-          ProviderRule rule;
-          read_string(node, "match", where, true, rule.match, errors);
-          read_string(node, "interface", where, false, rule.interface, errors);
-          read_string(node, "name", where, false, rule.name, errors);
-          read_deadline(node, where, rule.deadline_ms, errors);
-          config.providers.push_back(std::move(rule));
-        });
+                             ProviderRule rule;
+                             read_string(node, "match", where, true, rule.match, errors);
+                             read_string(node, "interface", where, false, rule.interface, errors);
+                             read_string(node, "name", where, false, rule.name, errors);
+                             read_deadline(node, where, rule.deadline_ms, errors);
+                             config.providers.push_back(std::move(rule));
+                           });
       }
     }
   }
@@ -364,12 +476,12 @@ BridgeConfig load_bridge_config(const std::string& path, const std::string& host
       if (const YAML::Node list = list_of(camus, "services", "camus_to_rt", errors)) {
         util::for_each_map(list, "camus_to_rt.services", "a match", {"match", "instance", "deadline_ms"}, errors,
                            [&](const YAML::Node& node, const std::string& where) {
-          ServiceRule rule;
-          read_string(node, "match", where, true, rule.match, errors);
-          read_string(node, "instance", where, false, rule.instance, errors);
-          read_deadline(node, where, rule.deadline_ms, errors);
-          config.services.push_back(std::move(rule));
-        });
+                             ServiceRule rule;
+                             read_string(node, "match", where, true, rule.match, errors);
+                             read_string(node, "instance", where, false, rule.instance, errors);
+                             read_deadline(node, where, rule.deadline_ms, errors);
+                             config.services.push_back(std::move(rule));
+                           });
       }
     }
   }
@@ -377,25 +489,25 @@ BridgeConfig load_bridge_config(const std::string& path, const std::string& host
     util::for_each_map(list, "data_to_camus", "match, port, type and topic",
                        {"match", "port", "type", "topic", "context"}, errors,
                        [&](const YAML::Node& node, const std::string& where) {
-      DataToCamus entry;
-      read_string(node, "match", where, true, entry.match, errors);
-      read_string(node, "port", where, true, entry.port, errors);
-      read_string(node, "type", where, true, entry.type, errors);
-      read_string(node, "topic", where, true, entry.topic, errors);
-      read_string(node, "context", where, false, entry.context, errors);
-      config.data_to_camus.push_back(std::move(entry));
-    });
+                         DataToCamus entry;
+                         read_string(node, "match", where, true, entry.match, errors);
+                         read_string(node, "port", where, true, entry.port, errors);
+                         read_string(node, "type", where, true, entry.type, errors);
+                         read_string(node, "topic", where, true, entry.topic, errors);
+                         read_string(node, "context", where, false, entry.context, errors);
+                         config.data_to_camus.push_back(std::move(entry));
+                       });
   }
   if (const YAML::Node list = list_of(root, "events_to_rt", "", errors)) {
-    util::for_each_map(list, "events_to_rt", "topic, type, match and port", {"topic", "type", "match", "port"},
-                       errors, [&](const YAML::Node& node, const std::string& where) {
-      EventsToRt entry;
-      read_string(node, "topic", where, true, entry.topic, errors);
-      read_string(node, "type", where, true, entry.type, errors);
-      read_string(node, "match", where, true, entry.match, errors);
-      read_string(node, "port", where, true, entry.port, errors);
-      config.events_to_rt.push_back(std::move(entry));
-    });
+    util::for_each_map(list, "events_to_rt", "topic, type, match and port", {"topic", "type", "match", "port"}, errors,
+                       [&](const YAML::Node& node, const std::string& where) {
+                         EventsToRt entry;
+                         read_string(node, "topic", where, true, entry.topic, errors);
+                         read_string(node, "type", where, true, entry.type, errors);
+                         read_string(node, "match", where, true, entry.match, errors);
+                         read_string(node, "port", where, true, entry.port, errors);
+                         config.events_to_rt.push_back(std::move(entry));
+                       });
   }
   if (root["dds"]) read_dds(root["dds"], base, config.dds, errors);
   util::throw_if_errors(errors, "--config '" + path + "'");

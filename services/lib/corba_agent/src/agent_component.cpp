@@ -8,9 +8,9 @@
 
 #include "urs/agent/tunable.hpp"
 #include "urs/rtc/orb.hpp"
-#include "urs_options.pb.h"
 #include "urs/util/cli.hpp"
 #include "urs/util/yaml_config.hpp"
+#include "urs_options.pb.h"
 
 namespace urs::corba_agent {
 
@@ -21,7 +21,8 @@ namespace {
 std::string repository_id_of(const Descriptor& type) {
   const std::string id = type.options().GetExtension(urs::options::message_repository_id);
   if (id.empty()) {
-    throw std::invalid_argument(type.full_name() + " is not an IDL struct, exception or union (it has no repository ID)");
+    throw std::invalid_argument(type.full_name() +
+                                " is not an IDL struct, exception or union (it has no repository ID)");
   }
   return id;
 }
@@ -112,7 +113,8 @@ AgentComponent::AgentComponent(AgentComponentConfig config, std::shared_ptr<agen
       throw std::invalid_argument("stream '" + stream.topic + "': no message type " + stream.type + " is known to " +
                                   agent_->interface().full_name());
     }
-    if (!topics.insert(stream.topic).second) throw std::invalid_argument("topic '" + stream.topic + "' is streamed twice");
+    if (!topics.insert(stream.topic).second)
+      throw std::invalid_argument("topic '" + stream.topic + "' is streamed twice");
     if (!port_names.insert(stream.port).second) throw std::invalid_argument("port '" + stream.port + "' is used twice");
     out_ports_.push_back(std::make_unique<RawOutPort>(stream.port, *type));
     sink_->route(stream.topic, *out_ports_.back());
@@ -131,7 +133,8 @@ RawOutPort* AgentComponent::out_port(const std::string& name) {
 }
 
 RTC::ReturnCode_t AgentComponent::handle_initialize() {
-  servant_ = std::make_unique<AgentServant>(orb().orb(), agent_, *sink_, AgentServantOptions{instance_name(), config_.deadline});
+  servant_ = std::make_unique<AgentServant>(orb().orb(), agent_, *sink_,
+                                            AgentServantOptions{instance_name(), config_.deadline, config_.calls});
   agent_->start(*sink_);  // before the port makes the servant reachable
   started_ = true;
   port_.provide(config_.interface_instance, servant_->interface_name(), *servant_);
@@ -140,13 +143,10 @@ RTC::ReturnCode_t AgentComponent::handle_initialize() {
   // The agent's tunable parameters become configuration parameters that tools may change.
   if (auto* tunable = dynamic_cast<agent::Tunable*>(agent_.get())) {
     for (const auto& parameter : tunable->tunable_parameters()) {
-      declare_parameter({parameter.name, parameter.value,
-                         [tunable, name = parameter.name](const std::string& value) {
-                           return tunable->check_parameter(name, value);
-                         },
-                         [tunable, name = parameter.name](const std::string& value) {
-                           tunable->set_parameter(name, value);
-                         }});
+      declare_parameter(
+          {parameter.name, parameter.value,
+           [tunable, name = parameter.name](const std::string& value) { return tunable->check_parameter(name, value); },
+           [tunable, name = parameter.name](const std::string& value) { tunable->set_parameter(name, value); }});
     }
   }
   return RTC::RTC_OK;
@@ -159,11 +159,13 @@ RTC::ReturnCode_t AgentComponent::handle_finalize() {
 }
 
 rtc::ComponentFactory agent_component_factory(
-    std::string type_name, std::function<std::shared_ptr<agent::ServiceAgent>(const YAML::Node& params)> make_agent) {
-  return [type_name = std::move(type_name), make_agent = std::move(make_agent)](
+    std::string type_name, std::function<std::shared_ptr<agent::ServiceAgent>(const YAML::Node& params)> make_agent,
+    call::CallRecorder* calls) {
+  return [type_name = std::move(type_name), make_agent = std::move(make_agent), calls](
              const YAML::Node& config, const rtc::ComponentEnv&) -> std::unique_ptr<rtc::Component> {
     AgentComponentConfig settings;
     settings.type_name = type_name;
+    settings.calls = calls;
     YAML::Node params;
     std::vector<std::string> errors;
     if (config && !config.IsNull()) {
@@ -172,7 +174,8 @@ rtc::ComponentFactory agent_component_factory(
       if (config["params"]) params = YAML::Clone(config["params"]);
       if (config["port"]) util::read_scalar(config["port"], "config.port", settings.port, errors);
       if (config["interface_instance"]) {
-        util::read_scalar(config["interface_instance"], "config.interface_instance", settings.interface_instance, errors);
+        util::read_scalar(config["interface_instance"], "config.interface_instance", settings.interface_instance,
+                          errors);
       }
       if (config["deadline_ms"]) {
         std::uint32_t deadline_ms = 0;

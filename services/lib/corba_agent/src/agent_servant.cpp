@@ -8,6 +8,8 @@
 
 #include "idl_type.hpp"
 #include "urs/corba_agent/type_codes.hpp"
+#include "urs/rtc/trace_context.hpp"
+#include "urs/util/trace.hpp"
 
 namespace urs::corba_agent {
 
@@ -65,15 +67,22 @@ void insert(CORBA::Any& any, CORBA::TypeCode_ptr type, const Marshal& what) {
 // The system exception an agent's error status becomes (docs/devices.md).
 [[noreturn]] void throw_system_exception(call::Status status) {
   switch (status) {
-    case call::Status::BAD_ARGUMENTS: throw CORBA::BAD_PARAM(0, CORBA::COMPLETED_NO);
-    case call::Status::DEADLINE_EXCEEDED: throw CORBA::TIMEOUT(0, CORBA::COMPLETED_MAYBE);
-    case call::Status::UNKNOWN_OPERATION: throw CORBA::BAD_OPERATION(0, CORBA::COMPLETED_NO);
-    case call::Status::UNAVAILABLE: throw CORBA::TRANSIENT(0, CORBA::COMPLETED_NO);
+    case call::Status::BAD_ARGUMENTS:
+      throw CORBA::BAD_PARAM(0, CORBA::COMPLETED_NO);
+    case call::Status::DEADLINE_EXCEEDED:
+      throw CORBA::TIMEOUT(0, CORBA::COMPLETED_MAYBE);
+    case call::Status::UNKNOWN_OPERATION:
+      throw CORBA::BAD_OPERATION(0, CORBA::COMPLETED_NO);
+    case call::Status::UNAVAILABLE:
+      throw CORBA::TRANSIENT(0, CORBA::COMPLETED_NO);
     // A service reached through a bridge (urs::bridge) that is not there, or went away mid-call:
     // the caller may retry later, as for UNAVAILABLE.
-    case call::Status::UNKNOWN_SERVICE: throw CORBA::TRANSIENT(0, CORBA::COMPLETED_NO);
-    case call::Status::PROVIDER_GONE: throw CORBA::TRANSIENT(0, CORBA::COMPLETED_MAYBE);
-    default: throw CORBA::INTERNAL(0, CORBA::COMPLETED_MAYBE);
+    case call::Status::UNKNOWN_SERVICE:
+      throw CORBA::TRANSIENT(0, CORBA::COMPLETED_NO);
+    case call::Status::PROVIDER_GONE:
+      throw CORBA::TRANSIENT(0, CORBA::COMPLETED_MAYBE);
+    default:
+      throw CORBA::INTERNAL(0, CORBA::COMPLETED_MAYBE);
   }
 }
 
@@ -118,8 +127,12 @@ AgentServant::AgentServant(CORBA::ORB_ptr orb, std::shared_ptr<agent::ServiceAge
         argument.name = field->name();
         if (CORBA::is_nil(argument.type)) argument.type = type_codes.field(*field);
         switch (mode) {
-          case urs::options::PARAM_MODE_IN: argument.mode = CORBA::ARG_IN, argument.in = field; break;
-          case urs::options::PARAM_MODE_OUT: argument.mode = CORBA::ARG_OUT, argument.out = field; break;
+          case urs::options::PARAM_MODE_IN:
+            argument.mode = CORBA::ARG_IN, argument.in = field;
+            break;
+          case urs::options::PARAM_MODE_OUT:
+            argument.mode = CORBA::ARG_OUT, argument.out = field;
+            break;
           case urs::options::PARAM_MODE_INOUT:
             argument.mode = CORBA::ARG_INOUT;
             (message.options().GetExtension(urs::options::message_kind) == urs::options::MESSAGE_KIND_REQUEST
@@ -138,7 +151,8 @@ AgentServant::AgentServant(CORBA::ORB_ptr orb, std::shared_ptr<agent::ServiceAge
     for (int r = 0; r < method_options.ExtensionSize(urs::options::raises); ++r) {
       const std::string name = method_options.GetExtension(urs::options::raises, r);
       const Descriptor* type = service.file()->pool()->FindMessageTypeByName(name);
-      if (type == nullptr) throw std::invalid_argument(method->full_name() + " raises " + name + ", which is not in its pool");
+      if (type == nullptr)
+        throw std::invalid_argument(method->full_name() + " raises " + name + ", which is not in its pool");
       roots.push_back(type);
       op->raises[name] = Operation::Raised{type, type_codes.message(*type)};
     }
@@ -167,8 +181,46 @@ const AgentServant::Operation& AgentServant::operation(const char* name) const {
   return *it->second;
 }
 
+namespace {
+
+// Counts one call in `calls` when it goes out of scope, with the status set last (INTERNAL if an
+// exception left before any was set), and logs its end at debug level (under the call's trace).
+class Recorded {
+ public:
+  Recorded(call::CallRecorder* calls, const std::string& service)
+      : calls_(calls), service_(service), start_(std::chrono::steady_clock::now()) {}
+  ~Recorded() {
+    const auto elapsed = std::chrono::steady_clock::now() - start_;
+    if (calls_ != nullptr) calls_->record(service_, operation_, status_, elapsed);
+    if (spdlog::should_log(spdlog::level::debug)) {
+      spdlog::debug("served {}.{}: {} in {} us", service_, operation_.empty() ? "other" : operation_,
+                    call::status_name(status_), std::chrono::duration_cast<std::chrono::microseconds>(elapsed).count());
+    }
+  }
+  Recorded(const Recorded&) = delete;
+  Recorded& operator=(const Recorded&) = delete;
+  void operation(const std::string& name) { operation_ = name; }
+  void status(call::Status status) { status_ = status; }
+
+ private:
+  call::CallRecorder* const calls_;
+  const std::string& service_;
+  const std::chrono::steady_clock::time_point start_;
+  std::string operation_;
+  call::Status status_ = call::Status::INTERNAL;
+};
+
+}  // namespace
+
 void AgentServant::invoke(CORBA::ServerRequest_ptr request) {
+  // The call's trace (from its service context): this servant's log lines and the calls and events
+  // its agent makes meanwhile carry it.
+  util::TraceScope trace(rtc::incoming_trace());
+  Recorded recorded(options_.calls, options_.service_name);
+  recorded.status(call::Status::UNKNOWN_OPERATION);
   const Operation& op = operation(request->operation());
+  recorded.operation(op.method->name());
+  recorded.status(call::Status::BAD_ARGUMENTS);
   CORBA::NVList_var arguments;
   orb_->create_list(static_cast<CORBA::Long>(op.arguments.size()), arguments.out());
   for (const auto& argument : op.arguments) {
@@ -200,6 +252,7 @@ void AgentServant::invoke(CORBA::ServerRequest_ptr request) {
   } catch (const std::exception& e) {
     outcome = agent::Outcome::error(call::Status::INTERNAL, e.what());
   }
+  recorded.status(outcome.status);
   if (op.oneway) {
     if (outcome.status != call::Status::OK) {
       spdlog::warn("{}: oneway {} failed: {} {}", options_.service_name, op.method->name(),
@@ -215,8 +268,8 @@ void AgentServant::answer(CORBA::ServerRequest_ptr request, const Operation& op,
   if (outcome.status == call::Status::USER_EXCEPTION && outcome.exception) {
     const auto raised = op.raises.find(outcome.exception->GetDescriptor()->full_name());
     if (raised == op.raises.end()) {
-      spdlog::warn("{}: {} raised {}, which the operation does not declare", options_.service_name,
-                   op.method->name(), outcome.exception->GetDescriptor()->full_name());
+      spdlog::warn("{}: {} raised {}, which the operation does not declare", options_.service_name, op.method->name(),
+                   outcome.exception->GetDescriptor()->full_name());
       throw CORBA::UNKNOWN(0, CORBA::COMPLETED_YES);
     }
     CORBA::Any exception;
@@ -237,7 +290,8 @@ void AgentServant::answer(CORBA::ServerRequest_ptr request, const Operation& op,
   try {
     for (CORBA::ULong i = 0; i < op.arguments.size(); ++i) {
       const auto& argument = op.arguments[i];
-      if (argument.out != nullptr) insert(*arguments->item(i)->value(), argument.type, Marshal{*codec_, reply, argument.out});
+      if (argument.out != nullptr)
+        insert(*arguments->item(i)->value(), argument.type, Marshal{*codec_, reply, argument.out});
     }
     if (op.result != nullptr) {
       CORBA::Any result;

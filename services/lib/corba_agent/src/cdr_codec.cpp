@@ -11,16 +11,18 @@
 
 namespace urs::corba_agent {
 
+using detail::IdlType;
 using google::protobuf::Descriptor;
 using google::protobuf::FieldDescriptor;
 using google::protobuf::Message;
 using google::protobuf::OneofDescriptor;
 using google::protobuf::Reflection;
-using detail::IdlType;
 using Kind = IdlType::Kind;
 
 ConversionError::ConversionError(std::string path, std::string reason)
-    : std::runtime_error(path.empty() ? reason : path + ": " + reason), path_(std::move(path)), reason_(std::move(reason)) {}
+    : std::runtime_error(path.empty() ? reason : path + ": " + reason),
+      path_(std::move(path)),
+      reason_(std::move(reason)) {}
 
 ConversionError ConversionError::within(const std::string& outer) const {
   if (path_.empty()) return {outer, reason_};
@@ -87,7 +89,8 @@ struct CdrCodec::Plans {
         plan.fields.push_back(&add_field(*field));
         if (field->message_type() != nullptr) pending.push_back(field->message_type());
       }
-      if (const auto* discriminator = detail::union_discriminator(*type)) plan.union_plan = union_plan(*type, *discriminator);
+      if (const auto* discriminator = detail::union_discriminator(*type))
+        plan.union_plan = union_plan(*type, *discriminator);
     }
   }
 
@@ -110,7 +113,8 @@ struct CdrCodec::Plans {
       plan.array_size = 1;
       for (auto d : dims) plan.array_size *= d;
     }
-    if (plan.type->kind == Kind::kNamed && !plan.wrapper && field.message_type() == nullptr && field.enum_type() == nullptr) {
+    if (plan.type->kind == Kind::kNamed && !plan.wrapper && field.message_type() == nullptr &&
+        field.enum_type() == nullptr) {
       throw std::invalid_argument(field.full_name() + ": idl_type names " + plan.type->name +
                                   " but the field is neither a message nor an enum");
     }
@@ -141,25 +145,33 @@ namespace {
 std::int64_t discriminator_value(const Message& message, const FieldDescriptor& field) {
   const Reflection* r = message.GetReflection();
   switch (field.cpp_type()) {
-    case FieldDescriptor::CPPTYPE_BOOL: return r->GetBool(message, &field) ? 1 : 0;
-    case FieldDescriptor::CPPTYPE_ENUM: return r->GetEnumValue(message, &field);
-    case FieldDescriptor::CPPTYPE_INT32: return r->GetInt32(message, &field);
-    case FieldDescriptor::CPPTYPE_UINT32: return r->GetUInt32(message, &field);
-    case FieldDescriptor::CPPTYPE_INT64: return r->GetInt64(message, &field);
-    case FieldDescriptor::CPPTYPE_UINT64: return static_cast<std::int64_t>(r->GetUInt64(message, &field));
+    case FieldDescriptor::CPPTYPE_BOOL:
+      return r->GetBool(message, &field) ? 1 : 0;
+    case FieldDescriptor::CPPTYPE_ENUM:
+      return r->GetEnumValue(message, &field);
+    case FieldDescriptor::CPPTYPE_INT32:
+      return r->GetInt32(message, &field);
+    case FieldDescriptor::CPPTYPE_UINT32:
+      return r->GetUInt32(message, &field);
+    case FieldDescriptor::CPPTYPE_INT64:
+      return r->GetInt64(message, &field);
+    case FieldDescriptor::CPPTYPE_UINT64:
+      return static_cast<std::int64_t>(r->GetUInt64(message, &field));
     case FieldDescriptor::CPPTYPE_STRING: {  // char
       const auto points = detail::utf8_to_code_points(r->GetString(message, &field));
-      if (!points || points->size() != 1) throw ConversionError(field.name(), "a char discriminator must be one character");
+      if (!points || points->size() != 1)
+        throw ConversionError(field.name(), "a char discriminator must be one character");
       return (*points)[0];
     }
-    default: throw ConversionError(field.name(), "unsupported discriminator type");
+    default:
+      throw ConversionError(field.name(), "unsupported discriminator type");
   }
 }
 
 void check_bound(std::size_t size, std::uint32_t bound, const char* what) {
   if (bound != 0 && size > bound) {
-    throw ConversionError("", std::string(what) + " of " + std::to_string(size) + " is over the bound of " +
-                                  std::to_string(bound));
+    throw ConversionError(
+        "", std::string(what) + " of " + std::to_string(size) + " is over the bound of " + std::to_string(bound));
   }
 }
 
@@ -241,16 +253,16 @@ class Writer {
       std::string scratch;
       const std::string& bytes = Get{m, f, -1}.string(scratch);
       if (bytes.size() != p.array_size) {
-        throw ConversionError("", "holds " + std::to_string(bytes.size()) + " octets; the array has " +
-                                      std::to_string(p.array_size));
+        throw ConversionError(
+            "", "holds " + std::to_string(bytes.size()) + " octets; the array has " + std::to_string(p.array_size));
       }
       s_.put_octet_array(reinterpret_cast<const CORBA::Octet*>(bytes.data()), static_cast<int>(bytes.size()));
       return;
     }
     const int size = m.GetReflection()->FieldSize(m, f);
     if (static_cast<std::uint64_t>(size) != p.array_size) {
-      throw ConversionError("", "holds " + std::to_string(size) + " elements; the array has " +
-                                    std::to_string(p.array_size));
+      throw ConversionError(
+          "", "holds " + std::to_string(size) + " elements; the array has " + std::to_string(p.array_size));
     }
     for (int i = 0; i < size; ++i) element(*p.type, m, p, i);
   }
@@ -272,23 +284,43 @@ class Writer {
     const Get get{m, f, index};
     std::string scratch;
     switch (t.kind) {
-      case Kind::kBoolean: return s_.marshalBoolean(get.boolean());
-      case Kind::kOctet: return s_.marshalOctet(checked_range<CORBA::Octet>(get.uint32(), "octet"));
-      case Kind::kShort: checked_range<CORBA::Short>(get.int32(), "short") >>= s_; return;
-      case Kind::kUShort: checked_range<CORBA::UShort>(get.uint32(), "unsigned short") >>= s_; return;
-      case Kind::kLong: CORBA::Long(get.int32()) >>= s_; return;
-      case Kind::kULong: CORBA::ULong(get.uint32()) >>= s_; return;
-      case Kind::kLongLong: CORBA::LongLong(get.int64()) >>= s_; return;
-      case Kind::kULongLong: CORBA::ULongLong(get.uint64()) >>= s_; return;
-      case Kind::kFloat: CORBA::Float(get.floating()) >>= s_; return;
-      case Kind::kDouble: CORBA::Double(get.dbl()) >>= s_; return;
-      case Kind::kChar: return s_.marshalChar(static_cast<CORBA::Char>(one_character(get.string(scratch), 0xFF, "char")));
+      case Kind::kBoolean:
+        return s_.marshalBoolean(get.boolean());
+      case Kind::kOctet:
+        return s_.marshalOctet(checked_range<CORBA::Octet>(get.uint32(), "octet"));
+      case Kind::kShort:
+        checked_range<CORBA::Short>(get.int32(), "short") >>= s_;
+        return;
+      case Kind::kUShort:
+        checked_range<CORBA::UShort>(get.uint32(), "unsigned short") >>= s_;
+        return;
+      case Kind::kLong:
+        CORBA::Long(get.int32()) >>= s_;
+        return;
+      case Kind::kULong:
+        CORBA::ULong(get.uint32()) >>= s_;
+        return;
+      case Kind::kLongLong:
+        CORBA::LongLong(get.int64()) >>= s_;
+        return;
+      case Kind::kULongLong:
+        CORBA::ULongLong(get.uint64()) >>= s_;
+        return;
+      case Kind::kFloat:
+        CORBA::Float(get.floating()) >>= s_;
+        return;
+      case Kind::kDouble:
+        CORBA::Double(get.dbl()) >>= s_;
+        return;
+      case Kind::kChar:
+        return s_.marshalChar(static_cast<CORBA::Char>(one_character(get.string(scratch), 0xFF, "char")));
       case Kind::kWChar:
         return s_.marshalWChar(static_cast<CORBA::WChar>(one_character(get.string(scratch), 0x10FFFF, "wchar")));
       case Kind::kString: {
         const std::string& text = get.string(scratch);
         check_bound(text.size(), t.bound, "a string");
-        if (text.find('\0') != std::string::npos) throw ConversionError("", "a CORBA string cannot hold a NUL character");
+        if (text.find('\0') != std::string::npos)
+          throw ConversionError("", "a CORBA string cannot hold a NUL character");
         return s_.marshalString(text.c_str());
       }
       case Kind::kWString: {
@@ -302,7 +334,8 @@ class Writer {
         wide.push_back(0);
         return s_.marshalWString(wide.data());
       }
-      case Kind::kSequence: return sequence(t, m, p, index);
+      case Kind::kSequence:
+        return sequence(t, m, p, index);
       case Kind::kNamed:
         if (f->message_type() != nullptr) return message(get.message());
         return enumeration(*f->enum_type(), get.enumeration());
@@ -343,8 +376,7 @@ class Writer {
   void union_value(const Message& m, const UnionPlan& plan) {
     const std::int64_t d = discriminator_value(m, *plan.discriminator);
     const FieldDescriptor* selected = plan.select(d);
-    const FieldDescriptor* set =
-        plan.branches ? m.GetReflection()->GetOneofFieldDescriptor(m, plan.branches) : nullptr;
+    const FieldDescriptor* set = plan.branches ? m.GetReflection()->GetOneofFieldDescriptor(m, plan.branches) : nullptr;
     if (set != selected) {
       throw ConversionError(plan.discriminator->name(), "the discriminator " + std::to_string(d) + " selects branch " +
                                                             branch_name(selected) + " but the branch set is " +
@@ -396,20 +428,33 @@ class Reader {
   void value(const IdlType& t, Message& m, const FieldPlan& p, bool append) {
     const FieldDescriptor* f = p.field;
     const Put put{m, f, append};
-    if (p.wrapper && (append || !f->is_repeated())) return field_body(put.message(), plans_.field(detail::wrapper_items(*f)));
+    if (p.wrapper && (append || !f->is_repeated()))
+      return field_body(put.message(), plans_.field(detail::wrapper_items(*f)));
     switch (t.kind) {
-      case Kind::kBoolean: return put.boolean(s_.unmarshalBoolean());
-      case Kind::kOctet: return put.uint32(s_.unmarshalOctet());
-      case Kind::kShort: return put.int32(read<CORBA::Short>());
-      case Kind::kUShort: return put.uint32(read<CORBA::UShort>());
-      case Kind::kLong: return put.int32(read<CORBA::Long>());
-      case Kind::kULong: return put.uint32(read<CORBA::ULong>());
-      case Kind::kLongLong: return put.int64(read<CORBA::LongLong>());
-      case Kind::kULongLong: return put.uint64(read<CORBA::ULongLong>());
-      case Kind::kFloat: return put.floating(read<CORBA::Float>());
-      case Kind::kDouble: return put.dbl(read<CORBA::Double>());
-      case Kind::kChar: return put.string(detail::code_points_to_utf8({s_.unmarshalChar()}));
-      case Kind::kWChar: return put.string(detail::code_points_to_utf8({static_cast<std::uint32_t>(s_.unmarshalWChar())}));
+      case Kind::kBoolean:
+        return put.boolean(s_.unmarshalBoolean());
+      case Kind::kOctet:
+        return put.uint32(s_.unmarshalOctet());
+      case Kind::kShort:
+        return put.int32(read<CORBA::Short>());
+      case Kind::kUShort:
+        return put.uint32(read<CORBA::UShort>());
+      case Kind::kLong:
+        return put.int32(read<CORBA::Long>());
+      case Kind::kULong:
+        return put.uint32(read<CORBA::ULong>());
+      case Kind::kLongLong:
+        return put.int64(read<CORBA::LongLong>());
+      case Kind::kULongLong:
+        return put.uint64(read<CORBA::ULongLong>());
+      case Kind::kFloat:
+        return put.floating(read<CORBA::Float>());
+      case Kind::kDouble:
+        return put.dbl(read<CORBA::Double>());
+      case Kind::kChar:
+        return put.string(detail::code_points_to_utf8({s_.unmarshalChar()}));
+      case Kind::kWChar:
+        return put.string(detail::code_points_to_utf8({static_cast<std::uint32_t>(s_.unmarshalWChar())}));
       case Kind::kString: {
         CORBA::String_var text = s_.unmarshalString();
         std::string value(text.in());
@@ -423,7 +468,8 @@ class Reader {
         check_bound(points.size(), t.bound, "a wstring");
         return put.string(detail::code_points_to_utf8(points));
       }
-      case Kind::kSequence: return sequence(t, m, p, append);
+      case Kind::kSequence:
+        return sequence(t, m, p, append);
       case Kind::kNamed:
         if (f->message_type() != nullptr) return message(put.message());
         return put.enumeration(enumeration(*f->enum_type()));

@@ -65,13 +65,16 @@ void read_any(const CdrCodec& codec, CORBA::Any& any, gp::Message& message, cons
   }
 }
 
+// True for the exceptions of a call whose timeout passed (omniORB raises either).
+bool timed_out(const CORBA::SystemException& e) {
+  return dynamic_cast<const CORBA::TIMEOUT*>(&e) != nullptr ||
+         (dynamic_cast<const CORBA::TRANSIENT*>(&e) != nullptr && e.minor() == omni::TRANSIENT_CallTimedout);
+}
+
 // The status a CORBA system exception becomes for the agent's caller (docs/bridge.md).
 agent::Outcome from_system_exception(const CORBA::SystemException& e, const std::string& operation) {
   const std::string what = operation + ": " + rtc::describe(e);
-  if (dynamic_cast<const CORBA::TIMEOUT*>(&e) != nullptr ||
-      (dynamic_cast<const CORBA::TRANSIENT*>(&e) != nullptr && e.minor() == omni::TRANSIENT_CallTimedout)) {
-    return agent::Outcome::error(call::Status::DEADLINE_EXCEEDED, "deadline passed: " + what);
-  }
+  if (timed_out(e)) return agent::Outcome::error(call::Status::DEADLINE_EXCEEDED, "deadline passed: " + what);
   if (dynamic_cast<const CORBA::TRANSIENT*>(&e) != nullptr || dynamic_cast<const CORBA::COMM_FAILURE*>(&e) != nullptr ||
       dynamic_cast<const CORBA::OBJECT_NOT_EXIST*>(&e) != nullptr) {
     return agent::Outcome::error(call::Status::UNAVAILABLE, "provider gone: " + what);
@@ -92,8 +95,8 @@ std::string repository_id_of(const gp::Descriptor& message) {
 
 }  // namespace
 
-CorbaProxyAgent::CorbaProxyAgent(CORBA::ORB_ptr orb, CORBA::Object_ptr target,
-                                 const gp::ServiceDescriptor& interface, CorbaProxyOptions options)
+CorbaProxyAgent::CorbaProxyAgent(CORBA::ORB_ptr orb, CORBA::Object_ptr target, const gp::ServiceDescriptor& interface,
+                                 CorbaProxyOptions options)
     : interface_(interface), options_(options), orb_(CORBA::ORB::_duplicate(orb)) {
   if (CORBA::is_nil(target)) throw std::invalid_argument("no CORBA object to proxy " + interface.full_name() + " to");
   if (interface.options().GetExtension(urs::options::service_repository_id).empty()) {
@@ -154,7 +157,8 @@ CorbaProxyAgent::CorbaProxyAgent(CORBA::ORB_ptr orb, CORBA::Object_ptr target,
     for (int r = 0; r < method_options.ExtensionSize(urs::options::raises); ++r) {
       const std::string name = method_options.GetExtension(urs::options::raises, r);
       const gp::Descriptor* type = interface.file()->pool()->FindMessageTypeByName(name);
-      if (type == nullptr) throw std::invalid_argument(method->full_name() + " raises " + name + ", which is not in its pool");
+      if (type == nullptr)
+        throw std::invalid_argument(method->full_name() + " raises " + name + ", which is not in its pool");
       roots.push_back(type);
       call->declared[repository_id_of(*type)] = Call::Declared{factory_.GetPrototype(type), type_codes.message(*type)};
     }
@@ -179,11 +183,12 @@ CORBA::Object_ptr CorbaProxyAgent::reference_for(std::chrono::milliseconds timeo
   return reference._retn();
 }
 
-agent::Outcome CorbaProxyAgent::invoke(const gp::MethodDescriptor& method, const gp::Message& request, gp::Message& reply,
-                                       const agent::CallContext& ctx) {
+agent::Outcome CorbaProxyAgent::invoke(const gp::MethodDescriptor& method, const gp::Message& request,
+                                       gp::Message& reply, const agent::CallContext& ctx) {
   const auto found = calls_.find(&method);
   if (found == calls_.end()) {
-    return agent::Outcome::error(call::Status::UNKNOWN_OPERATION, interface_.full_name() + " has no operation " + method.full_name());
+    return agent::Outcome::error(call::Status::UNKNOWN_OPERATION,
+                                 interface_.full_name() + " has no operation " + method.full_name());
   }
   const Call& call = *found->second;
 
@@ -193,7 +198,8 @@ agent::Outcome CorbaProxyAgent::invoke(const gp::MethodDescriptor& method, const
                      : std::chrono::ceil<std::chrono::milliseconds>(ctx.deadline - now);
   if (options_.max_deadline.count() > 0) timeout = std::min(timeout, options_.max_deadline);
   if (timeout.count() <= 0) {
-    return agent::Outcome::error(call::Status::DEADLINE_EXCEEDED, "deadline passed before " + call.operation + " was sent");
+    return agent::Outcome::error(call::Status::DEADLINE_EXCEEDED,
+                                 "deadline passed before " + call.operation + " was sent");
   }
 
   try {
@@ -227,11 +233,13 @@ agent::Outcome CorbaProxyAgent::invoke(const gp::MethodDescriptor& method, const
     try {
       for (CORBA::ULong i = 0; i < call.parameters.size(); ++i) {
         const auto& parameter = call.parameters[i];
-        if (parameter.received != nullptr) read_any(*codec_, *dii->arguments()->item(i)->value(), reply, parameter.received);
+        if (parameter.received != nullptr)
+          read_any(*codec_, *dii->arguments()->item(i)->value(), reply, parameter.received);
       }
       if (call.result != nullptr) read_any(*codec_, dii->return_value(), reply, call.result);
     } catch (const ConversionError& e) {
-      return agent::Outcome::error(call::Status::INTERNAL, call.operation + ": the provider's reply cannot be read: " + e.what());
+      return agent::Outcome::error(call::Status::INTERNAL,
+                                   call.operation + ": the provider's reply cannot be read: " + e.what());
     }
     return agent::Outcome::ok();
   } catch (const ConversionError& e) {
@@ -246,6 +254,15 @@ agent::Outcome CorbaProxyAgent::answer_system_exception(const Call& call, const 
     const std::string why = options_.explain_missing_target();
     if (!why.empty()) return agent::Outcome::error(call::Status::UNAVAILABLE, call.operation + ": " + why);
   }
+  if (options_.max_calls_per_peer > 0 && raised.completed() == CORBA::COMPLETED_NO && timed_out(raised)) {
+    // Never sent: the ORB waited for a connection to the provider's process that did not come.
+    return agent::Outcome::error(
+        call::Status::DEADLINE_EXCEEDED,
+        "deadline passed before " + call.operation + " was sent (" + rtc::describe(raised) +
+            "): the provider's process did not accept a connection in time, or this process's " +
+            std::to_string(options_.max_calls_per_peer) +
+            " calls to it at most (max_calls_per_peer) were all in flight");
+  }
   return from_system_exception(raised, call.operation);
 }
 
@@ -255,13 +272,15 @@ agent::Outcome CorbaProxyAgent::answer_user_exception(const Call& call, CORBA::U
   const std::string id = type->id();
   const auto declared = call.declared.find(id);
   if (declared == call.declared.end()) {
-    return agent::Outcome::error(call::Status::INTERNAL, call.operation + " raised " + id + ", which it does not declare");
+    return agent::Outcome::error(call::Status::INTERNAL,
+                                 call.operation + " raised " + id + ", which it does not declare");
   }
   std::shared_ptr<gp::Message> exception(declared->second.prototype->New());
   try {
     read_any(*codec_, value, *exception, nullptr);
   } catch (const ConversionError& e) {
-    return agent::Outcome::error(call::Status::INTERNAL, call.operation + " raised an exception that cannot be read: " + e.what());
+    return agent::Outcome::error(call::Status::INTERNAL,
+                                 call.operation + " raised an exception that cannot be read: " + e.what());
   }
   const std::string text = call.operation + " raised " + exception->GetTypeName();
   return agent::Outcome::raise(std::move(exception), text);

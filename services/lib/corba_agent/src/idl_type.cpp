@@ -11,13 +11,13 @@ using Kind = IdlType::Kind;
 
 const std::map<std::string, Kind>& primitives() {
   static const std::map<std::string, Kind> table{
-      {"boolean", Kind::kBoolean},        {"char", Kind::kChar},
-      {"wchar", Kind::kWChar},            {"octet", Kind::kOctet},
-      {"short", Kind::kShort},            {"unsigned short", Kind::kUShort},
-      {"long", Kind::kLong},              {"unsigned long", Kind::kULong},
-      {"long long", Kind::kLongLong},     {"unsigned long long", Kind::kULongLong},
-      {"float", Kind::kFloat},            {"double", Kind::kDouble},
-      {"string", Kind::kString},          {"wstring", Kind::kWString}};
+      {"boolean", Kind::kBoolean},    {"char", Kind::kChar},
+      {"wchar", Kind::kWChar},        {"octet", Kind::kOctet},
+      {"short", Kind::kShort},        {"unsigned short", Kind::kUShort},
+      {"long", Kind::kLong},          {"unsigned long", Kind::kULong},
+      {"long long", Kind::kLongLong}, {"unsigned long long", Kind::kULongLong},
+      {"float", Kind::kFloat},        {"double", Kind::kDouble},
+      {"string", Kind::kString},      {"wstring", Kind::kWString}};
   return table;
 }
 
@@ -47,8 +47,8 @@ class Parser {
     } else if (text_.compare(pos_, 2, "::") == 0) {
       type->kind = Kind::kNamed;
       const auto start = pos_;
-      while (pos_ < text_.size() && (std::isalnum(static_cast<unsigned char>(text_[pos_])) || text_[pos_] == '_' ||
-                                     text_[pos_] == ':')) {
+      while (pos_ < text_.size() &&
+             (std::isalnum(static_cast<unsigned char>(text_[pos_])) || text_[pos_] == '_' || text_[pos_] == ':')) {
         ++pos_;
       }
       type->name = text_.substr(start, pos_ - start);
@@ -131,7 +131,8 @@ std::int64_t label_value(const google::protobuf::FieldDescriptor& discriminator,
   };
   if (const auto* type = discriminator.enum_type()) {
     for (int i = 0; i < type->value_count(); ++i) {
-      if (type->value(i)->options().GetExtension(urs::options::idl_enumerator) == label) return type->value(i)->number();
+      if (type->value(i)->options().GetExtension(urs::options::idl_enumerator) == label)
+        return type->value(i)->number();
     }
     throw bad();
   }
@@ -140,8 +141,8 @@ std::int64_t label_value(const google::protobuf::FieldDescriptor& discriminator,
   if (label.size() >= 3 && label.front() == '\'' && label.back() == '\'') {
     const std::string inner = label.substr(1, label.size() - 2);
     if (inner.size() == 1) return static_cast<unsigned char>(inner[0]);
-    static const std::map<std::string, char> escapes{{"\\n", '\n'}, {"\\t", '\t'}, {"\\r", '\r'}, {"\\0", '\0'},
-                                                     {"\\\\", '\\'}, {"\\'", '\''}};
+    static const std::map<std::string, char> escapes{{"\\n", '\n'}, {"\\t", '\t'},  {"\\r", '\r'},
+                                                     {"\\0", '\0'}, {"\\\\", '\\'}, {"\\'", '\''}};
     const auto it = escapes.find(inner);
     if (it != escapes.end()) return static_cast<unsigned char>(it->second);
     if (inner.size() > 2 && inner.compare(0, 2, "\\x") == 0) return std::stoi(inner.substr(2), nullptr, 16);

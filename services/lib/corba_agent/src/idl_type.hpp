@@ -15,8 +15,22 @@ namespace urs::corba_agent::detail {
 
 struct IdlType {
   enum class Kind {
-    kBoolean, kChar, kWChar, kOctet, kShort, kUShort, kLong, kULong, kLongLong, kULongLong,
-    kFloat, kDouble, kString, kWString, kSequence, kNamed
+    kBoolean,
+    kChar,
+    kWChar,
+    kOctet,
+    kShort,
+    kUShort,
+    kLong,
+    kULong,
+    kLongLong,
+    kULongLong,
+    kFloat,
+    kDouble,
+    kString,
+    kWString,
+    kSequence,
+    kNamed
   };
   Kind kind = Kind::kLong;
   std::uint32_t bound = 0;                 // string, wstring, sequence: 0 is unbounded
@@ -24,7 +38,9 @@ struct IdlType {
   std::vector<std::uint32_t> dims;         // an array type named inside a sequence: "long[4]"
   std::string name;                        // kNamed: "::URC::Pose2D"
 
-  bool is_octet_sequence() const { return kind == Kind::kSequence && element->kind == Kind::kOctet && element->dims.empty(); }
+  bool is_octet_sequence() const {
+    return kind == Kind::kSequence && element->kind == Kind::kOctet && element->dims.empty();
+  }
 };
 
 // Throws std::invalid_argument naming the spelling if it is not one the translator writes.

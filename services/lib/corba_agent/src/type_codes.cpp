@@ -6,28 +6,41 @@
 
 namespace urs::corba_agent {
 
+using detail::IdlType;
 using google::protobuf::Descriptor;
 using google::protobuf::FieldDescriptor;
-using detail::IdlType;
 using Kind = IdlType::Kind;
 
 namespace {
 
 CORBA::TypeCode_ptr primitive(Kind kind) {
   switch (kind) {
-    case Kind::kBoolean: return CORBA::TypeCode::_duplicate(CORBA::_tc_boolean);
-    case Kind::kChar: return CORBA::TypeCode::_duplicate(CORBA::_tc_char);
-    case Kind::kWChar: return CORBA::TypeCode::_duplicate(CORBA::_tc_wchar);
-    case Kind::kOctet: return CORBA::TypeCode::_duplicate(CORBA::_tc_octet);
-    case Kind::kShort: return CORBA::TypeCode::_duplicate(CORBA::_tc_short);
-    case Kind::kUShort: return CORBA::TypeCode::_duplicate(CORBA::_tc_ushort);
-    case Kind::kLong: return CORBA::TypeCode::_duplicate(CORBA::_tc_long);
-    case Kind::kULong: return CORBA::TypeCode::_duplicate(CORBA::_tc_ulong);
-    case Kind::kLongLong: return CORBA::TypeCode::_duplicate(CORBA::_tc_longlong);
-    case Kind::kULongLong: return CORBA::TypeCode::_duplicate(CORBA::_tc_ulonglong);
-    case Kind::kFloat: return CORBA::TypeCode::_duplicate(CORBA::_tc_float);
-    case Kind::kDouble: return CORBA::TypeCode::_duplicate(CORBA::_tc_double);
-    default: return CORBA::TypeCode::_nil();
+    case Kind::kBoolean:
+      return CORBA::TypeCode::_duplicate(CORBA::_tc_boolean);
+    case Kind::kChar:
+      return CORBA::TypeCode::_duplicate(CORBA::_tc_char);
+    case Kind::kWChar:
+      return CORBA::TypeCode::_duplicate(CORBA::_tc_wchar);
+    case Kind::kOctet:
+      return CORBA::TypeCode::_duplicate(CORBA::_tc_octet);
+    case Kind::kShort:
+      return CORBA::TypeCode::_duplicate(CORBA::_tc_short);
+    case Kind::kUShort:
+      return CORBA::TypeCode::_duplicate(CORBA::_tc_ushort);
+    case Kind::kLong:
+      return CORBA::TypeCode::_duplicate(CORBA::_tc_long);
+    case Kind::kULong:
+      return CORBA::TypeCode::_duplicate(CORBA::_tc_ulong);
+    case Kind::kLongLong:
+      return CORBA::TypeCode::_duplicate(CORBA::_tc_longlong);
+    case Kind::kULongLong:
+      return CORBA::TypeCode::_duplicate(CORBA::_tc_ulonglong);
+    case Kind::kFloat:
+      return CORBA::TypeCode::_duplicate(CORBA::_tc_float);
+    case Kind::kDouble:
+      return CORBA::TypeCode::_duplicate(CORBA::_tc_double);
+    default:
+      return CORBA::TypeCode::_nil();
   }
 }
 
@@ -44,20 +57,37 @@ void marshal_ulong(cdrStream& stream, void* value) { *static_cast<CORBA::ULong*>
 CORBA::Any label_any(const IdlType& discriminator, CORBA::TypeCode_ptr discriminator_type, std::int64_t value) {
   CORBA::Any any;
   switch (discriminator.kind) {
-    case Kind::kBoolean: any <<= CORBA::Any::from_boolean(value != 0); break;
-    case Kind::kChar: any <<= CORBA::Any::from_char(static_cast<CORBA::Char>(value)); break;
-    case Kind::kShort: any <<= static_cast<CORBA::Short>(value); break;
-    case Kind::kUShort: any <<= static_cast<CORBA::UShort>(value); break;
-    case Kind::kLong: any <<= static_cast<CORBA::Long>(value); break;
-    case Kind::kULong: any <<= static_cast<CORBA::ULong>(value); break;
-    case Kind::kLongLong: any <<= static_cast<CORBA::LongLong>(value); break;
-    case Kind::kULongLong: any <<= static_cast<CORBA::ULongLong>(value); break;
+    case Kind::kBoolean:
+      any <<= CORBA::Any::from_boolean(value != 0);
+      break;
+    case Kind::kChar:
+      any <<= CORBA::Any::from_char(static_cast<CORBA::Char>(value));
+      break;
+    case Kind::kShort:
+      any <<= static_cast<CORBA::Short>(value);
+      break;
+    case Kind::kUShort:
+      any <<= static_cast<CORBA::UShort>(value);
+      break;
+    case Kind::kLong:
+      any <<= static_cast<CORBA::Long>(value);
+      break;
+    case Kind::kULong:
+      any <<= static_cast<CORBA::ULong>(value);
+      break;
+    case Kind::kLongLong:
+      any <<= static_cast<CORBA::LongLong>(value);
+      break;
+    case Kind::kULongLong:
+      any <<= static_cast<CORBA::ULongLong>(value);
+      break;
     case Kind::kNamed: {  // an enum: its ordinal, under the enum's TypeCode
       CORBA::ULong ordinal = static_cast<CORBA::ULong>(value);
       any.PR_insert(discriminator_type, marshal_ulong, &ordinal);
       break;
     }
-    default: throw std::invalid_argument("unsupported union discriminator type");
+    default:
+      throw std::invalid_argument("unsupported union discriminator type");
   }
   return any;
 }
@@ -74,7 +104,8 @@ CORBA::TypeCode_ptr TypeCodes::field(const FieldDescriptor& field) {
   // `element`: describing one value of a repeated field (or a union branch), which a wrapper holds
   // when it is itself a sequence or an array.
   const auto value = [&](const auto& self, const IdlType& t, bool element) -> CORBA::TypeCode_ptr {
-    if (detail::is_wrapper(field) && (element || !field.is_repeated())) return this->field(detail::wrapper_items(field));
+    if (detail::is_wrapper(field) && (element || !field.is_repeated()))
+      return this->field(detail::wrapper_items(field));
     switch (t.kind) {
       case Kind::kString:
         return t.bound ? orb_->create_string_tc(t.bound) : CORBA::TypeCode::_duplicate(CORBA::_tc_string);
@@ -88,7 +119,8 @@ CORBA::TypeCode_ptr TypeCodes::field(const FieldDescriptor& field) {
         if (field.message_type() != nullptr) return message(*field.message_type());
         if (field.enum_type() != nullptr) return enumeration(*field.enum_type());
         throw std::invalid_argument(field.full_name() + ": " + t.name + " is neither a message nor an enum");
-      default: return primitive(t.kind);
+      default:
+        return primitive(t.kind);
     }
   };
   const auto dims = detail::array_dims(field);
@@ -100,7 +132,8 @@ CORBA::TypeCode_ptr TypeCodes::field(const FieldDescriptor& field) {
 CORBA::TypeCode_ptr TypeCodes::message(const Descriptor& message) {
   if (auto it = messages_.find(&message); it != messages_.end()) return CORBA::TypeCode::_duplicate(it->second);
   const std::string id = message.options().GetExtension(urs::options::message_repository_id);
-  if (id.empty()) throw std::invalid_argument(message.full_name() + " has no repository ID: not an IDL struct, exception or union");
+  if (id.empty())
+    throw std::invalid_argument(message.full_name() + " has no repository ID: not an IDL struct, exception or union");
   if (building_.count(&message) != 0) return orb_->create_recursive_tc(id.c_str());
   building_.insert(&message);
   const std::string name = simple_name(id);
@@ -108,9 +141,11 @@ CORBA::TypeCode_ptr TypeCodes::message(const Descriptor& message) {
   const auto kind = detail::message_kind(message);
   if (kind == urs::options::MESSAGE_KIND_UNION) {
     const FieldDescriptor* discriminator = detail::union_discriminator(message);
-    if (discriminator == nullptr) throw std::invalid_argument(message.full_name() + ": a union without a discriminator");
+    if (discriminator == nullptr)
+      throw std::invalid_argument(message.full_name() + ": a union without a discriminator");
     CORBA::TypeCode_var discriminator_type = field(*discriminator);
-    const auto discriminator_idl = detail::parse_idl_type(discriminator->options().GetExtension(urs::options::idl_type));
+    const auto discriminator_idl =
+        detail::parse_idl_type(discriminator->options().GetExtension(urs::options::idl_type));
     CORBA::UnionMemberSeq members;
     const auto add = [&](const FieldDescriptor& branch, CORBA::Any label) {
       const CORBA::ULong i = members.length();

@@ -14,16 +14,17 @@ using agent::Outcome;
 
 // Every operation but sleep (which blocks) and notify (which publishes through the host's event
 // sink) computes in memory, so it runs on the thread that received the call: no hand-off.
-DiagnosticAgent::DiagnosticAgent()
-    : TypedAgent(*URS::Diagnostic_echo_Request::descriptor()->file(), "Diagnostic") {
+DiagnosticAgent::DiagnosticAgent() : TypedAgent(*URS::Diagnostic_echo_Request::descriptor()->file(), "Diagnostic") {
   on<URS::Diagnostic_echo_Request, URS::Diagnostic_echo_Reply>(
-      "echo", [](const auto& req, auto& rep, const CallContext&) {
+      "echo",
+      [](const auto& req, auto& rep, const CallContext&) {
         rep.set_result(req.text());
         return Outcome::ok();
       },
       Run::on_receiving_thread);
   on<URS::Diagnostic_add_Request, URS::Diagnostic_add_Reply>(
-      "add", [](const auto& req, auto& rep, const CallContext&) {
+      "add",
+      [](const auto& req, auto& rep, const CallContext&) {
         rep.set_result(req.a() + req.b());
         return Outcome::ok();
       },
@@ -43,20 +44,23 @@ DiagnosticAgent::DiagnosticAgent()
         return Outcome::ok();
       });
   on<URS::Diagnostic_blob_Request, URS::Diagnostic_blob_Reply>(
-      "blob", [](const auto& req, auto& rep, const CallContext&) {
+      "blob",
+      [](const auto& req, auto& rep, const CallContext&) {
         if (auto refused = check_blob(req.size())) return Outcome::error(call::Status::BAD_ARGUMENTS, *refused);
         rep.set_result(patterned_bytes(req.size()));
         return Outcome::ok();
       },
       Run::on_receiving_thread);
   on<URS::Diagnostic_checksum_Request, URS::Diagnostic_checksum_Reply>(
-      "checksum", [](const auto& req, auto& rep, const CallContext&) {
+      "checksum",
+      [](const auto& req, auto& rep, const CallContext&) {
         rep.set_result(fnv1a64(req.data().data(), req.data().size()));
         return Outcome::ok();
       },
       Run::on_receiving_thread);
   on<URS::Diagnostic_fail_Request, URS::Diagnostic_fail_Reply>(
-      "fail", [](const auto& req, auto&, const CallContext&) {
+      "fail",
+      [](const auto& req, auto&, const CallContext&) {
         auto failure = std::make_shared<URS::Failure>();
         failure->set_reason(req.reason());
         failure->set_code(req.code());

@@ -30,8 +30,7 @@ ContextEntry entry_of(const std::string& space, const camus::ContextEntry& entry
 }
 }  // namespace
 
-CamusSource::CamusSource(CamusSourceOptions options, Logins& logins)
-    : options_(std::move(options)), logins_(logins) {}
+CamusSource::CamusSource(CamusSourceOptions options, Logins& logins) : options_(std::move(options)), logins_(logins) {}
 
 CamusSource::~CamusSource() { stop(); }
 
@@ -64,8 +63,8 @@ void CamusSource::refresh() {
   std::vector<Component> components;
   std::vector<Operation> operations;
   if (client_->connected()) {
-    const auto listed = client_->call("camus.registry", "List", camus::ListRequest().SerializeAsString(),
-                                      options_.read_timeout);
+    const auto listed =
+        client_->call("camus.registry", "List", camus::ListRequest().SerializeAsString(), options_.read_timeout);
     camus::ListReply list;
     if (!listed.ok() || !list.ParseFromString(listed.payload)) {
       spdlog::warn("gateway: reading the registry of {} failed: {}: {}", options_.space,
@@ -76,8 +75,8 @@ void CamusSource::refresh() {
       if (!described_.count(info.interface())) {
         camus::DescribeRequest request;
         request.set_interface(info.interface());
-        const auto described = client_->call("camus.registry", "Describe", request.SerializeAsString(),
-                                             options_.read_timeout);
+        const auto described =
+            client_->call("camus.registry", "Describe", request.SerializeAsString(), options_.read_timeout);
         camus::DescribeReply reply;
         if (described.ok() && reply.ParseFromString(described.payload)) {
           const std::string error = decoder_.pool().add_descriptor_set(reply.descriptor_set());
@@ -96,7 +95,9 @@ void CamusSource::refresh() {
       service.set_origin(origin.empty() ? "camus" : origin);
       service.set_provider(info.owner());
       service.set_bridge(property(info, "urslink.bridge"));
-      service.set_state(info.state());
+      // As `urs ls` shows it: the provider's health where it reports one it cannot serve with.
+      const std::string health = property(info, "urslink.health");
+      service.set_state(health.empty() || health == "ok" ? info.state() : health);
       service.set_seen_via("camus");
       services.push_back(service);
       if (info.owner() != kServerPeer) {
@@ -136,8 +137,8 @@ void CamusSource::refresh() {
 }
 
 void CamusSource::read_context() {
-  const auto listed = client_->call("camus.context", "List", camus::ContextListRequest().SerializeAsString(),
-                                    options_.read_timeout);
+  const auto listed =
+      client_->call("camus.context", "List", camus::ContextListRequest().SerializeAsString(), options_.read_timeout);
   camus::ContextListReply list;
   if (!listed.ok() || !list.ParseFromString(listed.payload)) {
     spdlog::warn("gateway: reading the context of {} failed: {}", options_.space, listed.message);

@@ -25,8 +25,8 @@ void DdsSource::start(ViewSink& sink) {
   join();
   // Once joined, the catalog is read when DDS says it changed and at least twice a lease;
   // until then each round tries to join again.
-  poller_.start(std::min<std::chrono::milliseconds>(options_.link.lease / 2, bridge::LinkRetry::kPeriod), [this] {
-    if (!link_ && link_retry_.due(bridge::LinkRetry::Clock::now())) join();
+  poller_.start(std::min<std::chrono::milliseconds>(options_.link.lease / 2, federation::LinkRetry::kPeriod), [this] {
+    if (!link_ && link_retry_.due(federation::LinkRetry::Clock::now())) join();
     if (link_) read_catalog();
   });
 }
@@ -35,19 +35,18 @@ void DdsSource::start(ViewSink& sink) {
 // whose name resolves only once its container has started) leaves the gateway serving what its
 // other sources show; the poller tries again every LinkRetry::kPeriod.
 void DdsSource::join() {
-  bridge::DdsOptions link = options_.link;
+  federation::DdsOptions link = options_.link;
   link.space = reader_name(options_.space);
   link.bridge = "urs-gateway";
   try {
-    link_ = std::make_unique<bridge::DdsLink>(
-        link,
-        [this] { poller_.wake(); },
+    link_ = std::make_unique<federation::DdsLink>(
+        link, [this] { poller_.wake(); },
         [](call::Request request, call::Responder responder) {
           // Nobody calls a gateway over DDS (it announces nothing); refuse whatever arrives.
           responder.reply(
               call::Reply::error(call::Status::UNKNOWN_SERVICE, "urs-gateway serves no " + request.service));
         });
-    state_ = std::make_unique<bridge::StateLink>(*link_, state_handlers(), std::nullopt);
+    state_ = std::make_unique<federation::StateLink>(*link_, state_handlers(), std::nullopt);
   } catch (const std::exception& e) {
     state_.reset();
     link_.reset();
@@ -58,14 +57,14 @@ void DdsSource::join() {
 }
 
 // What the state topics report, into the sink.
-bridge::StateHandlers DdsSource::state_handlers() {
-  bridge::StateHandlers handlers;
-  handlers.component = [this](const bridge::ComponentState& state, bool alive) { component(state, alive); };
-  handlers.pose = [this](const bridge::SpacePose& pose) {
+federation::StateHandlers DdsSource::state_handlers() {
+  federation::StateHandlers handlers;
+  handlers.component = [this](const federation::ComponentState& state, bool alive) { component(state, alive); };
+  handlers.pose = [this](const federation::SpacePose& pose) {
     if (!wanted(pose.space, options_.own_poses)) return;
     sink_->pose(pose_of(pose.space, pose.robot, pose.x, pose.y, pose.theta, pose.stamp, "dds"));
   };
-  handlers.context = [this](const bridge::ContextState& entry, bool alive) {
+  handlers.context = [this](const federation::ContextState& entry, bool alive) {
     if (!wanted(entry.space, options_.own_state)) return;
     ContextEntry out;
     out.set_space(entry.space);
@@ -77,7 +76,7 @@ bridge::StateHandlers DdsSource::state_handlers() {
     out.set_removed(!alive);
     sink_->context(out);
   };
-  handlers.event = [this](const bridge::SpaceEvent& event) {
+  handlers.event = [this](const federation::SpaceEvent& event) {
     if (!wanted(event.space, options_.own_state)) return;
     Event out;
     out.set_space(event.space);
@@ -101,12 +100,13 @@ void DdsSource::stop() {
 void DdsSource::read_catalog() {
   std::vector<Service> services;
   std::set<std::string> described;
-  for (const bridge::ServiceEntry& entry : link_->catalog()) {
+  for (const federation::ServiceEntry& entry : link_->catalog()) {
     if (!wanted(entry.space, options_.own_services)) continue;
     // The descriptions decode the spaces' events; each digest's bytes are added once.
     if (described.insert(entry.interface_name).second && !decoder_.pool().find_service(entry.interface_name)) {
       const std::string error = decoder_.pool().add_descriptor_set(entry.descriptor_set);
-      if (!error.empty()) spdlog::debug("gateway: the description of {} from {}: {}", entry.interface_name, entry.space, error);
+      if (!error.empty())
+        spdlog::debug("gateway: the description of {} from {}: {}", entry.interface_name, entry.space, error);
     }
     Service service;
     service.set_space(entry.space);
@@ -122,7 +122,7 @@ void DdsSource::read_catalog() {
   sink_->services(kSource, std::move(services));
 }
 
-void DdsSource::component(const bridge::ComponentState& state, bool alive) {
+void DdsSource::component(const federation::ComponentState& state, bool alive) {
   if (!wanted(state.space, options_.own_services)) return;
   std::vector<Component> now;
   {

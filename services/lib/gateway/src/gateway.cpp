@@ -1,11 +1,12 @@
 #include "urs/gateway/gateway.hpp"
 
+#include <google/protobuf/util/json_util.h>
 #include <spdlog/spdlog.h>
 
 #include <cmath>
 
+#include "urs/gateway/foxglove_json.hpp"
 #include "urs/gateway/json_schema.hpp"
-#include "urs/schema/json.hpp"
 
 namespace urs::gateway {
 
@@ -35,9 +36,18 @@ namespace {
 uint64_t stamp_ns(double seconds) { return seconds > 0 ? static_cast<uint64_t>(seconds * 1e9) : 0; }
 uint64_t now_ns() { return stamp_ns(unix_now()); }
 
+// What a channel carries: the message as the Foxglove side prints it (foxglove_json.hpp).
+// `json` as a Value, or what it was when it cannot be kept: longer than `limit`, or not JSON.
+void set_json(gp::Value& value, const std::string& json, std::size_t limit) {
+  if (json.size() <= limit && gp::util::JsonStringToMessage(json, &value).ok()) return;
+  auto& fields = *value.mutable_struct_value()->mutable_fields();
+  fields.clear();
+  fields["omitted"].set_string_value(json.size() > limit ? std::to_string(json.size()) + " bytes" : "not JSON");
+}
+
 std::string to_json(const gp::Message& message) {
   std::string json;
-  const std::string error = schema::message_to_json(message, json);
+  const std::string error = to_foxglove_json(message, json);
   if (!error.empty()) spdlog::warn("gateway: {}", error);
   return json;
 }
@@ -52,6 +62,7 @@ Gateway::Gateway(GatewayOptions options, Hub& hub) : options_(std::move(options)
   fixed("/trails", *Trail::descriptor(), Latch::keyed);
   fixed("/context", *ContextEntry::descriptor(), Latch::keyed);
   fixed("/events", *Event::descriptor(), Latch::history, options_.event_history);
+  fixed("/calls", *Call::descriptor(), Latch::history, options_.call_history);
   std::lock_guard lock(mutex_);
   publish_snapshots();
 }
@@ -123,25 +134,70 @@ void Gateway::operations(const std::string& source, std::vector<Operation> now) 
     // The handler of the operation of that name now: a source may replace it without the
     // clients seeing the service leave and come back.
     wanted.id = hub_.add_service(std::move(service), [this, name = name](const Caller& caller, std::string json,
-                                                                           std::function<void(CallReply)> reply) {
-      ServiceHandler handler;
-      {
-        std::lock_guard inner(mutex_);
-        for (const auto& [from, list] : operations_) {
-          for (const Operation& candidate : list) {
-            if (candidate.name == name) handler = candidate.handler;
-          }
-        }
-      }
-      if (!handler) {
-        reply(CallReply::failure("UNKNOWN_SERVICE: " + name + " is not offered any more"));
-        return;
-      }
-      handler(caller, std::move(json), std::move(reply));
+                                                                         std::function<void(CallReply)> reply) {
+      serve(name, caller, std::move(json), std::move(reply));
     });
     offered_[name] = std::move(wanted);
   }
   publish_snapshots();
+}
+
+// One call of the operation `name`: the request and the reply converted between the Foxglove
+// side's JSON and the canonical mapping the sources read and write; once answered, on /calls.
+void Gateway::serve(const std::string& name, const Caller& caller, std::string json,
+                    std::function<void(CallReply)> reply) {
+  ServiceHandler handler;
+  const gp::Descriptor* request = nullptr;
+  const gp::Descriptor* response = nullptr;
+  std::string type, space;
+  {
+    std::lock_guard lock(mutex_);
+    for (const auto& [from, list] : operations_) {
+      for (const Operation& candidate : list) {
+        if (candidate.name != name) continue;
+        handler = candidate.handler;
+        request = candidate.request;
+        response = candidate.response;
+        type = candidate.type;
+        space = candidate.space;
+      }
+    }
+  }
+  if (!handler || request == nullptr || response == nullptr) {
+    reply(CallReply::failure("UNKNOWN_SERVICE: " + name + " is not offered any more"));
+    return;
+  }
+  std::string canonical;
+  const std::string error = from_foxglove_json(json.empty() ? "{}" : json, *request, canonical);
+  if (!error.empty()) {
+    reply(CallReply::failure("BAD_ARGUMENTS " + error));
+    return;
+  }
+  auto record = std::make_shared<Call>();
+  record->set_service(name);
+  record->set_type(type);
+  record->set_space(space);
+  record->set_caller(caller.identity);
+  record->set_role(role_name(caller.role));
+  record->set_stamp(unix_now());
+  set_json(*record->mutable_request(), json, options_.max_call_json);
+  const auto started = std::chrono::steady_clock::now();
+  handler(caller, std::move(canonical), [this, response, record, started, reply = std::move(reply)](CallReply outcome) {
+    if (outcome.ok) {
+      std::string printed;
+      const std::string problem = to_foxglove_json(outcome.json, *response, printed);
+      outcome = problem.empty() ? CallReply::success(std::move(printed)) : CallReply::failure("INTERNAL " + problem);
+    }
+    record->set_seconds(std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count());
+    record->set_ok(outcome.ok);
+    if (outcome.ok) {
+      set_json(*record->mutable_reply(), outcome.json, options_.max_call_json);
+    } else {
+      record->set_error(outcome.error);
+    }
+    reply(std::move(outcome));
+    call(*record);
+  });
 }
 
 void Gateway::publish_snapshots() {
@@ -238,6 +294,13 @@ void Gateway::publish_graph() {
     graph.published_topics.push_back({topic, publishers});
     graph.subscribed_topics.push_back({topic, {self}});
   }
+  // Each robot's own channel, fed by the robot's space.
+  for (const auto& [key, robot] : robots_) {
+    if (robot.channel == 0) continue;
+    const std::string topic = "/" + key + "/pose";
+    graph.published_topics.push_back({topic, {"space:" + key.substr(0, key.find('/'))}});
+    graph.subscribed_topics.push_back({topic, {self}});
+  }
   if (options_.dds) {
     for (const char* topic : {"urs/catalog", "urs/interface", "urs/state/component", "urs/state/pose",
                               "urs/state/context", "urs/state/event"}) {
@@ -269,14 +332,16 @@ void Gateway::pose(const Pose& pose) {
     if (robots_.size() >= options_.max_robots * 4) return;  // a flood of robot names: keep the known ones
     it = robots_.emplace(key, Robot{}).first;
     if (robots_.size() <= options_.max_robots) {
-      it->second.channel = hub_.add_channel({"/" + key + "/pose", Pose::descriptor()->full_name(),
-                                             json_schema(*Pose::descriptor()), Latch::keyed, 0});
+      it->second.channel = hub_.add_channel(
+          {"/" + key + "/pose", Pose::descriptor()->full_name(), json_schema(*Pose::descriptor()), Latch::keyed, 0});
+      publish_graph();  // the new channel joins the connection graph
     }
   }
   Robot& robot = it->second;
   if (robot.channel != 0) hub_.publish(robot.channel, json, stamp);
   auto& trail = robot.trail;
-  if (trail.empty() || std::hypot(trail.back().x() - pose.x(), trail.back().y() - pose.y()) >= options_.trail_spacing_m) {
+  if (trail.empty() ||
+      std::hypot(trail.back().x() - pose.x(), trail.back().y() - pose.y()) >= options_.trail_spacing_m) {
     TrailPoint point;
     point.set_x(pose.x());
     point.set_y(pose.y());
@@ -298,6 +363,10 @@ void Gateway::pose(const Pose& pose) {
 void Gateway::context(const ContextEntry& entry) {
   publish(fixed_.at("/context"), entry, stamp_ns(entry.stamp() > 0 ? entry.stamp() : unix_now()),
           entry.space() + "/" + entry.key(), entry.removed());
+}
+
+void Gateway::call(const Call& call) {
+  publish(fixed_.at("/calls"), call, stamp_ns(call.stamp() > 0 ? call.stamp() : unix_now()));
 }
 
 void Gateway::event(const Event& event) {

@@ -30,6 +30,8 @@ using http_util::safe_path;
 namespace {
 
 constexpr const char* kCookie = "urs_gateway";
+constexpr const char* kLogInFirst =
+    "log in first: POST /api/login {\"credential\": ...} gives a session; connect to ws://HOST:PORT/?session=<id>";
 constexpr std::size_t kMaxFile = 4u << 20;
 
 // What the CAMUS server said of a login's credential, when it was asked: "identity" (the
@@ -38,6 +40,20 @@ constexpr std::size_t kMaxFile = 4u << 20;
 void describe_credential(JsonWriter& out, const Login& login) {
   if (login.identity.empty()) return;
   out.key("identity").value(login.identity).key("server_role").value(planet::role_word(login.server_role));
+}
+
+// The string member `name` of a JSON object body, "" if there is none.
+std::string body_string(const Request& request, const std::string& name) {
+  google::protobuf::Value body;
+  if (!google::protobuf::util::JsonStringToMessage(request.body(), &body).ok() ||
+      body.kind_case() != google::protobuf::Value::kStructValue) {
+    return {};
+  }
+  const auto& fields = body.struct_value().fields();
+  const auto it = fields.find(name);
+  return it != fields.end() && it->second.kind_case() == google::protobuf::Value::kStringValue
+             ? it->second.string_value()
+             : std::string();
 }
 
 }  // namespace
@@ -97,8 +113,7 @@ void HttpSession::upgrade(Request request) {
     return;
   }
   const auto protocols = request.find(http::field::sec_websocket_protocol);
-  if (protocols == request.end() ||
-      std::string(protocols->value()).find(foxglove::kSubprotocol) == std::string::npos) {
+  if (protocols == request.end() || std::string(protocols->value()).find(foxglove::kSubprotocol) == std::string::npos) {
     send(error_response(request, http::status::bad_request,
                         std::string("subprotocol ") + foxglove::kSubprotocol + " required"));
     return;
@@ -120,31 +135,32 @@ void HttpSession::upgrade(Request request) {
     }
   }
   Role role;
-  std::string login_id;
+  std::string login_id, identity;
+  std::string refusal;
   if (login) {
     role = login->role;
     login_id = login->id;
+    identity = login->identity;
   } else if (server.options.anonymous) {
     role = *server.options.anonymous;
   } else {
-    send(error_response(request, http::status::unauthorized,
-                        "log in first (POST /api/login, or ?session=<id> from the dashboard)"));
-    return;
+    refusal = kLogInFirst;
+    if (request.find(http::field::origin) == request.end()) {
+      // A program (curl, a WebSocket library) reads the refusal's body.
+      send(error_response(request, http::status::unauthorized, refusal));
+      return;
+    }
+    // A browser page cannot read a refused upgrade's body: it gets the WebSocket, a Status and a
+    // close frame saying the same, and nothing else.
   }
   if (server.clients >= server.options.max_clients) {
     send(error_response(request, http::status::service_unavailable,
                         "too many WebSocket clients (" + std::to_string(server.options.max_clients) + ")"));
     return;
   }
-  auto session = std::make_shared<WsSession>(stream_.release_socket(), server_->hub, role, login_id,
-                                             server.options.max_queue_bytes, server_->clients);
-  {
-    std::lock_guard lock(server_->sessions_mutex);
-    auto& sessions = server_->sessions;
-    sessions.erase(std::remove_if(sessions.begin(), sessions.end(), [](auto& s) { return s.expired(); }),
-                   sessions.end());
-    sessions.push_back(session);
-  }
+  auto session = std::make_shared<WsSession>(stream_.release_socket(), server_->hub, role, login_id, identity,
+                                             server.options.max_queue_bytes, server_->clients, std::move(refusal));
+  server_->add_session(session);
   session->run(std::move(request));
 }
 
@@ -223,16 +239,7 @@ void HttpSession::handle(Request request) {
 }
 
 void HttpSession::login(Request request) {
-  google::protobuf::Value body;
-  std::string credential;
-  if (google::protobuf::util::JsonStringToMessage(request.body(), &body).ok() &&
-      body.kind_case() == google::protobuf::Value::kStructValue) {
-    const auto& fields = body.struct_value().fields();
-    const auto it = fields.find("credential");
-    if (it != fields.end() && it->second.kind_case() == google::protobuf::Value::kStringValue) {
-      credential = it->second.string_value();
-    }
-  }
+  std::string credential = body_string(request, "credential");
   if (credential.empty()) {
     send(error_response(request, http::status::bad_request, "send {\"credential\": \"...\"}"));
     return;
@@ -240,8 +247,8 @@ void HttpSession::login(Request request) {
   // Verifying may take a round trip to the CAMUS server: off the I/O thread.
   server_->login_pool.post([self = shared_from_this(), request = std::move(request),
                             credential = std::move(credential)](bool cancelled) mutable {
-    LoginResult result = cancelled ? LoginResult{nullptr, 503, "the gateway is stopping"}
-                                   : self->server_->logins.login(credential);
+    LoginResult result =
+        cancelled ? LoginResult{nullptr, 503, "the gateway is stopping"} : self->server_->logins.login(credential);
     net::post(self->stream_.get_executor(), [self, request = std::move(request), result = std::move(result)] {
       if (!result.login) {
         self->send(error_response(request, static_cast<http::status>(result.http_status), result.error));
@@ -252,17 +259,30 @@ void HttpSession::login(Request request) {
       describe_credential(out, *result.login);
       out.key("session").value(result.login->id).key("space").value(self->server_->options.space);
       Response response = json_response(request, http::status::ok, out.end_object().take());
-      response.set(http::field::set_cookie, std::string(kCookie) + "=" + result.login->id +
-                                                "; HttpOnly; SameSite=Strict; Path=/");
+      response.set(http::field::set_cookie,
+                   std::string(kCookie) + "=" + result.login->id + "; HttpOnly; SameSite=Strict; Path=/");
       self->send(std::move(response));
     });
   });
 }
 
+// The session is the cookie's, else the body's {"session": "<id>"}, else ?session=<id>: as the
+// login returned it, to a browser or to a program.
 void HttpSession::logout(const Request& request) {
-  const std::string id = cookie(request, kCookie);
-  if (!id.empty()) server_->logins.logout(id);
-  Response response = json_response(request, http::status::ok, "{}");
+  std::string id = cookie(request, kCookie);
+  if (id.empty()) id = body_string(request, "session");
+  if (id.empty()) id = query(std::string(request.target()), "session");
+  if (id.empty() || id.size() > 64) {
+    send(error_response(request, http::status::bad_request,
+                        "name the session: the login's cookie, {\"session\": \"<id>\"} or ?session=<id>"));
+    return;
+  }
+  const bool ended = server_->logins.logout(id);
+  // Its connections end too, saying why (a Foxglove connection would otherwise keep streaming).
+  const std::size_t connections = ended ? server_->end_sessions(id, "logged out: log in again for a new session") : 0;
+  JsonWriter out;
+  out.begin_object().key("ended").value(ended).key("connections").value(static_cast<uint64_t>(connections));
+  Response response = json_response(request, http::status::ok, out.end_object().take());
   response.set(http::field::set_cookie, std::string(kCookie) + "=; HttpOnly; SameSite=Strict; Path=/; Max-Age=0");
   send(std::move(response));
 }

@@ -6,7 +6,6 @@
 // nothing thrown but std::bad_alloc.
 
 #include <boost/beast/http.hpp>
-
 #include <string>
 
 namespace urs::gateway {

@@ -84,8 +84,10 @@ void Hub::publish(uint32_t channel, std::shared_ptr<const std::string> payload, 
         state.keyed[key] = message;
       } else if (!state.full_reported) {
         state.full_reported = true;
-        spdlog::warn("gateway: channel {} holds {} keys; new keys (first '{}') are sent but not kept for later "
-                     "subscribers", state.channel.topic, state.keyed.size(), key);
+        spdlog::warn(
+            "gateway: channel {} holds {} keys; new keys (first '{}') are sent but not kept for later "
+            "subscribers",
+            state.channel.topic, state.keyed.size(), key);
       }
       break;
     case Latch::history:
@@ -141,17 +143,28 @@ void Hub::set_graph(const fg::GraphUpdate& graph) {
   }
 }
 
-uint64_t Hub::connect(std::shared_ptr<Outbox> outbox, Role role, std::string login) {
+std::vector<std::string> Hub::capabilities() const {
+  std::vector<std::string> out{"services", "connectionGraph"};
+  if (options_.client_publish) out.emplace_back("clientPublish");
+  return out;
+}
+
+void Hub::set_publish_handler(PublishHandler handler) {
+  std::lock_guard lock(mutex_);
+  publish_handler_ = std::move(handler);
+}
+
+uint64_t Hub::connect(std::shared_ptr<Outbox> outbox, Role role, std::string login, std::string identity) {
   std::lock_guard lock(mutex_);
   const uint64_t id = next_client_++;
   Client& client = clients_[id];
   client.outbox = std::move(outbox);
   client.role = role;
   client.login = std::move(login);
+  client.identity = std::move(identity);
   auto metadata = options_.metadata;
   metadata.emplace_back("role", role_name(role));
-  client.outbox->send_text(fg::server_info(options_.name, {"services", "connectionGraph"}, {"json"}, metadata,
-                                           options_.session_id));
+  client.outbox->send_text(fg::server_info(options_.name, capabilities(), {"json"}, metadata, options_.session_id));
   std::vector<const fg::Channel*> channels;
   for (const auto& [channel_id, state] : channels_) channels.push_back(&state.channel);
   client.outbox->send_text(fg::advertise(channels));  // at least one, even if empty
@@ -185,8 +198,14 @@ void Hub::receive_text(uint64_t id, std::string_view text) {
   if (auto* error = std::get_if<fg::ProtocolError>(&message)) {
     status(client, fg::StatusLevel::error, error->message);
   } else if (auto* unsupported = std::get_if<fg::Unsupported>(&message)) {
+    std::string list;
+    for (const auto& capability : capabilities()) list += (list.empty() ? "" : ", ") + capability;
     status(client, fg::StatusLevel::error,
-           "'" + unsupported->op + "' is not supported by this server (capabilities: services, connectionGraph)");
+           "'" + unsupported->op + "' is not supported by this server (capabilities: " + list + ")");
+  } else if (auto* advertise_request = std::get_if<fg::ClientAdvertise>(&message)) {
+    advertise(client, *advertise_request);
+  } else if (auto* unadvertise_request = std::get_if<fg::ClientUnadvertise>(&message)) {
+    unadvertise(client, *unadvertise_request);
   } else if (auto* subscribe_request = std::get_if<fg::Subscribe>(&message)) {
     subscribe(id, client, *subscribe_request);
   } else if (auto* unsubscribe_request = std::get_if<fg::Unsubscribe>(&message)) {
@@ -199,8 +218,46 @@ void Hub::receive_text(uint64_t id, std::string_view text) {
     client.outbox->send_text(fg::connection_graph_update(everything));
   } else if (std::holds_alternative<fg::UnsubscribeConnectionGraph>(message)) {
     client.graph = false;
-  } else if (std::holds_alternative<fg::ServiceCallRequest>(message)) {
-    status(client, fg::StatusLevel::error, "a service call request is a binary message");
+  } else if (std::holds_alternative<fg::ServiceCallRequest>(message) ||
+             std::holds_alternative<fg::ClientMessageData>(message)) {
+    status(client, fg::StatusLevel::error, "a service call request or client message data is a binary message");
+  }
+}
+
+void Hub::advertise(Client& client, const fg::ClientAdvertise& request) {
+  if (!options_.client_publish) {
+    status(client, fg::StatusLevel::error,
+           "'advertise' is not supported by this server (clientPublish is offered only while playing a recording)");
+    return;
+  }
+  if (client.role != Role::operator_) {
+    status(client, fg::StatusLevel::error,
+           std::string("PERMISSION_DENIED: publishing needs the operator role; this connection is ") +
+               role_name(client.role));
+    return;
+  }
+  for (const auto& channel : request.channels) {
+    if (channel.encoding != "json") {
+      status(client, fg::StatusLevel::error,
+             "advertise: channel " + std::to_string(channel.id) + " (" + channel.topic + "): encoding '" +
+                 channel.encoding + "' is not supported (supportedEncodings: json)");
+    } else if (client.published.count(channel.id)) {
+      status(client, fg::StatusLevel::error,
+             "advertise: channel id " + std::to_string(channel.id) + " is in use (unadvertise it first)");
+    } else if (client.published.size() >= options_.max_client_channels) {
+      status(client, fg::StatusLevel::error,
+             "advertise: at most " + std::to_string(options_.max_client_channels) + " channels per connection");
+    } else {
+      client.published[channel.id] = channel;
+    }
+  }
+}
+
+void Hub::unadvertise(Client& client, const fg::ClientUnadvertise& request) {
+  for (uint32_t id : request.channel_ids) {
+    if (client.published.erase(id) == 0) {
+      status(client, fg::StatusLevel::warning, "unadvertise: no channel " + std::to_string(id));
+    }
   }
 }
 
@@ -221,12 +278,11 @@ void Hub::receive_binary(uint64_t id, std::string_view bytes) {
       refusal = "encoding '" + request->encoding.substr(0, fg::kMaxEncodingLength) +
                 "' is not supported (supportedEncodings: json)";
     } else if (client.role != Role::operator_) {
-      refusal = "PERMISSION_DENIED: " + service->second.service.name +
-                " needs the operator role; this connection is " + role_name(client.role) +
-                " (log in with a credential the CAMUS server gives the role operator)";
+      refusal = "PERMISSION_DENIED: " + service->second.service.name + " needs the operator role; this connection is " +
+                role_name(client.role) + " (log in with a credential the CAMUS server gives the role operator)";
     } else if (client.calls_in_flight >= options_.max_calls_in_flight) {
-      refusal = "too many calls in flight on this connection (at most " +
-                std::to_string(options_.max_calls_in_flight) + ")";
+      refusal =
+          "too many calls in flight on this connection (at most " + std::to_string(options_.max_calls_in_flight) + ")";
     }
     if (!refusal.empty()) {
       client.outbox->send_text(fg::service_call_failure(service_id, call_id, refusal));
@@ -234,10 +290,34 @@ void Hub::receive_binary(uint64_t id, std::string_view bytes) {
     }
     ++client.calls_in_flight;
     ServiceHandler handler = service->second.handler;
-    const Caller caller{id, client.role, client.login};
+    const Caller caller{id, client.role, client.login, client.identity};
     lock.unlock();
     handler(caller, std::move(request->payload),
             [this, id, service_id, call_id](CallReply reply) { answer(id, service_id, call_id, reply); });
+    return;
+  }
+  if (auto* data = std::get_if<fg::ClientMessageData>(&message)) {
+    const auto channel = client.published.find(data->channel_id);
+    if (!options_.client_publish) {
+      status(client, fg::StatusLevel::error, "client message data is not supported by this server (no clientPublish)");
+      return;
+    }
+    if (channel == client.published.end()) {
+      status(client, fg::StatusLevel::error,
+             "client message data: unknown channel " + std::to_string(data->channel_id) + " (advertise it first)");
+      return;
+    }
+    const PublishHandler handler = publish_handler_;
+    const Caller caller{id, client.role, client.login, client.identity};
+    const std::string topic = channel->second.topic;
+    const std::string schema_name = channel->second.schema_name;
+    lock.unlock();
+    std::string refusal =
+        handler ? handler(caller, topic, schema_name, data->payload) : "nothing takes published messages";
+    if (refusal.empty()) return;
+    lock.lock();
+    auto again = clients_.find(id);
+    if (again != clients_.end()) status(again->second, fg::StatusLevel::error, topic + ": " + refusal);
     return;
   }
   if (auto* error = std::get_if<fg::ProtocolError>(&message)) {

@@ -1,10 +1,10 @@
 #include "urs/gateway/json_writer.hpp"
 
-#include "urs/schema/json.hpp"
-#include "urs/util/json_text.hpp"
-
 #include <charconv>
 #include <cmath>
+
+#include "urs/schema/json.hpp"
+#include "urs/util/json_text.hpp"
 
 namespace urs::gateway {
 

@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <tuple>
 
 #include "urs/gateway/json_writer.hpp"
 
@@ -84,16 +85,64 @@ ClientMessage parse_subscribe(const gp::Struct& message) {
   return Subscribe{std::get<std::vector<Subscription>>(std::move(parsed))};
 }
 
-ClientMessage parse_unsubscribe(const gp::Struct& message) {
-  auto parsed = parse_list<uint32_t>(
-      message, "unsubscribe", "subscriptionIds", "ids",
+// The array `name` of ids of an `op` message, each an integer in 0..2^32-1.
+std::variant<std::vector<uint32_t>, ProtocolError> parse_ids(const gp::Struct& message, const std::string& op,
+                                                             const std::string& name) {
+  return parse_list<uint32_t>(
+      message, op, name, "ids",
       [](const gp::Value& item, const std::string& where) -> std::variant<uint32_t, ProtocolError> {
         const auto id = u32_value(item);
         if (!id) return ProtocolError{where + " must be an integer in 0..4294967295"};
         return *id;
       });
+}
+
+ClientMessage parse_unsubscribe(const gp::Struct& message) {
+  auto parsed = parse_ids(message, "unsubscribe", "subscriptionIds");
   if (auto* error = std::get_if<ProtocolError>(&parsed)) return std::move(*error);
   return Unsubscribe{std::get<std::vector<uint32_t>>(std::move(parsed))};
+}
+
+// A string field of a client channel: present, at most `limit` bytes.
+std::variant<std::string, ProtocolError> string_field(const gp::Struct& object, const std::string& name,
+                                                      const std::string& where, std::size_t limit) {
+  const auto it = object.fields().find(name);
+  if (it == object.fields().end() || it->second.kind_case() != gp::Value::kStringValue) {
+    return ProtocolError{where + "." + name + " must be a string"};
+  }
+  if (it->second.string_value().empty() || it->second.string_value().size() > limit) {
+    return ProtocolError{where + "." + name + " must have 1.." + std::to_string(limit) + " bytes"};
+  }
+  return it->second.string_value();
+}
+
+ClientMessage parse_client_advertise(const gp::Struct& message) {
+  auto parsed = parse_list<ClientChannel>(
+      message, "advertise", "channels", "channels",
+      [](const gp::Value& item, const std::string& where) -> std::variant<ClientChannel, ProtocolError> {
+        if (item.kind_case() != gp::Value::kStructValue) return ProtocolError{where + " must be an object"};
+        const gp::Struct& object = item.struct_value();
+        const auto id = u32_field(object, "id");
+        if (!id) return ProtocolError{where + ".id must be an integer in 0..4294967295"};
+        ClientChannel channel;
+        channel.id = *id;
+        for (auto [name, limit, field] : {std::make_tuple("topic", kMaxNameLength, &channel.topic),
+                                          std::make_tuple("encoding", kMaxEncodingLength, &channel.encoding),
+                                          std::make_tuple("schemaName", kMaxNameLength, &channel.schema_name)}) {
+          auto value = string_field(object, name, where, limit);
+          if (auto* error = std::get_if<ProtocolError>(&value)) return std::move(*error);
+          *field = std::get<std::string>(std::move(value));
+        }
+        return channel;
+      });
+  if (auto* error = std::get_if<ProtocolError>(&parsed)) return std::move(*error);
+  return ClientAdvertise{std::get<std::vector<ClientChannel>>(std::move(parsed))};
+}
+
+ClientMessage parse_client_unadvertise(const gp::Struct& message) {
+  auto parsed = parse_ids(message, "unadvertise", "channelIds");
+  if (auto* error = std::get_if<ProtocolError>(&parsed)) return std::move(*error);
+  return ClientUnadvertise{std::get<std::vector<uint32_t>>(std::move(parsed))};
 }
 
 }  // namespace
@@ -117,8 +166,10 @@ ClientMessage parse_text(std::string_view text) {
   if (name == "unsubscribe") return parse_unsubscribe(message);
   if (name == "subscribeConnectionGraph") return SubscribeConnectionGraph{};
   if (name == "unsubscribeConnectionGraph") return UnsubscribeConnectionGraph{};
-  for (const char* known : {"advertise", "unadvertise", "getParameters", "setParameters", "subscribeParameterUpdates",
-                            "unsubscribeParameterUpdates", "fetchAsset"}) {
+  if (name == "advertise") return parse_client_advertise(message);
+  if (name == "unadvertise") return parse_client_unadvertise(message);
+  for (const char* known :
+       {"getParameters", "setParameters", "subscribeParameterUpdates", "unsubscribeParameterUpdates", "fetchAsset"}) {
     if (name == known) return Unsupported{name};
   }
   return ProtocolError{"unknown op '" + (name.size() > 64 ? name.substr(0, 64) + "..." : name) + "'"};
@@ -131,11 +182,17 @@ ClientMessage parse_binary(std::string_view bytes) {
                          std::to_string(kMaxBinaryMessage) + ")"};
   }
   const auto opcode = static_cast<uint8_t>(bytes[0]);
-  if (opcode == kOpClientMessageData) return Unsupported{"client message data (clientPublish)"};
+  if (opcode == kOpClientMessageData) {
+    if (bytes.size() < 5) {
+      return ProtocolError{"client message data: " + std::to_string(bytes.size()) + " bytes (at least 5)"};
+    }
+    return ClientMessageData{read_u32(bytes, 1), std::string(bytes.substr(5))};
+  }
   if (opcode != kOpServiceCallRequest) {
     return ProtocolError{"unknown binary opcode " + std::to_string(opcode)};
   }
-  if (bytes.size() < 13) return ProtocolError{"service call request: " + std::to_string(bytes.size()) + " bytes (at least 13)"};
+  if (bytes.size() < 13)
+    return ProtocolError{"service call request: " + std::to_string(bytes.size()) + " bytes (at least 13)"};
   ServiceCallRequest call;
   call.service_id = read_u32(bytes, 1);
   call.call_id = read_u32(bytes, 5);
@@ -153,7 +210,8 @@ ClientMessage parse_binary(std::string_view bytes) {
 
 std::string server_info(const std::string& name, const std::vector<std::string>& capabilities,
                         const std::vector<std::string>& supported_encodings,
-                        const std::vector<std::pair<std::string, std::string>>& metadata, const std::string& session_id) {
+                        const std::vector<std::pair<std::string, std::string>>& metadata,
+                        const std::string& session_id) {
   JsonWriter out;
   out.begin_object().key("op").value("serverInfo").key("name").value(name);
   out.key("capabilities").begin_array();
@@ -218,7 +276,9 @@ void topic_nodes(JsonWriter& out, const char* field, const char* ids_field, cons
 }
 }  // namespace
 
-std::string unadvertise(const std::vector<uint32_t>& channel_ids) { return id_list("unadvertise", "channelIds", channel_ids); }
+std::string unadvertise(const std::vector<uint32_t>& channel_ids) {
+  return id_list("unadvertise", "channelIds", channel_ids);
+}
 
 std::string advertise_services(const std::vector<const Service*>& services) {
   JsonWriter out;
@@ -230,9 +290,8 @@ std::string advertise_services(const std::vector<const Service*>& services) {
     message_schema(out, service->request);
     out.key("response");
     message_schema(out, service->response);
-    // The older clients' form of the same schemas (the encoding is the server's only one, json).
-    out.key("requestSchema").value(service->request.schema);
-    out.key("responseSchema").value(service->response.schema);
+    // Not the deprecated requestSchema / responseSchema: clients that read `request` warn once per
+    // service when they are present too.
     out.end_object();
   }
   return out.end_array().end_object().take();

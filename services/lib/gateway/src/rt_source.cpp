@@ -185,8 +185,7 @@ void RtSource::poll() {
 
 void RtSource::call(const std::string& path, const std::string& port, const std::string& type_name,
                     const gp::MethodDescriptor& method, std::string json, std::function<void(CallReply)> reply) {
-  pool_->post([this, path, port, type_name, &method, json = std::move(json),
-               reply = std::move(reply)](bool cancelled) {
+  pool_->post([this, path, port, type_name, &method, json = std::move(json), reply = std::move(reply)](bool cancelled) {
     if (cancelled) {
       reply(CallReply::failure("UNAVAILABLE: the gateway is stopping"));
       return;

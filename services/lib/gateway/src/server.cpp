@@ -2,6 +2,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/beast/core.hpp>
 #include <stdexcept>
@@ -29,6 +30,25 @@ void Server::Impl::accept() {
     }
     self->accept();
   });
+}
+
+void Server::Impl::add_session(const std::shared_ptr<WsSession>& session) {
+  std::lock_guard lock(sessions_mutex);
+  sessions.erase(std::remove_if(sessions.begin(), sessions.end(), [](auto& s) { return s.expired(); }), sessions.end());
+  sessions.push_back(session);
+}
+
+std::size_t Server::Impl::end_sessions(const std::string& id, const std::string& reason) {
+  if (id.empty()) return 0;
+  std::vector<std::shared_ptr<WsSession>> ending;
+  {
+    std::lock_guard lock(sessions_mutex);
+    for (auto& weak : sessions) {
+      if (auto session = weak.lock(); session && session->login() == id) ending.push_back(std::move(session));
+    }
+  }
+  for (auto& session : ending) session->end(reason);
+  return ending.size();
 }
 
 Server::Server(ServerOptions options, Hub& hub, Logins& logins)

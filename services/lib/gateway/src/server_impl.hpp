@@ -8,10 +8,9 @@
 // Threads: `connections` and `clients` are atomics; `sessions` is guarded by `sessions_mutex`;
 // the rest is set up before start() and read only, but for the acceptor (I/O thread, then stop()).
 
+#include <atomic>
 #include <boost/asio/io_context.hpp>
 #include <boost/asio/ip/tcp.hpp>
-
-#include <atomic>
 #include <cstddef>
 #include <memory>
 #include <mutex>
@@ -46,6 +45,10 @@ struct Server::Impl {
   // Accepts the next connection (I/O thread): refused at once beyond max_connections, else an
   // HttpSession of its own.
   void accept();
+  // Registers a WebSocket session, so that stop() and end_sessions() find it (any thread).
+  void add_session(const std::shared_ptr<WsSession>& session);
+  // Closes every WebSocket of the login `id` with `reason` (any thread); returns how many.
+  std::size_t end_sessions(const std::string& id, const std::string& reason);
 };
 
 }  // namespace urs::gateway

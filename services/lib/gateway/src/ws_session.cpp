@@ -14,9 +14,15 @@ namespace websocket = beast::websocket;
 namespace net = boost::asio;
 using tcp = net::ip::tcp;
 
-WsSession::WsSession(tcp::socket&& socket, Hub& hub, Role role, std::string login, std::size_t max_queue_bytes,
-                     std::atomic<std::size_t>& clients)
-    : ws_(std::move(socket)), hub_(hub), role_(role), login_(std::move(login)), max_queue_bytes_(max_queue_bytes),
+WsSession::WsSession(tcp::socket&& socket, Hub& hub, Role role, std::string login, std::string identity,
+                     std::size_t max_queue_bytes, std::atomic<std::size_t>& clients, std::string refusal)
+    : ws_(std::move(socket)),
+      hub_(hub),
+      role_(role),
+      login_(std::move(login)),
+      identity_(std::move(identity)),
+      max_queue_bytes_(max_queue_bytes),
+      refusal_(std::move(refusal)),
       clients_(clients) {
   ++clients_;
 }
@@ -47,12 +53,27 @@ void WsSession::detach() {
   beast::get_lowest_layer(ws_).socket().close(ignored);
 }
 
+void WsSession::end(std::string reason) {
+  {
+    std::lock_guard lock(mutex_);
+    if (dropping_ || closed_) return;
+    dropping_ = true;
+    queue_.clear();
+    queued_bytes_ = 0;
+  }
+  net::post(ws_.get_executor(), [self = shared_from_this(), reason = std::move(reason)] { self->close_with(reason); });
+}
+
 void WsSession::on_accept(beast::error_code error) {
   if (error) {
     spdlog::debug("gateway: WebSocket handshake failed: {}", error.message());
     return;
   }
-  client_ = hub_.connect(shared_from_this(), role_, login_);
+  if (!refusal_.empty()) {
+    refuse();
+    return;
+  }
+  client_ = hub_.connect(shared_from_this(), role_, login_, identity_);
   connected_ = true;
   read();
 }
@@ -85,7 +106,7 @@ bool WsSession::enqueue(Frame frame) {
                  queued_bytes_, max_queue_bytes_);
     queue_.clear();
     queued_bytes_ = 0;
-    net::post(ws_.get_executor(), [self = shared_from_this()] { self->drop(); });
+    net::post(ws_.get_executor(), [self = shared_from_this()] { self->close_with("too slow: dropped"); });
     return false;
   }
   queued_bytes_ += frame.size();
@@ -110,8 +131,8 @@ void WsSession::write_next() {
   }
   in_flight_ = true;
   ws_.text(current_.text);
-  std::array<net::const_buffer, 2> buffers{
-      net::buffer(current_.head), current_.payload ? net::buffer(*current_.payload) : net::const_buffer()};
+  std::array<net::const_buffer, 2> buffers{net::buffer(current_.head),
+                                           current_.payload ? net::buffer(*current_.payload) : net::const_buffer()};
   ws_.async_write(buffers, [self = shared_from_this()](beast::error_code error, std::size_t) {
     self->in_flight_ = false;
     {
@@ -129,10 +150,10 @@ void WsSession::write_next() {
   });
 }
 
-// On the I/O thread, once the client is too slow: out of the hub at once, then a close (1008,
-// policy violation), bounded; a peer that does not even take the write in flight has its
-// connection cut instead (a close frame could not reach it).
-void WsSession::drop() {
+// On the I/O thread, once the client is too slow or its login ended: out of the hub at once, then
+// a close (1008, policy violation) with `reason`, bounded; a peer that does not even take the
+// write in flight has its connection cut instead (a close frame could not reach it).
+void WsSession::close_with(const std::string& reason) {
   leave_hub();
   beast::error_code ignored;
   if (in_flight_) {
@@ -141,8 +162,23 @@ void WsSession::drop() {
     return;
   }
   ws_.set_option(websocket::stream_base::timeout{std::chrono::seconds(5), std::chrono::seconds(5), false});
-  ws_.async_close(websocket::close_reason(websocket::close_code::policy_error, "too slow: dropped"),
+  // A close frame's reason holds at most 123 bytes.
+  ws_.async_close(websocket::close_reason(websocket::close_code::policy_error, reason.substr(0, 123)),
                   [self = shared_from_this()](beast::error_code) { self->finish(); });
+}
+
+// On the I/O thread, after the handshake of a refused client: the Status, then the close.
+void WsSession::refuse() {
+  ws_.set_option(websocket::stream_base::timeout{std::chrono::seconds(5), std::chrono::seconds(5), false});
+  ws_.text(true);
+  current_ = Frame{foxglove::status(foxglove::StatusLevel::error, refusal_), nullptr, true};
+  ws_.async_write(net::buffer(current_.head), [self = shared_from_this()](beast::error_code error, std::size_t) {
+    if (error) {
+      self->finish();
+      return;
+    }
+    self->close_with(self->refusal_);
+  });
 }
 
 void WsSession::finish() {

@@ -7,19 +7,24 @@
 // `max_queue_bytes` queued and not yet written. A client slower than what it subscribed to is
 // dropped: out of the hub at once, what waited for it freed, then a close 1008 ("too slow:
 // dropped") bounded by 5 s, or its connection cut if even the write in flight does not finish.
+// end() closes a client the same way with a reason of its own (its login ended).
+//
+// A session made with a `refusal` never joins the hub: once the handshake is done it sends one
+// Status (error level) saying `refusal` and closes with code 1008 and that reason, so a browser,
+// which cannot read the body of a refused upgrade, shows why (Foxglove and Lichtblick list a
+// Status among the connection's problems).
 //
 // Threads: run() and everything the socket does happen on the server's one I/O thread;
-// send_text() and send_binary() may be called from any thread (they only queue, under a lock, and
-// never block); detach() only once the I/O thread has stopped.
+// send_text(), send_binary() and end() may be called from any thread (they only queue, under a
+// lock, and never block); detach() only once the I/O thread has stopped.
 // Ownership: shared; the I/O handlers in flight and the Hub (until the client leaves it) hold it,
 // the server a weak reference (to detach it when it stops).
 // `hub` and `clients` outlive every session; `clients` counts the live sessions.
 
+#include <atomic>
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/beast/core.hpp>
 #include <boost/beast/websocket.hpp>
-
-#include <atomic>
 #include <cstddef>
 #include <cstdint>
 #include <deque>
@@ -34,8 +39,9 @@ namespace urs::gateway {
 
 class WsSession : public Outbox, public std::enable_shared_from_this<WsSession> {
  public:
-  WsSession(boost::asio::ip::tcp::socket&& socket, Hub& hub, Role role, std::string login,
-            std::size_t max_queue_bytes, std::atomic<std::size_t>& clients);
+  // `login`, `identity`: the login's id and credential name (Caller); `refusal`: see above.
+  WsSession(boost::asio::ip::tcp::socket&& socket, Hub& hub, Role role, std::string login, std::string identity,
+            std::size_t max_queue_bytes, std::atomic<std::size_t>& clients, std::string refusal = {});
   ~WsSession() override;
 
   // Answers the upgrade `request`; once accepted, joins the hub and reads.
@@ -47,6 +53,10 @@ class WsSession : public Outbox, public std::enable_shared_from_this<WsSession> 
 
   // After the I/O thread has stopped: leaves the hub (nothing is sent any more) and closes.
   void detach();
+
+  // Leaves the hub and closes with code 1008 and `reason` (at most 123 bytes are sent).
+  void end(std::string reason);
+  const std::string& login() const { return login_; }
 
  private:
   struct Frame {
@@ -60,7 +70,8 @@ class WsSession : public Outbox, public std::enable_shared_from_this<WsSession> 
   void read();
   bool enqueue(Frame frame);
   void write_next();
-  void drop();
+  void close_with(const std::string& reason);
+  void refuse();
   void finish();
   void leave_hub();
 
@@ -68,12 +79,14 @@ class WsSession : public Outbox, public std::enable_shared_from_this<WsSession> 
   Hub& hub_;
   const Role role_;
   const std::string login_;
+  const std::string identity_;
   const std::size_t max_queue_bytes_;
+  const std::string refusal_;
   std::atomic<std::size_t>& clients_;
   beast::flat_buffer buffer_;
   std::atomic<uint64_t> client_{0};  // set on the I/O thread, named in other threads' warnings
-  bool connected_ = false;  // I/O thread's own
-  bool in_flight_ = false;  // I/O thread's own: a write is under way
+  bool connected_ = false;           // I/O thread's own
+  bool in_flight_ = false;           // I/O thread's own: a write is under way
 
   std::mutex mutex_;  // guards the queue and the flags below
   std::deque<Frame> queue_;

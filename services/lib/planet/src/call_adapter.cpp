@@ -43,8 +43,7 @@ call::Reply to_reply(CallResult result) {
 }
 
 CallResult to_call_result(call::Reply reply) {
-  return {to_planet(reply.status), std::move(reply.message), std::move(reply.payload),
-          std::move(reply.exception_type)};
+  return {to_planet(reply.status), std::move(reply.message), std::move(reply.payload), std::move(reply.exception_type)};
 }
 
 call::Identity caller_identity(const std::string& space, const std::string& name, Role role) {
@@ -68,14 +67,15 @@ call::Request to_call_request(const Request& request, call::Identity caller,
   out.payload = request.payload();
   if (request.deadline_ms() != 0) {
     // A deadline past what a time_point holds is no deadline.
-    const auto room = std::chrono::duration_cast<std::chrono::milliseconds>(
-        std::chrono::steady_clock::time_point::max() - received);
+    const auto room =
+        std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::steady_clock::time_point::max() - received);
     if (request.deadline_ms() < static_cast<uint64_t>(room.count())) {
       out.deadline = received + std::chrono::milliseconds(request.deadline_ms());
     }
   }
   out.caller = std::move(caller);
   out.oneway = request.oneway();
+  out.traceparent = request.traceparent();
   return out;
 }
 

@@ -30,6 +30,7 @@
 #include "client/registrations.hpp"
 #include "client/request_serving.hpp"
 #include "client/subscriptions.hpp"
+#include "urs/planet/call_adapter.hpp"
 #include "urs/planet/codec.hpp"
 
 namespace urs::planet {
@@ -45,8 +46,8 @@ ClientOptions validated(ClientOptions options) {
     errors.push_back("connect_timeout " + ms(options.connect_timeout) + " must be > 0");
   }
   if (options.reconnect_min.count() <= 0 || options.reconnect_max < options.reconnect_min) {
-    errors.push_back("reconnect_min " + ms(options.reconnect_min) + " and reconnect_max " +
-                     ms(options.reconnect_max) + " must satisfy 0 < min <= max");
+    errors.push_back("reconnect_min " + ms(options.reconnect_min) + " and reconnect_max " + ms(options.reconnect_max) +
+                     " must satisfy 0 < min <= max");
   }
   if (options.queue_timeout.count() <= 0) {
     errors.push_back("queue_timeout " + ms(options.queue_timeout) + " must be > 0");
@@ -75,8 +76,8 @@ struct Client::Impl final : detail::SessionListener {
         connection(options, io, *this),
         thread(io) {
     request_handler = [](const Request& request, Responder responder) {
-      responder.reply(CallResult::error(
-          Status::UNKNOWN_SERVICE, "no request handler on this client for service '" + request.service() + "'"));
+      responder.reply(CallResult::error(Status::UNKNOWN_SERVICE,
+                                        "no request handler on this client for service '" + request.service() + "'"));
     };
   }
 
@@ -86,17 +87,29 @@ struct Client::Impl final : detail::SessionListener {
     detail::run_all(out);
   }
 
-  void call_async(const std::string& service, const std::string& operation, std::string payload,
-                  milliseconds deadline, ReplyHandler handler, bool oneway, bool* accepted) {
+  void call_async(const std::string& service, const std::string& operation, std::string payload, milliseconds deadline,
+                  ReplyHandler handler, bool oneway, bool* accepted,
+                  const util::TraceContext& trace = util::outgoing_trace()) {
     Request request;
     request.set_service(service);
     request.set_operation(operation);
     request.set_payload(std::move(payload));
     request.set_oneway(oneway);
+    request.set_traceparent(trace.traceparent());
+    if (options.calls != nullptr && handler) handler = recorded(service, operation, std::move(handler));
     detail::Deferred out;
     const bool ok = calls.start(std::move(request), deadline, std::move(handler), out);
     if (accepted) *accepted = ok;
     finish(out);
+  }
+
+  // `handler`, which also counts the call in options.calls when it ends.
+  ReplyHandler recorded(const std::string& service, const std::string& operation, ReplyHandler handler) {
+    return [recorder = options.calls, service, operation, handler = std::move(handler),
+            start = std::chrono::steady_clock::now()](CallResult result) {
+      recorder->record_unchecked(service, operation, to_call(result.status), std::chrono::steady_clock::now() - start);
+      handler(std::move(result));
+    };
   }
 
   // I/O thread (or a client never started): fails what waits, closes the connection.
@@ -125,11 +138,22 @@ struct Client::Impl final : detail::SessionListener {
   void session_frame(const std::shared_ptr<detail::FrameSink>& sink, Frame&& frame) override {
     detail::Deferred out;
     switch (frame.body_case()) {
-      case Frame::kReply: calls.on_reply(std::move(*frame.mutable_reply()), out); break;
-      case Frame::kEvent: subscriptions.on_event(frame.event()); break;
-      case Frame::kRequest: detail::serve_request(request_handler, frame.request(), sink); break;
-      case Frame::kPublishAck: publishes.on_ack(frame.publish_ack()); break;
-      case Frame::kSubscribeAck: subscriptions.on_ack(frame.subscribe_ack()); break;
+      case Frame::kReply:
+        calls.on_reply(std::move(*frame.mutable_reply()), out);
+        break;
+      case Frame::kEvent:
+        subscriptions.on_event(frame.event());
+        break;
+      case Frame::kRequest:
+        detail::serve_request(request_handler, frame.request(), sink, options.served_calls,
+                              options.served_calls != nullptr && registrations.has(frame.request().service()));
+        break;
+      case Frame::kPublishAck:
+        publishes.on_ack(frame.publish_ack());
+        break;
+      case Frame::kSubscribeAck:
+        subscriptions.on_ack(frame.subscribe_ack());
+        break;
       default:
         spdlog::debug("planet: ignoring unexpected {} frame from {}", frame_body_name(frame), connection.target());
         break;
@@ -197,6 +221,11 @@ std::string Client::last_error() const { return impl_->connection.last_error(); 
 Welcome Client::welcome() const { return impl_->connection.welcome(); }
 
 void Client::call_async(const std::string& service, const std::string& operation, std::string payload,
+                        std::chrono::milliseconds deadline, ReplyHandler handler, const util::TraceContext& trace) {
+  impl_->call_async(service, operation, std::move(payload), deadline, std::move(handler), false, nullptr, trace);
+}
+
+void Client::call_async(const std::string& service, const std::string& operation, std::string payload,
                         std::chrono::milliseconds deadline, ReplyHandler handler) {
   impl_->call_async(service, operation, std::move(payload), deadline, std::move(handler), false, nullptr);
 }
@@ -212,8 +241,9 @@ CallResult Client::call(const std::string& service, const std::string& operation
   }
   auto promise = std::make_shared<std::promise<CallResult>>();
   auto future = promise->get_future();
-  impl_->call_async(service, operation, std::move(payload), deadline,
-                    [promise](CallResult result) { promise->set_value(std::move(result)); }, false, nullptr);
+  impl_->call_async(
+      service, operation, std::move(payload), deadline,
+      [promise](CallResult result) { promise->set_value(std::move(result)); }, false, nullptr);
   return future.get();
 }
 
@@ -256,8 +286,8 @@ void Client::unregister_service(const std::string& name, ReplyHandler handler) {
       }
     };
   }
-  impl_->call_async("camus.registry", "Unregister", request.SerializeAsString(), milliseconds(0),
-                    std::move(handler), false, nullptr);
+  impl_->call_async("camus.registry", "Unregister", request.SerializeAsString(), milliseconds(0), std::move(handler),
+                    false, nullptr);
 }
 
 }  // namespace urs::planet

@@ -13,8 +13,8 @@ std::string Credentials::name_problem(const std::string& name) {
   if (name.empty()) return "it is empty";
   if (name.size() > 64) return "it is longer than 64 characters";
   for (char c : name) {
-    const bool ok = std::isalnum(static_cast<unsigned char>(c)) != 0 || c == '.' || c == '_' || c == '-' ||
-                    c == '@' || c == ':';
+    const bool ok =
+        std::isalnum(static_cast<unsigned char>(c)) != 0 || c == '.' || c == '_' || c == '-' || c == '@' || c == ':';
     if (!ok) return std::string("character '") + c + "' is not allowed (use letters, digits and . _ - @ :)";
   }
   if (name == "camus-server" || name == kAnonymousIdentity) return "it is reserved for the server";

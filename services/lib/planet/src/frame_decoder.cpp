@@ -1,9 +1,8 @@
-#include "urs/planet/codec.hpp"
-
 #include <algorithm>
 #include <cstring>
 
 #include "codec_detail.hpp"
+#include "urs/planet/codec.hpp"
 
 namespace urs::planet {
 
@@ -24,17 +23,15 @@ void FrameDecoder::feed(std::string_view bytes, const FrameCallback& on_frame) {
       p += take;
       left -= take;
       if (header_have_ < kLengthPrefixBytes) return;
-      expected_ = (uint64_t{header_[0]} << 24) | (uint64_t{header_[1]} << 16) |
-                  (uint64_t{header_[2]} << 8) | uint64_t{header_[3]};
+      expected_ = (uint64_t{header_[0]} << 24) | (uint64_t{header_[1]} << 16) | (uint64_t{header_[2]} << 8) |
+                  uint64_t{header_[3]};
       if (expected_ == 0) {
-        fail(ProtocolErrorCode::kEmptyFrame,
-             "zero-length frame: every frame must carry a serialized urs.planet.Frame");
+        fail(ProtocolErrorCode::kEmptyFrame, "zero-length frame: every frame must carry a serialized urs.planet.Frame");
       }
       // Checked before anything is allocated for the body.
       if (expected_ > max_frame_bytes_ && before_handshake_) {
         fail(ProtocolErrorCode::kFrameTooLarge,
-             "frame of " + n(expected_) + " bytes before the handshake exceeds the limit of " +
-                 n(max_frame_bytes_) +
+             "frame of " + n(expected_) + " bytes before the handshake exceeds the limit of " + n(max_frame_bytes_) +
                  " bytes (max_hello_bytes): only one un-chunked Hello of at most that size may be "
                  "sent before Welcome");
       }

@@ -1,9 +1,8 @@
-#include "urs/planet/codec.hpp"
-
 #include <algorithm>
 #include <stdexcept>
 
 #include "codec_detail.hpp"
+#include "urs/planet/codec.hpp"
 
 namespace urs::planet {
 
@@ -20,8 +19,7 @@ void append_length_prefix(std::string& out, uint32_t size) {
 std::string encode_frame(const Frame& frame) {
   const size_t size = frame.ByteSizeLong();
   if (size > UINT32_MAX) {
-    fail(ProtocolErrorCode::kFrameTooLarge,
-         "frame of " + n(size) + " bytes cannot be framed (over 4 GiB); chunk it");
+    fail(ProtocolErrorCode::kFrameTooLarge, "frame of " + n(size) + " bytes cannot be framed (over 4 GiB); chunk it");
   }
   std::string out;
   out.reserve(kLengthPrefixBytes + size);
@@ -32,8 +30,7 @@ std::string encode_frame(const Frame& frame) {
 
 FrameEncoder::FrameEncoder(uint32_t chunk_bytes) : chunk_bytes_(chunk_bytes) {
   if (chunk_bytes < kMinChunkBytes) {
-    throw std::invalid_argument("chunk_bytes " + n(chunk_bytes) + " is below the minimum of " +
-                                n(kMinChunkBytes));
+    throw std::invalid_argument("chunk_bytes " + n(chunk_bytes) + " is below the minimum of " + n(kMinChunkBytes));
   }
 }
 
@@ -50,8 +47,7 @@ std::vector<std::string> FrameEncoder::encode(const Frame& frame, uint64_t messa
   return out;
 }
 
-std::string FrameEncoder::encode_piece(uint64_t message_id, std::string_view message,
-                                       size_t offset) const {
+std::string FrameEncoder::encode_piece(uint64_t message_id, std::string_view message, size_t offset) const {
   const size_t size = std::min(piece_bytes(), message.size() - offset);
   Frame frame;
   Chunk* chunk = frame.mutable_chunk();

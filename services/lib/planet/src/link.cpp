@@ -24,7 +24,7 @@ std::string endpoint_text(const asio::ip::tcp::socket& socket) {
   return host + ":" + std::to_string(endpoint.port());
 }
 
-CodecLimits with_budget(CodecLimits limits, const std::shared_ptr<MemoryBudget>& budget) {
+CodecLimits with_budget(CodecLimits limits, const std::shared_ptr<BufferBudget>& budget) {
   limits.budget = budget;
   return limits;
 }
@@ -59,8 +59,7 @@ Frame make_goodbye(Status status, const std::string& reason) {
   return frame;
 }
 
-Link::Link(std::shared_ptr<asio::io_context> io, std::unique_ptr<Stream> stream,
-           const LinkConfig& config)
+Link::Link(std::shared_ptr<asio::io_context> io, std::unique_ptr<Stream> stream, const LinkConfig& config)
     : io_(std::move(io)),
       stream_(std::move(stream)),
       socket_(stream_->socket()),
@@ -76,15 +75,22 @@ Link::Link(std::shared_ptr<asio::io_context> io, std::unique_ptr<Stream> stream,
 }
 
 Link::~Link() {
-  if (config_.budget) config_.budget->release(accounted_);
+  if (config_.budget) config_.budget->give(accounted_);
 }
 
 void Link::account_locked() {
   if (!config_.budget) return;
   const size_t now = outbox_.queued_bytes();
-  if (now > accounted_) config_.budget->add(now - accounted_);
-  if (now < accounted_) config_.budget->release(accounted_ - now);
+  if (now > accounted_) config_.budget->force(now - accounted_);
+  if (now < accounted_) config_.budget->give(accounted_ - now);
   accounted_ = now;
+}
+
+void Link::set_budget(std::shared_ptr<BufferBudget> budget) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (config_.budget) config_.budget->give(accounted_);
+  config_.budget = std::move(budget);
+  if (config_.budget) config_.budget->force(accounted_);
 }
 
 void Link::start() {
@@ -125,25 +131,23 @@ bool Link::enqueue_with(size_t size, Push&& push) {
   if (closing_.load()) return false;
   if (outbox_.queued_bytes() + size > config_.max_send_queue_bytes) {
     const std::string reason = "send queue of " + std::to_string(outbox_.queued_bytes() + size) +
-                               " bytes exceeds max_send_queue_bytes " +
-                               std::to_string(config_.max_send_queue_bytes) +
+                               " bytes exceeds max_send_queue_bytes " + std::to_string(config_.max_send_queue_bytes) +
                                " (the peer does not read fast enough)";
     lock.unlock();
     warn_peer(peer_address_, "closing " + describe() + ": " + reason);
+    handle_send_queue_full();
     close_link(make_goodbye(Status::UNAVAILABLE, reason), reason);
     return false;
   }
-  if (config_.budget && !config_.budget->fits(size)) {
-    const std::string reason = "the server's buffers for all connections hold " +
-                               std::to_string(config_.budget->used()) + " bytes; a frame of " +
-                               std::to_string(size) + " bytes would exceed the limit of " +
-                               std::to_string(config_.budget->limit()) +
-                               " bytes (max_buffered_bytes)";
+  std::string refusal;
+  if (config_.budget && !config_.budget->take(size, refusal)) {
+    const std::string reason = "a frame of " + std::to_string(size) + " bytes for this connection refused: " + refusal;
     lock.unlock();
     warn_peer(peer_address_, "closing " + describe() + ": " + reason);
     close_link(make_goodbye(Status::RESOURCE_EXHAUSTED, reason), reason);
     return false;
   }
+  accounted_ += config_.budget ? size : 0;  // taken above
   push();
   account_locked();
   if (writing_) return true;  // the writer picks it up in its turn
@@ -178,10 +182,8 @@ void Link::close_link(std::optional<Frame> final_frame, const std::string& reaso
     if (closing_.exchange(true)) return;
     requested_reason_ = reason;
   }
-  asio::post(socket_.get_executor(),
-             [self = shared_from_this(), final_frame = std::move(final_frame), reason]() mutable {
-               self->do_close(std::move(final_frame), reason);
-             });
+  asio::post(socket_.get_executor(), [self = shared_from_this(), final_frame = std::move(final_frame),
+                                      reason]() mutable { self->do_close(std::move(final_frame), reason); });
 }
 
 void Link::do_close(std::optional<Frame> final_frame, const std::string& reason) {
@@ -231,8 +233,7 @@ void Link::finish(const std::string& reason) {
   handle_closed(!close_reason_.empty() ? close_reason_ : !requested.empty() ? requested : reason);
 }
 
-void Link::set_heartbeat(std::chrono::milliseconds ping_interval,
-                         std::chrono::milliseconds silence_timeout) {
+void Link::set_heartbeat(std::chrono::milliseconds ping_interval, std::chrono::milliseconds silence_timeout) {
   ping_interval_ = ping_interval;
   silence_timeout_ = silence_timeout;
   last_received_ = std::chrono::steady_clock::now();
@@ -268,8 +269,7 @@ void Link::arm_silence(std::chrono::steady_clock::time_point deadline) {
       self->arm_silence(next);
       return;
     }
-    const std::string reason =
-        "heartbeat timeout after " + std::to_string(self->silence_timeout_.count()) + " ms";
+    const std::string reason = "heartbeat timeout after " + std::to_string(self->silence_timeout_.count()) + " ms";
     warn_peer(self->peer_address_, "closing " + self->describe() + ": " + reason);
     self->close_link(make_goodbye(Status::UNAVAILABLE, reason), reason);
   });
@@ -277,10 +277,9 @@ void Link::arm_silence(std::chrono::steady_clock::time_point deadline) {
 
 void Link::do_read() {
   if (finished_) return;
-  stream_->async_read_some(asio::buffer(read_buffer_),
-                           [self = shared_from_this()](const std::error_code& error, size_t size) {
-                             self->on_read(error, size);
-                           });
+  stream_->async_read_some(
+      asio::buffer(read_buffer_),
+      [self = shared_from_this()](const std::error_code& error, size_t size) { self->on_read(error, size); });
 }
 
 void Link::on_read(const std::error_code& error, size_t size) {
@@ -296,8 +295,7 @@ void Link::on_read(const std::error_code& error, size_t size) {
   if (!closing_.load()) {
     const uint64_t before = decoder_.frames_decoded();
     try {
-      decoder_.feed(std::string_view(read_buffer_.data(), size),
-                    [this](Frame&& frame) { dispatch(std::move(frame)); });
+      decoder_.feed(std::string_view(read_buffer_.data(), size), [this](Frame&& frame) { dispatch(std::move(frame)); });
     } catch (const ProtocolError& protocol_error) {
       if (!closing_.load()) handle_protocol_error(protocol_error);
     }
@@ -311,8 +309,8 @@ void Link::dispatch(Frame&& frame) {
   if (frame.has_goodbye()) {
     handle_goodbye(frame.goodbye());
     if (close_reason_.empty()) {
-      close_reason_ = "goodbye from peer (" + std::string(status_name(frame.goodbye().status())) +
-                      "): " + frame.goodbye().reason();
+      close_reason_ =
+          "goodbye from peer (" + std::string(status_name(frame.goodbye().status())) + "): " + frame.goodbye().reason();
     }
     finish(close_reason_);
     return;
@@ -340,9 +338,8 @@ void Link::handle_goodbye(const Goodbye&) {}
 
 void Link::handle_protocol_error(const ProtocolError& error) {
   warn_peer(peer_address_, "closing " + describe() + ": protocol error " +
-                              std::string(protocol_error_name(error.code())) + ": " + error.what());
-  close_link(make_goodbye(error.status(), error.what()),
-             std::string("protocol error: ") + error.what());
+                               std::string(protocol_error_name(error.code())) + ": " + error.what());
+  close_link(make_goodbye(error.status(), error.what()), std::string("protocol error: ") + error.what());
 }
 
 bool Link::fill_batch_locked() {
@@ -474,16 +471,15 @@ void Link::write_rest_async() {
     for (std::string_view range : frame.body) add(range.data(), range.size());
     add(frame.tail.data(), frame.tail.size());
   }
-  stream_->async_write(write_buffers_,
-                       [self = shared_from_this()](const std::error_code& error, size_t) {
-                      if (self->finished_) return;
-                      if (error) {
-                        self->finish("write failed: " + error.message());
-                        return;
-                      }
-                      self->batch_sent_ = self->batch_bytes_;
-                      self->do_write();
-                    });
+  stream_->async_write(write_buffers_, [self = shared_from_this()](const std::error_code& error, size_t) {
+    if (self->finished_) return;
+    if (error) {
+      self->finish("write failed: " + error.message());
+      return;
+    }
+    self->batch_sent_ = self->batch_bytes_;
+    self->do_write();
+  });
 }
 
 }  // namespace urs::planet::detail

@@ -12,9 +12,8 @@
 // application after the Server is gone can still be destroyed safely. Asynchronous operations
 // hold a shared_ptr to the Link; after finish() none is left.
 
-#include <asio.hpp>
-
 #include <array>
+#include <asio.hpp>
 #include <atomic>
 #include <chrono>
 #include <memory>
@@ -30,12 +29,13 @@ namespace urs::planet::detail {
 
 struct LinkConfig {
   CodecLimits limits;
-  uint32_t chunk_bytes = 64u << 10;             // outgoing frames above this are chunked
-  size_t max_send_queue_bytes = 256ull << 20;   // beyond it the link closes itself
-  std::chrono::milliseconds linger{1000};       // how long a final frame may take to go out
-  // Shared by every link of a server (null: none): counts this link's send queue and
-  // reassembly buffers; a frame that would take it over its limit closes the link.
-  std::shared_ptr<MemoryBudget> budget;
+  uint32_t chunk_bytes = 64u << 10;            // outgoing frames above this are chunked
+  size_t max_send_queue_bytes = 256ull << 20;  // beyond it the link closes itself
+  std::chrono::milliseconds linger{1000};      // how long a final frame may take to go out
+  // Where this link's send queue and reassembly buffers are counted (null: nowhere; a server
+  // session gets its credential's share at the handshake, set_budget); a frame the budget
+  // refuses closes the link with RESOURCE_EXHAUSTED and the budget's reason.
+  std::shared_ptr<BufferBudget> budget;
 };
 
 Frame make_goodbye(Status status, const std::string& reason);
@@ -52,8 +52,7 @@ void warn_peer(const std::string& peer_address, const std::string& message);
 
 class Link : public std::enable_shared_from_this<Link> {
  public:
-  Link(std::shared_ptr<asio::io_context> io, std::unique_ptr<Stream> stream,
-       const LinkConfig& config);
+  Link(std::shared_ptr<asio::io_context> io, std::unique_ptr<Stream> stream, const LinkConfig& config);
   virtual ~Link();
   Link(const Link&) = delete;
   Link& operator=(const Link&) = delete;
@@ -80,10 +79,12 @@ class Link : public std::enable_shared_from_this<Link> {
   void mark_open() { open_ = true; }
   // Strand: sends Ping every ping_interval and closes the link with "heartbeat timeout after N ms"
   // when nothing arrived for silence_timeout. Zero disables either.
-  void set_heartbeat(std::chrono::milliseconds ping_interval,
-                     std::chrono::milliseconds silence_timeout);
+  void set_heartbeat(std::chrono::milliseconds ping_interval, std::chrono::milliseconds silence_timeout);
   // Strand: limits for what arrives from now on, and the chunk size for what is queued next.
   void set_limits(const CodecLimits& limits, uint32_t chunk_bytes);
+  // Strand: counts this link's buffers in `budget` from now on (what is held moves there), and
+  // the limits set next with it.
+  void set_budget(std::shared_ptr<BufferBudget> budget);
   // Strand (or after the io threads are gone): closes now, without a final frame.
   void finish(const std::string& reason);
   asio::any_io_executor executor() { return socket_.get_executor(); }
@@ -103,6 +104,8 @@ class Link : public std::enable_shared_from_this<Link> {
   virtual void handle_closed(const std::string& reason) = 0;
   // For logs, e.g. "session 4 (127.0.0.1:50312)".
   virtual std::string describe() const { return peer_address_; }
+  // Any thread. The link is closed because its send queue is over max_send_queue_bytes.
+  virtual void handle_send_queue_full() {}
 
  private:
   void do_read();
@@ -127,7 +130,7 @@ class Link : public std::enable_shared_from_this<Link> {
 
   std::shared_ptr<asio::io_context> io_;  // first: destroyed last
   std::unique_ptr<Stream> stream_;
-  asio::ip::tcp::socket& socket_;         // the TCP socket under stream_
+  asio::ip::tcp::socket& socket_;  // the TCP socket under stream_
   asio::steady_timer ping_timer_;
   asio::steady_timer silence_timer_;
   asio::steady_timer linger_timer_;
@@ -140,7 +143,7 @@ class Link : public std::enable_shared_from_this<Link> {
   std::vector<asio::const_buffer> write_buffers_;
   bool open_ = false;
   std::atomic<bool> handshaken_{false};  // the stream's (TLS) handshake completed: writes may go out
-  bool write_deferred_ = false; // do_write ran before that
+  bool write_deferred_ = false;          // do_write ran before that
   bool finished_ = false;
   bool final_pending_ = false;
   std::string close_reason_;
@@ -151,7 +154,7 @@ class Link : public std::enable_shared_from_this<Link> {
 
   // Shared with other threads.
   std::atomic<bool> closing_{false};
-  std::mutex mutex_;   // guards outbox_, writing_ and requested_reason_
+  std::mutex mutex_;  // guards outbox_, writing_ and requested_reason_
   Outbox outbox_;
   bool writing_ = false;  // someone owns the batch: a do_write chain, or a direct write in enqueue
   std::string requested_reason_;

@@ -1,6 +1,5 @@
-#include "urs/planet/codec.hpp"
-
 #include "codec_detail.hpp"
+#include "urs/planet/codec.hpp"
 
 namespace urs::planet {
 
@@ -28,19 +27,17 @@ void MessageDecoder::feed(std::string_view bytes, const FrameDecoder::FrameCallb
     }
     if (before_handshake_) {
       fail(ProtocolErrorCode::kChunkBeforeHandshake,
-           "a Chunk frame before the handshake: only one un-chunked Hello of at most " +
-               n(frames_.max_frame_bytes()) + " bytes (max_hello_bytes) may be sent before Welcome");
+           "a Chunk frame before the handshake: only one un-chunked Hello of at most " + n(frames_.max_frame_bytes()) +
+               " bytes (max_hello_bytes) may be sent before Welcome");
     }
     const uint64_t id = frame.chunk().message_id();
     std::optional<std::string> whole = reassembler_.add(std::move(*frame.mutable_chunk()));
     if (!whole) return;
     Frame message;
-    parse_frame(whole->data(), whole->size(), message,
-                ("reassembled message " + n(id)).c_str());
+    parse_frame(whole->data(), whole->size(), message, ("reassembled message " + n(id)).c_str());
     reassembler_.recycle(std::move(*whole));
     if (message.has_chunk()) {
-      fail(ProtocolErrorCode::kNestedChunk,
-           "reassembled message " + n(id) + " is itself a Chunk; chunks do not nest");
+      fail(ProtocolErrorCode::kNestedChunk, "reassembled message " + n(id) + " is itself a Chunk; chunks do not nest");
     }
     on_message(std::move(message));
   });

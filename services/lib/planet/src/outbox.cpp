@@ -1,5 +1,3 @@
-#include "urs/planet/codec.hpp"
-
 #include <google/protobuf/io/coded_stream.h>
 #include <google/protobuf/io/zero_copy_stream.h>
 
@@ -7,6 +5,7 @@
 #include <climits>
 
 #include "codec_detail.hpp"
+#include "urs/planet/codec.hpp"
 
 namespace urs::planet {
 
@@ -16,7 +15,7 @@ namespace detail {
 // copied into `blocks`, large string/bytes fields (payloads) are referenced where they live in
 // `frame` (protobuf "aliasing"). Immutable once built; shared with the WireFrames cut from it.
 struct SerializedMessage {
-  std::shared_ptr<const Frame> frame;          // owns the aliased bytes
+  std::shared_ptr<const Frame> frame;           // owns the aliased bytes
   std::vector<std::unique_ptr<char[]>> blocks;  // owns the copied bytes
   std::string flat;                             // or: the whole serialization, contiguous
   std::vector<std::string_view> segments;       // the serialized Frame, in order
@@ -88,8 +87,8 @@ class SegmentOutputStream final : public ZeroCopyOutputStream {
 
 // Serializes a large frame for the Outbox: by reference into `owned` when the Outbox owns the
 // frame, else as one contiguous copy.
-std::shared_ptr<const detail::SerializedMessage> serialize_large(
-    const Frame& frame, std::shared_ptr<const Frame> owned, size_t size) {
+std::shared_ptr<const detail::SerializedMessage> serialize_large(const Frame& frame, std::shared_ptr<const Frame> owned,
+                                                                 size_t size) {
   auto out = std::make_shared<detail::SerializedMessage>();
   out->size = size;
   if (owned && size <= static_cast<size_t>(INT_MAX)) {
@@ -103,9 +102,9 @@ std::shared_ptr<const detail::SerializedMessage> serialize_large(
       failed = coded.HadError();
     }
     size_t total = 0;
-    out->segments.erase(std::remove_if(out->segments.begin(), out->segments.end(),
-                                       [](std::string_view s) { return s.empty(); }),
-                        out->segments.end());
+    out->segments.erase(
+        std::remove_if(out->segments.begin(), out->segments.end(), [](std::string_view s) { return s.empty(); }),
+        out->segments.end());
     for (std::string_view segment : out->segments) total += segment.size();
     if (!failed && total == size) {
       out->frame = std::move(owned);
@@ -151,8 +150,7 @@ constexpr char kOffsetKey = (Chunk::kOffsetFieldNumber << 3) | 0;
 // The wire frame of one piece of `message`: exactly the bytes encode_piece() produces (the
 // canonical serialization of the Chunk frame), with the data referenced instead of copied.
 // `segment` / `segment_offset` locate `offset` in message.segments and are advanced past the piece.
-WireFrame chunk_wire_frame(uint64_t message_id,
-                           const std::shared_ptr<const detail::SerializedMessage>& message,
+WireFrame chunk_wire_frame(uint64_t message_id, const std::shared_ptr<const detail::SerializedMessage>& message,
                            size_t offset, size_t size, size_t& segment, size_t& segment_offset) {
   const uint64_t total = message->size;
   const bool last = offset + size == total;
@@ -273,8 +271,7 @@ WireFrame Outbox::pop_from(Lane& lane) {
   }
   const size_t total = entry.message->size;
   const size_t size = std::min(encoder_.piece_bytes(), total - entry.offset);
-  out = chunk_wire_frame(entry.message_id, entry.message, entry.offset, size, entry.segment,
-                         entry.segment_offset);
+  out = chunk_wire_frame(entry.message_id, entry.message, entry.offset, size, entry.segment, entry.segment_offset);
   entry.offset += size;
   queued_bytes_ -= size;
   if (entry.offset == total) {

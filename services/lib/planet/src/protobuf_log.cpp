@@ -19,10 +19,16 @@ void protobuf_log(google::protobuf::LogLevel level, const char* filename, int li
   static util::RateLimiter limiter(10, std::chrono::seconds(10));
   spdlog::level::level_enum mapped = spdlog::level::debug;
   switch (level) {
-    case google::protobuf::LOGLEVEL_INFO: mapped = spdlog::level::debug; break;
+    case google::protobuf::LOGLEVEL_INFO:
+      mapped = spdlog::level::debug;
+      break;
     case google::protobuf::LOGLEVEL_WARNING:
-    case google::protobuf::LOGLEVEL_ERROR: mapped = spdlog::level::warn; break;
-    case google::protobuf::LOGLEVEL_FATAL: mapped = spdlog::level::critical; break;
+    case google::protobuf::LOGLEVEL_ERROR:
+      mapped = spdlog::level::warn;
+      break;
+    case google::protobuf::LOGLEVEL_FATAL:
+      mapped = spdlog::level::critical;
+      break;
   }
   if (!spdlog::should_log(mapped)) return;
   uint64_t suppressed = 0;

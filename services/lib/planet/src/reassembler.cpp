@@ -1,9 +1,8 @@
-#include "urs/planet/codec.hpp"
-
 #include <algorithm>
 #include <cstring>
 
 #include "codec_detail.hpp"
+#include "urs/planet/codec.hpp"
 
 namespace urs::planet {
 
@@ -38,8 +37,7 @@ std::optional<std::string> Reassembler::add(Chunk&& chunk) {
              "ClientOptions::max_message_bytes)");
   }
   if (data.empty()) {
-    fail(ProtocolErrorCode::kInconsistentChunk,
-         what + ": the piece at offset " + n(offset) + " carries no data");
+    fail(ProtocolErrorCode::kInconsistentChunk, what + ": the piece at offset " + n(offset) + " carries no data");
   }
 
   auto it = partial_.find(id);
@@ -50,8 +48,8 @@ std::optional<std::string> Reassembler::add(Chunk&& chunk) {
                " of a message that was never started (its first piece, at offset 0, is missing)");
     }
     if (data.size() > total) {
-      fail(ProtocolErrorCode::kChunkOverflow, what + ": a piece of " + n(data.size()) +
-                                                  " bytes exceeds total_bytes " + n(total));
+      fail(ProtocolErrorCode::kChunkOverflow,
+           what + ": a piece of " + n(data.size()) + " bytes exceeds total_bytes " + n(total));
     }
     if (data.size() == total) {
       if (!chunk.last()) {
@@ -75,7 +73,7 @@ std::optional<std::string> Reassembler::add(Chunk&& chunk) {
     partial.data.swap(spare_);  // reuse the recycled buffer, if any (already held: counted as is)
     partial.accounted = partial.data.capacity();
     held_bytes_ += partial.accounted;
-    if (limits_.budget) limits_.budget->add(partial.accounted);
+    if (limits_.budget) limits_.budget->force(partial.accounted);
     try {
       grow(partial, data.size(), what);
     } catch (const ProtocolError&) {
@@ -98,16 +96,15 @@ std::optional<std::string> Reassembler::add(Chunk&& chunk) {
          what + ": piece at offset " + n(offset) + ", expected offset " + n(partial.data.size()));
   }
   if (data.size() > total - partial.data.size()) {
-    fail(ProtocolErrorCode::kChunkOverflow,
-         what + ": pieces add up to " + n(partial.data.size() + data.size()) +
-             " bytes, more than total_bytes " + n(total));
+    fail(ProtocolErrorCode::kChunkOverflow, what + ": pieces add up to " + n(partial.data.size() + data.size()) +
+                                                " bytes, more than total_bytes " + n(total));
   }
   const bool complete = partial.data.size() + data.size() == total;
   if (complete != chunk.last()) {
     fail(ProtocolErrorCode::kInconsistentChunk,
          complete ? what + " reached total_bytes " + n(total) + " in a piece not marked last"
-                  : what + ": the last piece ends at " + n(partial.data.size() + data.size()) +
-                        " of " + n(total) + " bytes");
+                  : what + ": the last piece ends at " + n(partial.data.size() + data.size()) + " of " + n(total) +
+                        " bytes");
   }
   grow(partial, data.size(), what);
   partial.data.append(data);
@@ -126,8 +123,8 @@ Reassembler::~Reassembler() {
 
 void Reassembler::set_limits(const CodecLimits& limits) {
   if (limits.budget != limits_.budget && held_bytes_ > 0) {
-    if (limits_.budget) limits_.budget->release(held_bytes_);
-    if (limits.budget) limits.budget->add(held_bytes_);
+    if (limits_.budget) limits_.budget->give(held_bytes_);
+    if (limits.budget) limits.budget->force(held_bytes_);
   }
   limits_ = limits;
 }
@@ -138,33 +135,30 @@ void Reassembler::grow(Partial& partial, size_t more, const std::string& what) {
   if (need <= capacity) return;
   // The size is declared by the peer: start at kInitialReassemblyReserve at most and grow with
   // the data that actually arrives (doubling, never beyond total).
-  const uint64_t target =
-      std::max(need, std::min(partial.total, std::max(2 * capacity, kInitialReassemblyReserve)));
+  const uint64_t target = std::max(need, std::min(partial.total, std::max(2 * capacity, kInitialReassemblyReserve)));
   const uint64_t extra = target - capacity;
   if (held_bytes_ + extra > limits_.max_reassembly_bytes) {
     fail(ProtocolErrorCode::kReassemblyLimit,
-         what + ": the chunked messages in progress on this connection would hold " +
-             n(held_bytes_ + extra) + " bytes, more than the limit of " +
-             n(limits_.max_reassembly_bytes) +
+         what + ": the chunked messages in progress on this connection would hold " + n(held_bytes_ + extra) +
+             " bytes, more than the limit of " + n(limits_.max_reassembly_bytes) +
              " bytes (max_reassembly_bytes); finish messages before starting more, or raise the "
              "receiver's max_reassembly_bytes");
   }
-  if (limits_.budget && !limits_.budget->fits(extra)) {
-    fail(ProtocolErrorCode::kServerBudget,
-         what + ": the server's buffers for all connections hold " + n(limits_.budget->used()) +
-             " bytes; " + n(extra) + " more would exceed the limit of " +
-             n(limits_.budget->limit()) + " bytes (max_buffered_bytes); retry later");
+  std::string why;
+  if (limits_.budget && !limits_.budget->take(extra, why)) {
+    fail(ProtocolErrorCode::kServerBudget, what + ": " + n(extra) + " more bytes refused: " + why);
   }
   partial.data.reserve(static_cast<size_t>(target));
   const uint64_t grown = partial.data.capacity() - partial.accounted;
+  if (limits_.budget && grown > extra) limits_.budget->force(grown - extra);
+  if (limits_.budget && grown < extra) limits_.budget->give(extra - grown);
   partial.accounted += grown;
   held_bytes_ += grown;
-  if (limits_.budget) limits_.budget->add(grown);
 }
 
 void Reassembler::forget(const Partial& partial) {
   held_bytes_ -= partial.accounted;
-  if (limits_.budget) limits_.budget->release(partial.accounted);
+  if (limits_.budget) limits_.budget->give(partial.accounted);
 }
 
 void Reassembler::recycle(std::string&& buffer) {

@@ -3,10 +3,9 @@
 // threads, the sessions and their admission limits, the authenticator and TLS context. Shared
 // by server.cpp (listening, accepting, stopping) and server_session.cpp (one connection).
 
+#include <algorithm>
 #include <asio.hpp>
 #include <asio/ssl.hpp>
-
-#include <algorithm>
 #include <condition_variable>
 #include <map>
 #include <memory>
@@ -20,11 +19,30 @@
 #include "session_directory.hpp"
 #include "stream.hpp"
 #include "urs/planet/codec.hpp"
+#include "urs/planet/fair_share.hpp"
 #include "urs/planet/server.hpp"
 
 namespace urs::planet {
 
 class ServerSession;
+
+// A session's buffers, counted in its credential's share of max_buffered_bytes.
+class ShareBudget final : public BufferBudget {
+ public:
+  ShareBudget(std::shared_ptr<FairShare> share, FairShare::AccountPtr account)
+      : share_(std::move(share)), account_(std::move(account)) {}
+  bool take(uint64_t bytes, std::string& why) override {
+    why = share_->take(*account_, bytes);
+    return why.empty();
+  }
+  void force(uint64_t bytes) override { share_->force(*account_, bytes); }
+  void give(uint64_t bytes) override { share_->give(*account_, bytes); }
+  uint64_t used() const override { return account_->used(); }
+
+ private:
+  const std::shared_ptr<FairShare> share_;
+  const FairShare::AccountPtr account_;
+};
 
 // Everything the server owns. Server::Impl is this; sessions name it ServerCore because
 // Server::Impl is private.
@@ -40,13 +58,37 @@ struct ServerCore {
   // What a session may send once open (before Welcome: hello_limits()).
   CodecLimits session_limits() const;
   CodecLimits hello_limits() const;
-  // With `mutex` held: why a new connection from `address` is refused, or empty.
-  std::string connection_problem_locked(const std::string& address) const;
+  // With `mutex` held: why a new connection from `address` is refused, or empty; `limit` is set to
+  // the name of the limit that refuses it.
+  std::string connection_problem_locked(const std::string& address, std::string& limit) const;
   size_t set_authenticator(std::shared_ptr<const Authenticator> replacement);
+
+  // Of `total`, what reserved_percent keeps for sam and operator sessions.
+  uint64_t reserved_of(uint64_t total) const { return total * options.reserved_percent / 100; }
 
   const ServerOptions options;
   SessionHandler& handler;
-  detail::SessionDirectory directory{options.session_resume_window, options.max_resumable_sessions};
+  // options.max_connections, lowered to what the descriptors left at construction allow.
+  const size_t max_connections;
+  detail::SessionDirectory directory{options.session_resume_window,
+                                     FairShare::Limits{
+                                         options.max_resumable_sessions,
+                                         options.max_resumable_sessions_per_credential,
+                                         reserved_of(options.max_resumable_sessions),
+                                         "max_resumable_sessions",
+                                         "max_resumable_sessions_per_credential",
+                                         "reserved_percent " + std::to_string(options.reserved_percent),
+                                         "resumable sessions",
+                                     }};
+  // Open sessions by credential (max_connections, max_sessions_per_credential).
+  const std::shared_ptr<FairShare> session_share = std::make_shared<FairShare>(FairShare::Limits{
+      max_connections, options.max_sessions_per_credential, reserved_of(max_connections), "max_connections",
+      "max_sessions_per_credential", "reserved_percent " + std::to_string(options.reserved_percent), "sessions"});
+  // Reassembly buffers and send queues by credential (max_buffered_bytes and its shares).
+  const std::shared_ptr<FairShare> buffer_share = std::make_shared<FairShare>(FairShare::Limits{
+      options.max_buffered_bytes, std::min(options.max_buffered_bytes_per_credential, options.max_buffered_bytes),
+      reserved_of(options.max_buffered_bytes), "max_buffered_bytes", "max_buffered_bytes_per_credential",
+      "reserved_percent " + std::to_string(options.reserved_percent), "bytes buffered"});
   mutable std::mutex auth_mutex;
   std::shared_ptr<const Authenticator> authenticator;  // null: an open server
   const std::string instance = detail::random_hex(8);
@@ -70,10 +112,7 @@ struct ServerCore {
   std::mutex mutex;
   std::condition_variable changed;
   std::map<uint64_t, std::shared_ptr<ServerSession>> sessions;  // handshaking and open
-  std::map<std::string, size_t> connections_per_address;         // of `sessions`, by source address
-  // Reassembly buffers and send queues of every session (max_buffered_bytes).
-  const std::shared_ptr<MemoryBudget> budget = std::make_shared<MemoryBudget>(options.max_buffered_bytes);
-  // Null: plain TCP.
+  std::map<std::string, size_t> connections_per_address;        // of `sessions`, by source address
   // Null: plain TCP. Replaced by reload_tls() (guarded by auth_mutex); a connection keeps the one
   // it was accepted with.
   std::shared_ptr<asio::ssl::context> tls =
@@ -83,6 +122,11 @@ struct ServerCore {
     return tls;
   }
   uint64_t next_session_id = 1;
+  // Since start (ServerStats): refusals by the server's own limits (the fair shares count theirs),
+  // handshakes refused for their credential, connections closed for what they sent.
+  Refusals refusals;
+  Refusals authentication_failures;
+  Refusals protocol_errors;
   bool started = false;
   bool stopped = false;
 };

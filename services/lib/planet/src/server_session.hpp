@@ -3,7 +3,6 @@
 // token transport, credential, role, session resumption), then its frames to the SessionHandler.
 
 #include <asio.hpp>
-
 #include <atomic>
 #include <memory>
 #include <string>
@@ -52,6 +51,8 @@ class ServerSession final : public detail::Link, public Session {
   void handle_frame(Frame&& frame) override;
   void handle_closed(const std::string& reason) override;
   std::string describe() const override;
+  void handle_protocol_error(const ProtocolError& error) override;
+  void handle_send_queue_full() override { server_.refusals.count("max_send_queue_bytes"); }
 
  private:
   SessionPtr self() { return std::static_pointer_cast<ServerSession>(shared_from_this()); }
@@ -60,6 +61,10 @@ class ServerSession final : public detail::Link, public Session {
 
   // The peer's declared name is quoted only once it is known to be printable and short.
   void refuse(Status status, const std::string& reason, const Hello& hello);
+  // refuse(), counted as an authentication failure for `why` (ServerStats).
+  void refuse_credential(const char* why, Status status, const std::string& reason, const Hello& hello);
+  // refuse(), counted as a BAD_HELLO protocol error.
+  void refuse_hello(Status status, const std::string& reason, const Hello& hello);
 
   // The verified client-certificate name; empty on a connection without one (plain TCP).
   std::string certificate_name() const { return peer_certificate_name(); }
@@ -70,9 +75,18 @@ class ServerSession final : public detail::Link, public Session {
   const uint64_t id_;
   const std::string source_address_;
   asio::steady_timer handshake_timer_;
-  Hello hello_;        // written once on the strand before on_open; read-only afterwards
-  Identity identity_;  // likewise
+  // Strand: a Publish whose id the session this one continues has received answers itself.
+  bool refuse_resent_publish(const Publish& publish);
+
+  Hello hello_;                      // written once on the strand before on_open; read-only afterwards
+  Identity identity_;                // likewise
   std::atomic<bool> opened_{false};  // set on the strand after hello_; read anywhere
+  ShareHolder holder_;               // identity_ as its budgets count it (set with it)
+  // Strand: the highest Publish.publish_id received; and, when the Hello presented the secret of
+  // a session the server forgot, that session and the highest id it had received.
+  uint64_t publish_through_ = 0;
+  uint64_t forgotten_session_ = 0;
+  uint64_t forgotten_publish_through_ = 0;
 };
 
 }  // namespace urs::planet

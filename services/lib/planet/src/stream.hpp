@@ -9,10 +9,10 @@
 // executor); at most one read and one write are in flight at a time, and the writes (send_now,
 // async_write) are made by one writer at a time (the Link's batch owner).
 
-#include <asio.hpp>
-#include <asio/ssl.hpp>
 #include <sys/uio.h>
 
+#include <asio.hpp>
+#include <asio/ssl.hpp>
 #include <functional>
 #include <memory>
 #include <string>

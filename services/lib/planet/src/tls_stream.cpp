@@ -1,10 +1,7 @@
 // The TLS 1.3 Stream (stream.hpp: make_tls_stream).
-#include "stream.hpp"
-
 #include <openssl/err.h>
 #include <openssl/ssl.h>
 #include <openssl/x509.h>
-
 #include <sys/socket.h>
 
 #include <array>
@@ -13,6 +10,7 @@
 #include <mutex>
 #include <stdexcept>
 
+#include "stream.hpp"
 
 namespace urs::planet::detail {
 namespace {
@@ -239,14 +237,14 @@ class TlsStream final : public Stream {
 
   // Reads what the socket has into the input BIO.
   void read_raw(std::function<void(const std::error_code&)> done) {
-    socket_.async_read_some(asio::buffer(raw_), [this, done = std::move(done)](const std::error_code& error,
-                                                                               size_t size) {
-      if (!error) {
-        std::lock_guard<std::mutex> lock(mutex_);
-        BIO_write(in_, raw_.data(), static_cast<int>(size));
-      }
-      done(error);
-    });
+    socket_.async_read_some(asio::buffer(raw_),
+                            [this, done = std::move(done)](const std::error_code& error, size_t size) {
+                              if (!error) {
+                                std::lock_guard<std::mutex> lock(mutex_);
+                                BIO_write(in_, raw_.data(), static_cast<int>(size));
+                              }
+                              done(error);
+                            });
   }
 
   std::shared_ptr<asio::ssl::context> context_;  // outlives ssl_
@@ -258,7 +256,7 @@ class TlsStream final : public Stream {
   std::string plain_;   // a batch's plaintext, in one piece
   std::string cipher_;  // encrypted, not yet written
   size_t cipher_sent_ = 0;
-  std::string staging_;  // being written by flush_async
+  std::string staging_;              // being written by flush_async
   std::array<char, 17 * 1024> raw_;  // strand: one read from the socket
 };
 

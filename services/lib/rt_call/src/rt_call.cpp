@@ -1,16 +1,16 @@
 #include "urs/rt_call/rt_call.hpp"
 
-#include "urs/bridge/provider_port.hpp"
 #include "urs/corba_agent/corba_proxy.hpp"
+#include "urs/rt_call/provider_port.hpp"
 #include "urs/schema/json.hpp"
 
 namespace urs::rt_call {
 
-ProviderTarget provider_target(RTC::PortService_ptr port, const bridge::InterfaceCatalog& catalog,
+ProviderTarget provider_target(RTC::PortService_ptr port, const schema::InterfaceCatalog& catalog,
                                const std::string& type_name, const std::string& what) {
   ProviderTarget target;
-  std::vector<bridge::ProvidedInterface> offered;
-  for (auto& provided : bridge::offered_by(port)) {
+  std::vector<rt_call::ProvidedInterface> offered;
+  for (auto& provided : rt_call::offered_by(port)) {
     if (type_name.empty() || provided.type_name == type_name) offered.push_back(std::move(provided));
   }
   if (offered.size() != 1) {
@@ -21,7 +21,7 @@ ProviderTarget provider_target(RTC::PortService_ptr port, const bridge::Interfac
   }
   target.ior = offered.front().ior;
   target.type_name = offered.front().type_name;
-  target.interface = catalog.find_interface(bridge::ior_type_id(target.ior), target.type_name);
+  target.interface = catalog.find_interface(rt_call::ior_type_id(target.ior), target.type_name);
   if (target.interface == nullptr) {
     target.error = what + " provides " + target.type_name + ", whose IDL is not known here (give it with --idl FILE)";
   }
@@ -29,13 +29,14 @@ ProviderTarget provider_target(RTC::PortService_ptr port, const bridge::Interfac
 }
 
 ProviderOutcome call_provider(const rtc::Orb& orb, const ProviderTarget& target,
-                             const google::protobuf::MethodDescriptor& method, const google::protobuf::Message& request,
-                             google::protobuf::Message& reply, std::chrono::milliseconds deadline,
-                             const std::string& what) {
+                              const google::protobuf::MethodDescriptor& method,
+                              const google::protobuf::Message& request, google::protobuf::Message& reply,
+                              std::chrono::milliseconds deadline, const std::string& what) {
   try {
     CORBA::Object_var object = orb.string_to_object(target.ior);
-    corba_agent::CorbaProxyAgent consumer(orb.orb(), object, *target.interface,
-                                          corba_agent::CorbaProxyOptions{deadline, deadline});
+    corba_agent::CorbaProxyAgent consumer(
+        orb.orb(), object, *target.interface,
+        corba_agent::CorbaProxyOptions{deadline, deadline, {}, orb.max_calls_per_peer()});
     class NoEvents : public agent::EventSink {
      public:
       call::Reply publish(const std::string&, const google::protobuf::Message&) override { return {}; }

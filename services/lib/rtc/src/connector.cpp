@@ -114,10 +114,11 @@ void Connector::run() {
       }
       naming_failing = !report.naming_error.empty();
       if (report.fetched + report.connected + report.disconnected > 0) {
-        spdlog::debug("connector {}: {} binding(s), {} profile(s) read, {} probe(s), +{} -{} connection(s) in {} us "
-                      "(naming {} us)",
-                      options_.name, report.bindings, report.fetched, report.probes, report.connected,
-                      report.disconnected, report.total_time.count(), report.naming_time.count());
+        spdlog::debug(
+            "connector {}: {} binding(s), {} profile(s) read, {} probe(s), +{} -{} connection(s) in {} us "
+            "(naming {} us)",
+            options_.name, report.bindings, report.fetched, report.probes, report.connected, report.disconnected,
+            report.total_time.count(), report.naming_time.count());
       }
     } catch (const CORBA::Exception& e) {
       spdlog::warn("connector {}: poll failed: {}", options_.name, describe(e));
@@ -170,8 +171,8 @@ const ConnectorRule* Connector::rule_for(const std::string& consumer_path, const
 bool Connector::read_naming(ComponentBindings& bound, PollReport& report) {
   const auto start = Clock::now();
   try {
-    auto read = read_component_bindings(naming_, orb_, [this](const std::string& path) { return watched(path); },
-                                        [this] { return stopping(); });
+    auto read = read_component_bindings(
+        naming_, orb_, [this](const std::string& path) { return watched(path); }, [this] { return stopping(); });
     if (!read) return false;
     bound = std::move(*read);
   } catch (const NamingError& e) {
@@ -239,8 +240,8 @@ Connector::Component Connector::read_component(CORBA::Object_ptr object, const s
     component.probe = make_probe(object);
     component.reachable = true;
   } catch (const CORBA::SystemException& e) {
-    spdlog::debug("connector {}: component not answering ({}); reading it again in {} ms", options_.name,
-                  describe(e), options_.retry_period.count());
+    spdlog::debug("connector {}: component not answering ({}); reading it again in {} ms", options_.name, describe(e),
+                  options_.retry_period.count());
     component.retry_at = Clock::now() + options_.retry_period;
   }
   return component;
@@ -279,8 +280,8 @@ void Connector::adopt_connections(const std::string& path, Component& component,
         if (probe_gone(probe, report)) {
           // A connection to a dead provider: remove it so that the consumer holds no stale
           // reference once it is connected to a live one.
-          spdlog::info("connector {}: {} {}: removing connection {} to a provider that does not answer",
-                       options_.name, path, port.name, link.info.connector_id);
+          spdlog::info("connector {}: {} {}: removing connection {} to a provider that does not answer", options_.name,
+                       path, port.name, link.info.connector_id);
           try {
             port.ref->disconnect(connection.connector_id);
           } catch (const CORBA::SystemException&) {
@@ -401,9 +402,9 @@ void Connector::connect_slot(const Slot& slot, const ConnectorRule& rule, const 
         continue;
       }
       Link link;
-      link.info = {required.type,     consumer_path, consumer_port.name,
-                   required.instance, c.path,        c.port.name,
-                   c.provided.instance, connection.profile.connector_id.in(), true};
+      link.info = {required.type, consumer_path, consumer_port.name,  required.instance,
+                   c.path,        c.port.name,   c.provided.instance, connection.profile.connector_id.in(),
+                   true};
       link.consumer_port = RTC::PortService::_duplicate(consumer_port.ref);
       link.provider_port = RTC::PortService::_duplicate(c.port.ref);
       ConnectorEvent event{ConnectorEvent::Kind::kConnected, link.info, "connected"};

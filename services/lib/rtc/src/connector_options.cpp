@@ -44,17 +44,19 @@ ConnectorOptions connector_options_from_yaml(const YAML::Node& node, const std::
     } else {
       util::for_each_map(rules, "rules", "interface, consumers and providers", {"interface", "consumers", "providers"},
                          errors, [&](const YAML::Node& r, const std::string& where) {
-        ConnectorRule rule;
-        if (!r["interface"]) {
-          errors.push_back(where + ".interface: missing");
-        } else if (util::read_scalar(r["interface"], where + ".interface", rule.interface, errors) &&
-                   rule.interface.empty()) {
-          errors.push_back(where + ".interface: must not be empty");
-        }
-        if (r["consumers"]) util::read_scalar(r["consumers"], where + ".consumers", rule.consumers, errors);
-        if (r["providers"]) util::read_scalar(r["providers"], where + ".providers", rule.providers, errors);
-        options.rules.push_back(std::move(rule));
-      });
+                           ConnectorRule rule;
+                           if (!r["interface"]) {
+                             errors.push_back(where + ".interface: missing");
+                           } else if (util::read_scalar(r["interface"], where + ".interface", rule.interface, errors) &&
+                                      rule.interface.empty()) {
+                             errors.push_back(where + ".interface: must not be empty");
+                           }
+                           if (r["consumers"])
+                             util::read_scalar(r["consumers"], where + ".consumers", rule.consumers, errors);
+                           if (r["providers"])
+                             util::read_scalar(r["providers"], where + ".providers", rule.providers, errors);
+                           options.rules.push_back(std::move(rule));
+                         });
     }
   }
   util::throw_if_errors(errors, "connector configuration");

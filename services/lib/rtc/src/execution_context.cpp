@@ -116,8 +116,10 @@ void PeriodicExecutionContext::execute(std::unique_lock<std::mutex>& lock) {
         RTC::ReturnCode_t result = p->data_flow->on_execute(p->handle);
         if (result == RTC::RTC_OK) result = p->data_flow->on_state_update(p->handle);
         if (result != RTC::RTC_OK) {
-          spdlog::warn("execution context: a participant returned {} from on_execute/on_state_update: "
-                       "it goes to the Error state", return_code_name(result));
+          spdlog::warn(
+              "execution context: a participant returned {} from on_execute/on_state_update: "
+              "it goes to the Error state",
+              return_code_name(result));
           p->data_flow->on_aborting(p->handle);
           next = RTC::ERROR;
         }
@@ -159,7 +161,8 @@ RTC::LifeCycleState PeriodicExecutionContext::transition(const Participant& p, R
         if (p.ref->on_reset(p.handle) == RTC::RTC_OK) return RTC::INACTIVE;
         spdlog::warn("execution context: on_reset failed: the component stays in the Error state");
         return RTC::ERROR;
-      case Request::kNone: break;
+      case Request::kNone:
+        break;
     }
   } catch (const CORBA::SystemException& e) {
     spdlog::warn("execution context: a participant failed during a state transition: {}", describe(e));
@@ -291,7 +294,7 @@ RTC::ReturnCode_t PeriodicExecutionContext::remove_component(RTC::LightweightRTO
 }
 
 RTC::ReturnCode_t PeriodicExecutionContext::request_transition(RTC::LightweightRTObject_ptr comp, Request request) {
-  const RTC::LifeCycleState from = request == Request::kActivate   ? RTC::INACTIVE
+  const RTC::LifeCycleState from = request == Request::kActivate     ? RTC::INACTIVE
                                    : request == Request::kDeactivate ? RTC::ACTIVE
                                                                      : RTC::ERROR;
   const RTC::LifeCycleState to = request == Request::kActivate ? RTC::ACTIVE : RTC::INACTIVE;
@@ -312,8 +315,8 @@ RTC::ReturnCode_t PeriodicExecutionContext::request_transition(RTC::LightweightR
   }
   p->request = request;
   changed_.notify_all();
-  const bool done = changed_.wait_for(lock, transition_timeout_,
-                                      [&] { return p->request == Request::kNone && !p->busy; });
+  const bool done =
+      changed_.wait_for(lock, transition_timeout_, [&] { return p->request == Request::kNone && !p->busy; });
   if (!done) {
     spdlog::warn("execution context: transition not made within {} ms; it stays requested",
                  transition_timeout_.count());

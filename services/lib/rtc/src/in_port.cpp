@@ -1,7 +1,5 @@
 // InPortBase (urs/rtc/data_port.hpp): one InPortCdr servant (Provider) per connection, published
 // in the connector profile; each put() decoded in the connection's byte order into the port.
-#include "urs/rtc/data_port.hpp"
-
 #include <spdlog/spdlog.h>
 
 #include <cstdint>
@@ -13,6 +11,7 @@
 #include <vector>
 
 #include "data_port_detail.hpp"
+#include "urs/rtc/data_port.hpp"
 #include "urs/rtc/nvlist.hpp"
 #include "urs/rtc/orb.hpp"
 
@@ -62,8 +61,8 @@ void InPortBase::expect_end(cdrMemoryStream& stream) {
 void InPortBase::count_received(bool overwrote_unread) {
   ++received_;
   if (overwrote_unread && worth_logging(++overwritten_)) {
-    spdlog::debug("port {}: buffer of {} full, the oldest unread value was dropped ({} so far)", name(),
-                  buffer_length_, overwritten_.load());
+    spdlog::debug("port {}: buffer of {} full, the oldest unread value was dropped ({} so far)", name(), buffer_length_,
+                  overwritten_.load());
   }
 }
 

@@ -82,10 +82,10 @@ Component& Manager::create(const ComponentSpec& spec, const ComponentFactory& fa
 
     std::unique_ptr<Component> component = factory(spec.config, env);
     std::vector<std::pair<std::string, std::string>> properties{{"naming.names", path},
-                                                                  {"urslink.space", options_.space},
-                                                                  {"urslink.host", options_.host},
-                                                                  {"exec_cxt.periodic.rate", format_rate(rate)},
-                                                                  {"pid", std::to_string(getpid())}};
+                                                                {"urslink.space", options_.space},
+                                                                {"urslink.host", options_.host},
+                                                                {"exec_cxt.periodic.rate", format_rate(rate)},
+                                                                {"pid", std::to_string(getpid())}};
     properties.insert(properties.end(), spec.properties.begin(), spec.properties.end());
     component->setup(orb_, instance, rate, properties);
     component->serve_while_inactive(spec.serve_while_inactive);
@@ -134,8 +134,8 @@ Component& Manager::create(const ComponentSpec& spec, const ComponentFactory& fa
     }
     return created;
   }
-  throw std::runtime_error("no free instance name for " + spec.type + " under " + options_.host +
-                           ".host_cxt after " + std::to_string(kMaxInstances) + " tries");
+  throw std::runtime_error("no free instance name for " + spec.type + " under " + options_.host + ".host_cxt after " +
+                           std::to_string(kMaxInstances) + " tries");
 }
 
 bool Manager::destroy(Component& component) {
@@ -182,23 +182,27 @@ ManagerConfig load_manager_config(const std::string& path) {
   if (!components || !components.IsSequence()) {
     errors.push_back("components: a list of components is required");
   } else {
-    util::for_each_map(components, "components", "at least a type", {"type", "instance", "rate", "activate", "serve_while_inactive", "config"},
-                       errors, [&](const YAML::Node& node, const std::string& where) {
-      ComponentSpec spec;
-      if (!node["type"]) {
-        errors.push_back(where + ".type: missing");
-      } else {
-        util::read_scalar(node["type"], where + ".type", spec.type, errors);
-      }
-      if (node["instance"]) util::read_scalar(node["instance"], where + ".instance", spec.instance_name, errors);
-      if (node["rate"]) read_rate(node["rate"], where + ".rate", spec.rate_hz);
-      if (node["activate"]) util::read_scalar(node["activate"], where + ".activate", spec.activate, errors);
-      if (node["serve_while_inactive"]) {
-        util::read_scalar(node["serve_while_inactive"], where + ".serve_while_inactive", spec.serve_while_inactive, errors);
-      }
-      if (node["config"]) spec.config = node["config"];
-      config.components.push_back(std::move(spec));
-    });
+    util::for_each_map(components, "components", "at least a type",
+                       {"type", "instance", "rate", "activate", "serve_while_inactive", "config"}, errors,
+                       [&](const YAML::Node& node, const std::string& where) {
+                         ComponentSpec spec;
+                         if (!node["type"]) {
+                           errors.push_back(where + ".type: missing");
+                         } else {
+                           util::read_scalar(node["type"], where + ".type", spec.type, errors);
+                         }
+                         if (node["instance"])
+                           util::read_scalar(node["instance"], where + ".instance", spec.instance_name, errors);
+                         if (node["rate"]) read_rate(node["rate"], where + ".rate", spec.rate_hz);
+                         if (node["activate"])
+                           util::read_scalar(node["activate"], where + ".activate", spec.activate, errors);
+                         if (node["serve_while_inactive"]) {
+                           util::read_scalar(node["serve_while_inactive"], where + ".serve_while_inactive",
+                                             spec.serve_while_inactive, errors);
+                         }
+                         if (node["config"]) spec.config = node["config"];
+                         config.components.push_back(std::move(spec));
+                       });
   }
   util::throw_if_errors(errors, "--config '" + path + "'");
   return config;

@@ -21,9 +21,12 @@ std::vector<std::string> split_path(const std::string& path) {
 
 std::string why(const CosNaming::NamingContext::NotFound& e) {
   switch (e.why) {
-    case CosNaming::NamingContext::missing_node: return "not bound";
-    case CosNaming::NamingContext::not_context: return "not a naming context";
-    case CosNaming::NamingContext::not_object: return "not an object";
+    case CosNaming::NamingContext::missing_node:
+      return "not bound";
+    case CosNaming::NamingContext::not_context:
+      return "not a naming context";
+    case CosNaming::NamingContext::not_object:
+      return "not an object";
   }
   return "not found";
 }
@@ -129,7 +132,8 @@ void NamingClient::bind_with_parents(const std::string& path, CORBA::Object_ptr 
       } catch (const CosNaming::NamingContext::AlreadyBound&) {
         CORBA::Object_var existing = context->resolve(step);
         next = CosNaming::NamingContext::_narrow(existing);
-        if (CORBA::is_nil(next)) throw NamingError(path + ": " + to_path(step) + " is bound to an object, not a context");
+        if (CORBA::is_nil(next))
+          throw NamingError(path + ": " + to_path(step) + " is bound to an object, not a context");
       }
       context = next;
     }

@@ -10,13 +10,14 @@
 #include <algorithm>
 #include <cerrno>
 #include <chrono>
+#include <cstdint>
 #include <cstring>
 #include <memory>
-#include <cstdint>
 #include <stdexcept>
 #include <thread>
 #include <vector>
 
+#include "urs/rtc/trace_context.hpp"
 #include "urs/util/cli.hpp"
 
 namespace urs::rtc {
@@ -27,10 +28,15 @@ constexpr std::chrono::seconds kReleaseWait{10};
 
 }  // namespace
 
-Orb::Orb(const OrbOptions& options) {
+Orb::Orb(const OrbOptions& options) : max_calls_per_peer_(options.max_calls_per_peer) {
+  if (options.max_calls_per_peer == 0 || options.max_calls_per_peer > kMaxCallsPerPeerLimit) {
+    throw std::invalid_argument("max_calls_per_peer " + std::to_string(options.max_calls_per_peer) + " is outside 1.." +
+                                std::to_string(kMaxCallsPerPeerLimit));
+  }
   const std::string call_timeout = std::to_string(options.call_timeout.count());
   const std::string connect_timeout = std::to_string(options.connect_timeout.count());
-  const char* table[5][2] = {};
+  const std::string calls_per_peer = std::to_string(options.max_calls_per_peer);
+  const char* table[6][2] = {};
   int n = 0;
   auto option = [&](const char* name, const char* value) {
     table[n][0] = name;
@@ -42,8 +48,11 @@ Orb::Orb(const OrbOptions& options) {
   if (options.connect_timeout.count() > 0) option("clientConnectTimeOutPeriod", connect_timeout.c_str());
   // Camera frames (921,600 bytes) and larger blobs travel as one GIOP message.
   option("giopMaxMsgSize", "67108864");
+  // A deliberate bound on the calls in flight to one peer, not omniORB's default of 5 (OrbOptions).
+  option("maxGIOPConnectionPerServer", calls_per_peer.c_str());
   int argc = 0;
   orb_ = CORBA::ORB_init(argc, nullptr, "omniORB4", table);
+  install_trace_interceptors();  // every request carries the trace of the call it belongs to
   CORBA::Object_var object = orb_->resolve_initial_references("RootPOA");
   poa_ = PortableServer::POA::_narrow(object);
   PortableServer::POAManager_var manager = poa_->the_POAManager();
@@ -122,8 +131,8 @@ CORBA::Object_ptr Orb::string_to_object(const std::string& text) const {
   try {
     return orb_->string_to_object(text.c_str());
   } catch (const CORBA::Exception& e) {
-    throw std::invalid_argument("not an object reference (" + describe(e) + "): " +
-                                text.substr(0, 40) + (text.size() > 40 ? "..." : ""));
+    throw std::invalid_argument("not an object reference (" + describe(e) + "): " + text.substr(0, 40) +
+                                (text.size() > 40 ? "..." : ""));
   }
 }
 
@@ -135,8 +144,8 @@ std::string endpoint_from_address(const std::string& host_port, const std::strin
 std::string endpoint_towards(const std::string& peer, const std::string& what) {
   const util::Endpoint endpoint = util::parse_endpoint(peer, what);
   const auto fail = [&](const std::string& why) {
-    return util::ConfigError(what + ": cannot tell which address of this host the peers of " + peer +
-                             " reach it by (" + why + "); give --listen HOST:PORT");
+    return util::ConfigError(what + ": cannot tell which address of this host the peers of " + peer + " reach it by (" +
+                             why + "); give --listen HOST:PORT");
   };
   addrinfo hints{};
   hints.ai_family = AF_INET;

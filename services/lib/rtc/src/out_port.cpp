@@ -1,8 +1,6 @@
 // OutPortBase (urs/rtc/data_port.hpp): one Link per connection, pushing each value to the
 // connection's InPortCdr, in the calling thread (subscription flush) or a sender thread of its own
 // (subscription new).
-#include "urs/rtc/data_port.hpp"
-
 #include <spdlog/spdlog.h>
 
 #include <condition_variable>
@@ -13,6 +11,7 @@
 #include <utility>
 
 #include "data_port_detail.hpp"
+#include "urs/rtc/data_port.hpp"
 #include "urs/rtc/nvlist.hpp"
 #include "urs/rtc/orb.hpp"
 
@@ -28,13 +27,20 @@ namespace {
 
 const char* status_name(OpenRTM::PortStatus status) {
   switch (status) {
-    case OpenRTM::PORT_OK: return "PORT_OK";
-    case OpenRTM::PORT_ERROR: return "PORT_ERROR";
-    case OpenRTM::BUFFER_FULL: return "BUFFER_FULL";
-    case OpenRTM::BUFFER_EMPTY: return "BUFFER_EMPTY";
-    case OpenRTM::BUFFER_TIMEOUT: return "BUFFER_TIMEOUT";
-    case OpenRTM::UNKNOWN_ERROR: return "UNKNOWN_ERROR";
-    default: return "?";
+    case OpenRTM::PORT_OK:
+      return "PORT_OK";
+    case OpenRTM::PORT_ERROR:
+      return "PORT_ERROR";
+    case OpenRTM::BUFFER_FULL:
+      return "BUFFER_FULL";
+    case OpenRTM::BUFFER_EMPTY:
+      return "BUFFER_EMPTY";
+    case OpenRTM::BUFFER_TIMEOUT:
+      return "BUFFER_TIMEOUT";
+    case OpenRTM::UNKNOWN_ERROR:
+      return "UNKNOWN_ERROR";
+    default:
+      return "?";
   }
 }
 
@@ -199,9 +205,14 @@ OutPortBase::WriteResult OutPortBase::push(const std::function<void(cdrStream&)>
       continue;
     }
     switch (link->put(*payload)) {
-      case Link::Outcome::kDelivered: ++result.delivered; break;
-      case Link::Outcome::kRefused: ++result.refused; break;
-      case Link::Outcome::kLost: break;
+      case Link::Outcome::kDelivered:
+        ++result.delivered;
+        break;
+      case Link::Outcome::kRefused:
+        ++result.refused;
+        break;
+      case Link::Outcome::kLost:
+        break;
     }
   }
   for (const auto& link : links) {
@@ -218,8 +229,8 @@ std::optional<Subscription> OutPortBase::connector_subscription(const RTC::Conne
   const std::string value = setting(profile, "dataport.subscription_type");
   const auto subscription = parse_subscription(value);
   if (!subscription) {
-    spdlog::warn("port {}: connection {} refused: dataport.subscription_type={} is not supported (flush, new)",
-                 name(), profile.connector_id.in(), value);
+    spdlog::warn("port {}: connection {} refused: dataport.subscription_type={} is not supported (flush, new)", name(),
+                 profile.connector_id.in(), value);
   }
   return subscription;
 }

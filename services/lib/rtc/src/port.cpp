@@ -3,8 +3,8 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
-#include <chrono>
 #include <cctype>
+#include <chrono>
 #include <cstdio>
 #include <optional>
 #include <random>
@@ -146,7 +146,8 @@ RTC::PortProfile* PortBase::get_port_profile() {
   drop_dead_connections();
   std::lock_guard lock(mutex_);
   auto* profile = new RTC::PortProfile;
-  profile->name = CORBA::string_dup((instance_name_.empty() ? short_name_ : instance_name_ + "." + short_name_).c_str());
+  profile->name =
+      CORBA::string_dup((instance_name_.empty() ? short_name_ : instance_name_ + "." + short_name_).c_str());
   profile->interfaces = interfaces_;
   profile->port_ref = RTC::PortService::_duplicate(self_.in());
   profile->connector_profiles.length(static_cast<CORBA::ULong>(connections_.size()));
@@ -226,8 +227,10 @@ RTC::ReturnCode_t PortBase::notify_connect(RTC::ConnectorProfile& connector_prof
     for (char& c : allow) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
     std::lock_guard lock(mutex_);
     if (allow != "YES" && already_connected_to(connector_profile)) {
-      spdlog::warn("port {}: connection {} refused: this port is already connected to a port of it "
-                   "(dataport.allow_dup_connection=YES allows it)", short_name_, id);
+      spdlog::warn(
+          "port {}: connection {} refused: this port is already connected to a port of it "
+          "(dataport.allow_dup_connection=YES allows it)",
+          short_name_, id);
       return RTC::PRECONDITION_NOT_MET;
     }
   }
@@ -278,8 +281,8 @@ void PortBase::forget_after(const RTC::ConnectorProfile& profile, CORBA::ULong n
   try {
     profile.ports[next]->notify_disconnect(profile.connector_id.in());
   } catch (const CORBA::SystemException& e) {
-    spdlog::debug("port {}: abandoning connection {}: port {} does not answer: {}", name(),
-                  profile.connector_id.in(), next, describe(e));
+    spdlog::debug("port {}: abandoning connection {}: port {} does not answer: {}", name(), profile.connector_id.in(),
+                  next, describe(e));
   }
 }
 
@@ -314,8 +317,7 @@ RTC::ReturnCode_t PortBase::notify_disconnect(const char* connector_id) {
       profile->ports[i]->notify_disconnect(connector_id);
       break;
     } catch (const CORBA::SystemException& e) {
-      spdlog::debug("port {}: notify_disconnect {}: port {} does not answer: {}", name(), connector_id, i,
-                    describe(e));
+      spdlog::debug("port {}: notify_disconnect {}: port {} does not answer: {}", name(), connector_id, i, describe(e));
     }
   }
   erase_connection(connector_id);
@@ -404,8 +406,7 @@ int PortBase::drop_dead_connections() {
       dead = peer_gone(*orb, profile.ports[i]);
     }
     if (dead) {
-      spdlog::info("port {}: dropping connection {}: a peer port no longer exists", name(),
-                   profile.connector_id.in());
+      spdlog::info("port {}: dropping connection {}: a peer port no longer exists", name(), profile.connector_id.in());
       if (drop_connection(profile.connector_id.in())) ++dropped;
     }
   }

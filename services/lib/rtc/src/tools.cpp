@@ -8,23 +8,35 @@ namespace urs::rtc {
 
 const char* return_code_name(RTC::ReturnCode_t code) {
   switch (code) {
-    case RTC::RTC_OK: return "RTC_OK";
-    case RTC::RTC_ERROR: return "RTC_ERROR";
-    case RTC::BAD_PARAMETER: return "BAD_PARAMETER";
-    case RTC::UNSUPPORTED: return "UNSUPPORTED";
-    case RTC::OUT_OF_RESOURCES: return "OUT_OF_RESOURCES";
-    case RTC::PRECONDITION_NOT_MET: return "PRECONDITION_NOT_MET";
-    default: return "UNKNOWN_RETURN_CODE";
+    case RTC::RTC_OK:
+      return "RTC_OK";
+    case RTC::RTC_ERROR:
+      return "RTC_ERROR";
+    case RTC::BAD_PARAMETER:
+      return "BAD_PARAMETER";
+    case RTC::UNSUPPORTED:
+      return "UNSUPPORTED";
+    case RTC::OUT_OF_RESOURCES:
+      return "OUT_OF_RESOURCES";
+    case RTC::PRECONDITION_NOT_MET:
+      return "PRECONDITION_NOT_MET";
+    default:
+      return "UNKNOWN_RETURN_CODE";
   }
 }
 
 const char* state_name(RTC::LifeCycleState state) {
   switch (state) {
-    case RTC::CREATED: return "Created";
-    case RTC::INACTIVE: return "Inactive";
-    case RTC::ACTIVE: return "Active";
-    case RTC::ERROR: return "Error";
-    default: return "Unknown";
+    case RTC::CREATED:
+      return "Created";
+    case RTC::INACTIVE:
+      return "Inactive";
+    case RTC::ACTIVE:
+      return "Active";
+    case RTC::ERROR:
+      return "Error";
+    default:
+      return "Unknown";
   }
 }
 
@@ -97,10 +109,8 @@ SDOPackage::NVList connector_properties(const std::vector<RTC::PortProfile>& por
   }
   if (!data) return properties;
   const std::pair<const char*, std::string> defaults[] = {
-      {"dataport.interface_type", "corba_cdr"},
-      {"dataport.dataflow_type", "push"},
-      {"dataport.subscription_type", "flush"},
-      {"dataport.serializer.cdr.endian", "little"},
+      {"dataport.interface_type", "corba_cdr"}, {"dataport.dataflow_type", "push"},
+      {"dataport.subscription_type", "flush"},  {"dataport.serializer.cdr.endian", "little"},
       {"dataport.data_type", data_type},
   };
   for (const auto& [name, value] : defaults) {
@@ -134,7 +144,8 @@ std::vector<std::string> type_path(std::string name) {
 std::string interfaces_of(const RTC::PortProfile& port, RTC::PortInterfacePolarity polarity) {
   std::string out;
   for (CORBA::ULong i = 0; i < port.interfaces.length(); ++i) {
-    if (port.interfaces[i].polarity == polarity) out += (out.empty() ? "" : ", ") + std::string(port.interfaces[i].type_name.in());
+    if (port.interfaces[i].polarity == polarity)
+      out += (out.empty() ? "" : ", ") + std::string(port.interfaces[i].type_name.in());
   }
   return out.empty() ? "nothing" : out;
 }
@@ -179,10 +190,12 @@ std::string connection_mismatch(const RTC::PortProfile& a, const RTC::PortProfil
   const auto known = [&](const std::string& kind) { return kind == "CorbaPort" || is_data(kind); };
   if (!known(a_kind) || !known(b_kind)) return {};
   if (is_data(a_kind) != is_data(b_kind)) {
-    return a_name + " is a " + a_kind + " and " + b_name + " a " + b_kind + ": a data port connects to a data port, a service port to a service port";
+    return a_name + " is a " + a_kind + " and " + b_name + " a " + b_kind +
+           ": a data port connects to a data port, a service port to a service port";
   }
   if (is_data(a_kind)) {
-    if (a_kind == b_kind) return a_name + " and " + b_name + " are both " + a_kind + "s: one must be an out port, the other an in port";
+    if (a_kind == b_kind)
+      return a_name + " and " + b_name + " are both " + a_kind + "s: one must be an out port, the other an in port";
     const auto a_type = nv_string(a.properties, "dataport.data_type");
     const auto b_type = nv_string(b.properties, "dataport.data_type");
     if (a_type && b_type && !same_type_name(*a_type, *b_type)) {

@@ -3,12 +3,11 @@
 // served from the descriptors compiled into this program, so no .proto file needs to be installed.
 #include <dlfcn.h>
 #include <fcntl.h>
+#include <google/protobuf/compiler/importer.h>
+#include <google/protobuf/io/zero_copy_stream_impl_lite.h>
 #include <spawn.h>
 #include <sys/wait.h>
 #include <unistd.h>
-
-#include <google/protobuf/compiler/importer.h>
-#include <google/protobuf/io/zero_copy_stream_impl_lite.h>
 
 #include <cerrno>
 #include <cstdlib>
@@ -59,8 +58,10 @@ class TempDir {
     fs::path base = fs::temp_directory_path(ec);
     if (ec) base = "/tmp";
     std::string pattern = (base / "urs-idl-XXXXXX").string();
-    if (::mkdtemp(pattern.data()) != nullptr) path_ = pattern;
-    else error_ = "cannot create a temporary folder in " + base.string() + ": " + std::strerror(errno);
+    if (::mkdtemp(pattern.data()) != nullptr)
+      path_ = pattern;
+    else
+      error_ = "cannot create a temporary folder in " + base.string() + ": " + std::strerror(errno);
   }
   ~TempDir() {
     std::error_code ignored;
@@ -121,8 +122,10 @@ ToolRun run_tool(const std::vector<std::string>& args) {
   int status = 0;
   while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
   }
-  if (WIFEXITED(status)) run.exit_status = WEXITSTATUS(status);
-  else run.error = "'" + args[0] + "' was killed by signal " + std::to_string(WTERMSIG(status));
+  if (WIFEXITED(status))
+    run.exit_status = WEXITSTATUS(status);
+  else
+    run.error = "'" + args[0] + "' was killed by signal " + std::to_string(WTERMSIG(status));
   return run;
 }
 

@@ -1,6 +1,6 @@
-#include <google/protobuf/util/json_util.h>
-
 #include "urs/schema/json.hpp"
+
+#include <google/protobuf/util/json_util.h>
 
 #include <cstdint>
 #include <cstdio>

@@ -1,10 +1,10 @@
 // Reads the urs.options custom options. Descriptors of any pool carry their options as the
 // generated google.protobuf.*Options classes, parsed with the generated extension registry; this
 // file's use of the urs.options extensions links urs_options.pb.o, which registers them.
-#include "urs_options.pb.h"
-#include "urs/schema/schema.hpp"
-
 #include <algorithm>
+
+#include "urs/schema/schema.hpp"
+#include "urs_options.pb.h"
 
 namespace urs::schema {
 
@@ -87,15 +87,18 @@ std::string idl_signature(const gp::MethodDescriptor& m) {
       const auto& options = field.options();
       urs::options::ParamMode mode = options.GetExtension(urs::options::param_mode);
       if (mode == urs::options::PARAM_MODE_UNSPECIFIED) {
-        mode = !reply ? urs::options::PARAM_MODE_IN
-                      : field.name() == "result" ? urs::options::PARAM_MODE_RETURN : urs::options::PARAM_MODE_OUT;
+        mode = !reply                     ? urs::options::PARAM_MODE_IN
+               : field.name() == "result" ? urs::options::PARAM_MODE_RETURN
+                                          : urs::options::PARAM_MODE_OUT;
       }
       if (mode == urs::options::PARAM_MODE_RETURN) {
         result_type = idl_type_of(field);
         continue;
       }
       if (reply && mode == urs::options::PARAM_MODE_INOUT) continue;  // listed from the Request
-      const char* direction = mode == urs::options::PARAM_MODE_OUT ? "out" : mode == urs::options::PARAM_MODE_INOUT ? "inout" : "in";
+      const char* direction = mode == urs::options::PARAM_MODE_OUT     ? "out"
+                              : mode == urs::options::PARAM_MODE_INOUT ? "inout"
+                                                                       : "in";
       const unsigned position = options.HasExtension(urs::options::param_position)
                                     ? options.GetExtension(urs::options::param_position)
                                     : static_cast<unsigned>(parameters.size() + 1) * 1000;

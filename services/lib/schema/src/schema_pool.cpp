@@ -171,7 +171,8 @@ std::string SchemaPool::add_descriptor_set(const std::string& bytes) {
     const std::string content = canonical(file);
     if (const gp::FileDescriptorProto* known = database_->get(file.name())) {
       if (is_well_known(file.name()) || canonical(*known) == content) continue;
-      return "file '" + file.name() + "' is already loaded with a different content (another version of "
+      return "file '" + file.name() +
+             "' is already loaded with a different content (another version of "
              "the interface?); keep one version per pool";
     }
     auto [it, inserted] = fresh_content.emplace(file.name(), content);

@@ -1,24 +1,36 @@
 #include "urs/util/cli.hpp"
 
 #include <signal.h>
-#include <unistd.h>
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
+#include <sys/resource.h>
+#include <unistd.h>
 
 #include <cstdio>
 #include <fstream>
 #include <sstream>
 
+#include "urs/util/log_format.hpp"
+
 namespace urs::util {
 
 void init_logging(const std::string& program, const std::string& level) {
-  auto parsed = spdlog::level::from_str(level);
+  init_logging(LogOptions{program, level, "text", {}});
+}
+
+void init_logging(const LogOptions& options) {
+  auto parsed = spdlog::level::from_str(options.level);
   // from_str maps unknown names to "off"; only accept "off" when it was asked for.
-  if (parsed == spdlog::level::off && level != "off") {
-    throw ConfigError("--log-level: unknown level '" + level + "' (expected " + kLogLevels + ")");
+  if (parsed == spdlog::level::off && options.level != "off") {
+    throw ConfigError("--log-level: unknown level '" + options.level + "' (expected " + kLogLevels + ")");
   }
-  auto logger = spdlog::stderr_color_mt(program);
-  logger->set_pattern("%Y-%m-%dT%H:%M:%S.%e %^%-5l%$ [%n] %v");
+  if (options.format != "text" && options.format != "json") {
+    throw ConfigError("--log-format: unknown format '" + options.format + "' (expected " + kLogFormats + ")");
+  }
+  auto logger = spdlog::get(options.program);
+  if (!logger) logger = spdlog::stderr_color_mt(options.program);
+  logger->set_formatter(options.format == "json" ? json_log_formatter(options.program, options.space)
+                                                 : text_log_formatter());
   logger->set_level(parsed);
   logger->flush_on(spdlog::level::warn);
   spdlog::set_default_logger(logger);
@@ -42,8 +54,7 @@ Endpoint parse_endpoint(const std::string& text, const std::string& what) {
     host = text.substr(0, colon);
     port_text = text.substr(colon + 1);
   }
-  if (port_text.empty() || port_text.size() > 5 ||
-      port_text.find_first_not_of("0123456789") != std::string::npos) {
+  if (port_text.empty() || port_text.size() > 5 || port_text.find_first_not_of("0123456789") != std::string::npos) {
     throw ConfigError(what + ": port '" + port_text + "' in '" + text + "' is not a number 0..65535");
   }
   unsigned long port = std::stoul(port_text);
@@ -59,13 +70,27 @@ std::string read_token_file(const std::string& path) {
   if (!in) throw ConfigError("token file '" + path + "' cannot be read");
   std::stringstream buffer;
   buffer << in.rdbuf();
-  std::string token = buffer.str();
+  return token_from_text(buffer.str(), path);
+}
+
+std::string token_from_text(std::string token, const std::string& path) {
   const char* ws = " \t\r\n";
   token.erase(0, token.find_first_not_of(ws));
   auto last = token.find_last_not_of(ws);
   token.erase(last == std::string::npos ? 0 : last + 1);
   if (token.empty()) throw ConfigError("token file '" + path + "' is empty");
   return token;
+}
+
+uint64_t raise_descriptor_limit() {
+  rlimit limit{};
+  if (getrlimit(RLIMIT_NOFILE, &limit) != 0) return 0;
+  if (limit.rlim_cur < limit.rlim_max) {
+    const rlim_t before = limit.rlim_cur;
+    limit.rlim_cur = limit.rlim_max;
+    if (setrlimit(RLIMIT_NOFILE, &limit) != 0) limit.rlim_cur = before;
+  }
+  return limit.rlim_cur == RLIM_INFINITY ? UINT64_MAX : static_cast<uint64_t>(limit.rlim_cur);
 }
 
 namespace {

@@ -10,7 +10,6 @@
 #include <fastdds/dds/subscriber/Subscriber.hpp>
 #include <fastdds/dds/topic/Topic.hpp>
 #include <fastdds/dds/topic/TypeSupport.hpp>
-
 #include <mutex>
 #include <stdexcept>
 #include <type_traits>
@@ -32,9 +31,8 @@ void split_stamp(std::chrono::system_clock::time_point stamp, int64_t& sec, uint
 }
 
 std::chrono::system_clock::time_point join_stamp(int64_t sec, uint32_t nsec) {
-  return std::chrono::system_clock::time_point(
-      std::chrono::duration_cast<std::chrono::system_clock::duration>(std::chrono::seconds(sec) +
-                                                                      std::chrono::nanoseconds(nsec)));
+  return std::chrono::system_clock::time_point(std::chrono::duration_cast<std::chrono::system_clock::duration>(
+      std::chrono::seconds(sec) + std::chrono::nanoseconds(nsec)));
 }
 
 // The two DDS types share every field but the covariance, which only a measurement carries.

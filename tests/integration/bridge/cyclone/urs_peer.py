@@ -64,6 +64,7 @@ class CallRequest(IdlStruct, typename="urs::dds::CallRequest"):
     no_reply: bool
     payload: sequence[uint8]
     caller_name: str
+    traceparent: str
 
 
 @dataclass

@@ -2,6 +2,7 @@
 // an AgentHost, called with serialized Planet requests.
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <chrono>
 #include <cstdio>
@@ -11,10 +12,8 @@
 #include <thread>
 #include <vector>
 
-#include <unistd.h>
-
-#include "dds_domain.hpp"
 #include "ImageRecognition.pb.h"
+#include "dds_domain.hpp"
 #include "urs/agent/agent.hpp"
 #include "urs/camera/camera_agent.hpp"
 #include "urs/camera/image_codec.hpp"
@@ -61,8 +60,10 @@ class CameraHost {
     sent.payload = request.SerializeAsString();
     auto promise = std::make_shared<std::promise<call::Reply>>();
     auto future = promise->get_future();
-    host_.dispatch(std::move(sent), call::Responder::from_callback([promise](call::Reply r) { promise->set_value(r); }));
-    if (future.wait_for(10s) != std::future_status::ready) return call::Reply::error(call::Status::INTERNAL, "no answer");
+    host_.dispatch(std::move(sent),
+                   call::Responder::from_callback([promise](call::Reply r) { promise->set_value(r); }));
+    if (future.wait_for(10s) != std::future_status::ready)
+      return call::Reply::error(call::Status::INTERNAL, "no answer");
     return future.get();
   }
 
@@ -84,7 +85,8 @@ class CameraHost {
   }
 
   std::set<std::string> recognize() {
-    const auto reply = ok<URC::ImageRecognition_recognize_Reply>("recognize", URC::ImageRecognition_recognize_Request());
+    const auto reply =
+        ok<URC::ImageRecognition_recognize_Reply>("recognize", URC::ImageRecognition_recognize_Request());
     std::set<std::string> out;
     for (const auto& marker : reply.result()) out.insert(marker.content());
     return out;
@@ -112,7 +114,8 @@ TEST(CameraDevice, EveryOperationButOpenIsNotReadyWhileClosed) {
   capture.set_encoding(URC::IMAGE_ENCODING_PNG);
   EXPECT_EQ(raised<URC::NotReady>(camera.call("captureImage", capture), "URC.NotReady").reason(), "camera not open");
   EXPECT_EQ(raised<URC::NotReady>(camera.call("getImageFormat", URC::ImageRecognition_getImageFormat_Request()),
-                                  "URC.NotReady").reason(),
+                                  "URC.NotReady")
+                .reason(),
             "camera not open");
   EXPECT_EQ(raised<URC::NotReady>(camera.call("recognize", URC::ImageRecognition_recognize_Request()), "URC.NotReady")
                 .reason(),
@@ -133,9 +136,10 @@ TEST(CameraDevice, EveryOperationButOpenIsNotReadyWhileClosed) {
 TEST(CameraDevice, FormatAndBothEncodingsCarryTheSameFrame) {
   CameraHost camera("pose: {x: 3.25, y: 2.0, theta: 0.0}");
   camera.open();
-  const auto format =
-      camera.ok<URC::ImageRecognition_getImageFormat_Reply>("getImageFormat", URC::ImageRecognition_getImageFormat_Request())
-          .result();
+  const auto format = camera
+                          .ok<URC::ImageRecognition_getImageFormat_Reply>(
+                              "getImageFormat", URC::ImageRecognition_getImageFormat_Request())
+                          .result();
   EXPECT_EQ(format.width(), 640u);
   EXPECT_EQ(format.height(), 480u);
   EXPECT_EQ(format.encoding(), URC::IMAGE_ENCODING_RAW_RGB8);
@@ -167,7 +171,8 @@ TEST(CameraDevice, BadEncodingsAreInvalidArguments) {
   request.set_encoding(static_cast<URC::ImageEncoding>(7));
   auto unknown = raised<URC::InvalidArgument>(camera.call("captureImage", request), "URC.InvalidArgument");
   EXPECT_EQ(unknown.parameter(), "encoding");
-  EXPECT_EQ(unknown.reason(), "value 7 (not an ImageEncoding) is not supported: the simulated camera delivers RAW_RGB8 or PNG");
+  EXPECT_EQ(unknown.reason(),
+            "value 7 (not an ImageEncoding) is not supported: the simulated camera delivers RAW_RGB8 or PNG");
 }
 
 TEST(CameraDevice, RecognitionAtPosesReadsTheMarkersInViewAndPublishesThem) {
@@ -262,9 +267,10 @@ TEST(CameraDevice, CaptureAndRecognitionTimesArePrinted) {
   const double raw_ms = timed("captureImage", raw);
   const double png_ms = timed("captureImage", png);
   const double recognize_ms = timed("recognize", URC::ImageRecognition_recognize_Request());
-  std::printf("[ figures  ] 640x480 through AgentHost, mean of %d: captureImage RAW_RGB8 %.1f ms, PNG %.1f ms, "
-              "recognize (capture + ZBar) %.1f ms\n",
-              kRounds, raw_ms, png_ms, recognize_ms);
+  std::printf(
+      "[ figures  ] 640x480 through AgentHost, mean of %d: captureImage RAW_RGB8 %.1f ms, PNG %.1f ms, "
+      "recognize (capture + ZBar) %.1f ms\n",
+      kRounds, raw_ms, png_ms, recognize_ms);
 }
 
 }  // namespace

@@ -11,12 +11,12 @@
 #include <cmath>
 #include <cstdlib>
 
-#include "dds_domain.hpp"
 #include "ImageRecognition.hh"
 #include "Localization.hh"
 #include "Navigation.hh"
 #include "TextToSpeech.hh"
 #include "VoiceRecognition.hh"
+#include "dds_domain.hpp"
 #include "rt_space.hpp"
 #include "urs/rtc/nvlist.hpp"
 #include "urs/rtc/tools.hpp"
@@ -43,9 +43,9 @@ std::string device_params(const std::string& device) {
 
 // What a client observed; both hostings must observe the same.
 struct Observed {
-  std::string heard;            // the voice device's text for the TTS's audio
-  double position_error = -1;   // metres between the robot's reported position and its target
-  std::string markers;          // sorted marker contents the camera read
+  std::string heard;           // the voice device's text for the TTS's audio
+  double position_error = -1;  // metres between the robot's reported position and its target
+  std::string markers;         // sorted marker contents the camera read
 };
 
 // Every string value of "key" in a JSON text (no escapes in the values these tests read). Plain
@@ -89,22 +89,26 @@ class SamHosting : public ::testing::Test {
  protected:
   void SetUp() override {
     dir_ = make_temp_dir("hosting-sa");
-    server_ = std::make_unique<Process>(
-        std::vector<std::string>{URS_SERVER_BIN, "--space", "lab", "--listen", "127.0.0.1:0", "--data-dir",
-                                 dir_ + "/data", "--port-file", dir_ + "/port"},
-        dir_ + "/server.log");
+    server_ =
+        std::make_unique<Process>(std::vector<std::string>{URS_SERVER_BIN, "--space", "lab", "--listen", "127.0.0.1:0",
+                                                           "--data-dir", dir_ + "/data", "--port-file", dir_ + "/port"},
+                                  dir_ + "/server.log");
     ASSERT_TRUE(wait_until([&] { return std::filesystem::exists(dir_ + "/port"); }, 10s)) << server_->log();
     address_ = "127.0.0.1:" + read_text(dir_ + "/port");
     std::string config = "agents:\n";
     for (const char* device : {"robot", "localizer", "tts", "voice", "camera"}) {
-      config += std::string("  - {name: ") + device + ", type: " + device + ", deadline_ms: 20000, params: " +
-                device_params(device) + "}\n";
+      config += std::string("  - {name: ") + device + ", type: " + device +
+                ", deadline_ms: 20000, params: " + device_params(device) + "}\n";
     }
     std::ofstream(dir_ + "/sam.yaml") << config;
     sam_ = std::make_unique<Process>(
         std::vector<std::string>{URS_SAM_BIN, "--space", "lab", "--server", address_, "--config", dir_ + "/sam.yaml"},
         dir_ + "/sam.log");
-    ASSERT_TRUE(wait_until([&] { return urs({"ls", "camera"}).out.find("camera ") != std::string::npos; }, 20s))
+    ASSERT_TRUE(wait_until(
+        [&] {
+          return urs({"ls", "camera"}).out.find("camera ") != std::string::npos;
+        },
+        20s))
         << sam_->log();
   }
   void TearDown() override {
@@ -176,9 +180,11 @@ class RtcHosting : public RtSpaceTest {
 
 TEST_F(RtcHosting, EveryDeviceAnswersAsAnRtComponent) {
   std::string config = "components:\n";
-  const std::pair<const char*, const char*> components[] = {
-      {"Robot", "robot"}, {"Localizer", "localizer"}, {"TextToSpeech", "tts"}, {"VoiceRecognition", "voice"},
-      {"Camera", "camera"}};
+  const std::pair<const char*, const char*> components[] = {{"Robot", "robot"},
+                                                            {"Localizer", "localizer"},
+                                                            {"TextToSpeech", "tts"},
+                                                            {"VoiceRecognition", "voice"},
+                                                            {"Camera", "camera"}};
   for (const auto& [type, device] : components) {
     config += std::string("  - {type: ") + type + ", config: {params: " + device_params(device) + "}}\n";
   }
@@ -199,14 +205,16 @@ TEST_F(RtcHosting, EveryDeviceAnswersAsAnRtComponent) {
   auto localizer = provider<URC::Localization>("Localizer0", "localization", "URC::Localization");
   auto robot = provider<URC::Navigation>("Robot0", "navigation", "URC::Navigation");
   ASSERT_FALSE(CORBA::is_nil(localizer) || CORBA::is_nil(robot));
-  ASSERT_TRUE(wait_until([&] {
-    try {
-      URC::PoseWithCovariance_var pose = localizer->getPose();
-      return true;
-    } catch (const URC::NotReady&) {
-      return false;
-    }
-  }, 20s));
+  ASSERT_TRUE(wait_until(
+      [&] {
+        try {
+          URC::PoseWithCovariance_var pose = localizer->getPose();
+          return true;
+        } catch (const URC::NotReady&) {
+          return false;
+        }
+      },
+      20s));
   robot->setSpeed(800);
   EXPECT_EQ(robot->speed(), 800u);
   robot->moveTo(kTargetX, kTargetY);
@@ -233,7 +241,6 @@ TEST_F(RtcHosting, EveryDeviceAnswersAsAnRtComponent) {
   EXPECT_EQ(seen.markers, kMarkersFacingEast);
   std::printf("RTC hosting: heard '%s', robot %.3f m from its target, markers %s\n", seen.heard.c_str(),
               seen.position_error, seen.markers.c_str());
-
 }
 
 }  // namespace

@@ -19,9 +19,9 @@
 #include <thread>
 #include <vector>
 
-#include "dds_domain.hpp"
 #include "Localization.pb.h"
 #include "Navigation.pb.h"
+#include "dds_domain.hpp"
 #include "urs/devices/localizer.hpp"
 #include "urs/devices/robot.hpp"
 
@@ -103,16 +103,17 @@ class Recorder {
     RobotAgent::Truth truth;
     int phase;
   };
-  explicit Recorder(RobotAgent& robot) : thread_([this, &robot] {
-    while (!stop_) {
-      Sample s{robot.truth(), phase.load()};
-      {
-        std::lock_guard<std::mutex> lock(mutex_);
-        if (samples_.empty() || s.truth.time > samples_.back().truth.time) samples_.push_back(s);
-      }
-      std::this_thread::sleep_for(std::chrono::milliseconds(1));
-    }
-  }) {}
+  explicit Recorder(RobotAgent& robot)
+      : thread_([this, &robot] {
+          while (!stop_) {
+            Sample s{robot.truth(), phase.load()};
+            {
+              std::lock_guard<std::mutex> lock(mutex_);
+              if (samples_.empty() || s.truth.time > samples_.back().truth.time) samples_.push_back(s);
+            }
+            std::this_thread::sleep_for(std::chrono::milliseconds(1));
+          }
+        }) {}
   ~Recorder() {
     stop_ = true;
     thread_.join();
@@ -141,9 +142,9 @@ class RobotLocalizerTest : public ::testing::Test {
   void start(const std::string& robot_yaml, const std::string& localizer_yaml) {
     robot_ = std::make_shared<RobotAgent>(urs::devices::parse_robot_config(YAML::Load(
         "{name: " + robot_name_ + ", domain: " + std::to_string(domain_) + ", time_scale: 10" + robot_yaml + "}")));
-    localizer_ = urs::devices::make_localizer_agent(YAML::Load(
-        "{name: starlite, robot: " + robot_name_ + ", domain: " + std::to_string(domain_) +
-        ", time_scale: 10, seed: 7" + localizer_yaml + "}"));
+    localizer_ = urs::devices::make_localizer_agent(YAML::Load("{name: starlite, robot: " + robot_name_ +
+                                                               ", domain: " + std::to_string(domain_) +
+                                                               ", time_scale: 10, seed: 7" + localizer_yaml + "}"));
     localizer_->start(localizer_events_);
     robot_->start(robot_events_);
     // The robot knows where it is once the localizer's first fix has reached it.
@@ -187,7 +188,8 @@ TEST_F(RobotLocalizerTest, SquarePathWithTheLocalizerInTheLoopEndsWithin5cmOfEve
   const std::string trace = ::testing::TempDir() + "/robot_square_trace.csv";
   std::ofstream csv(trace);
   csv << "time,x,y\n";
-  for (const auto& s : recorder.samples()) csv << s.truth.time << "," << s.truth.pose.x << "," << s.truth.pose.y << "\n";
+  for (const auto& s : recorder.samples())
+    csv << s.truth.time << "," << s.truth.pose.x << "," << s.truth.pose.y << "\n";
   std::printf("trace: %s\n", trace.c_str());
 
   const auto arrived = robot_events_.on(robot_name_ + "/arrived");

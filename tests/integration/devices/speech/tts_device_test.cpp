@@ -84,14 +84,16 @@ TEST_F(TtsDevice, ListsVoicesAndSwitchesBetweenThem) {
   EXPECT_TRUE(us_english);
 
   URC::TextToSpeech__get_voice_Reply current;
-  ASSERT_EQ(call(*agent_, sink_, "_get_voice", URC::TextToSpeech__get_voice_Request(), current).status, call::Status::OK);
+  ASSERT_EQ(call(*agent_, sink_, "_get_voice", URC::TextToSpeech__get_voice_Request(), current).status,
+            call::Status::OK);
   EXPECT_EQ(current.result(), "en-us");
 
   URC::TextToSpeech_setVoice_Request set;
   URC::TextToSpeech_setVoice_Reply done;
   set.set_name("de");
   ASSERT_EQ(call(*agent_, sink_, "setVoice", set, done).status, call::Status::OK);
-  ASSERT_EQ(call(*agent_, sink_, "_get_voice", URC::TextToSpeech__get_voice_Request(), current).status, call::Status::OK);
+  ASSERT_EQ(call(*agent_, sink_, "_get_voice", URC::TextToSpeech__get_voice_Request(), current).status,
+            call::Status::OK);
   EXPECT_EQ(current.result(), "de");
   EXPECT_EQ(speak("Guten Tag").status, call::Status::OK);
 
@@ -99,7 +101,8 @@ TEST_F(TtsDevice, ListsVoicesAndSwitchesBetweenThem) {
   const auto refused = call(*agent_, sink_, "setVoice", set, done);
   EXPECT_EQ(refused.status, call::Status::USER_EXCEPTION);
   EXPECT_EQ(invalid_parameter(refused), "name");
-  ASSERT_EQ(call(*agent_, sink_, "_get_voice", URC::TextToSpeech__get_voice_Request(), current).status, call::Status::OK);
+  ASSERT_EQ(call(*agent_, sink_, "_get_voice", URC::TextToSpeech__get_voice_Request(), current).status,
+            call::Status::OK);
   EXPECT_EQ(current.result(), "de");
 }
 

@@ -117,10 +117,11 @@ TEST_F(Speech, RoundTripGrammarModeRecognisesTheRobotCommands) {
     std::printf("  %-24s -> %-24s (%zu error(s))\n", command.c_str(), text.c_str(), errors.errors());
   }
   const double seconds = std::chrono::duration<double>(Clock::now() - started).count();
-  std::printf("grammar mode: WER %.3f (S %zu, D %zu, I %zu, N %zu) over %zu commands; %.2f s of speech synthesised "
-              "and recognised in %.2f s\n",
-              total.rate(), total.substitutions, total.deletions, total.insertions, total.reference_words,
-              default_robot_commands().size(), audio_s, seconds);
+  std::printf(
+      "grammar mode: WER %.3f (S %zu, D %zu, I %zu, N %zu) over %zu commands; %.2f s of speech synthesised "
+      "and recognised in %.2f s\n",
+      total.rate(), total.substitutions, total.deletions, total.insertions, total.reference_words,
+      default_robot_commands().size(), audio_s, seconds);
   EXPECT_LE(total.rate(), kGrammarWerBound);
 }
 
@@ -174,7 +175,8 @@ TEST_F(Speech, StreamingInHundredMillisecondChunksGivesTheSameTextAsPlayBytes) {
     const std::string pcm = wav.substr(44);
     uint32_t id = 0;
     ASSERT_EQ(start_stream(16000, 1, id).status, call::Status::OK);
-    for (std::size_t at = 0; at < pcm.size(); at += 3200) ASSERT_EQ(feed(id, pcm.substr(at, 3200)).status, call::Status::OK);
+    for (std::size_t at = 0; at < pcm.size(); at += 3200)
+      ASSERT_EQ(feed(id, pcm.substr(at, 3200)).status, call::Status::OK);
     std::string streamed;
     ASSERT_EQ(finish(id, streamed).status, call::Status::OK);
     EXPECT_EQ(streamed, whole);
@@ -217,7 +219,8 @@ TEST_F(Speech, OtherRatesAndStereoAreConverted) {
   uint32_t id = 0;
   ASSERT_EQ(start_stream(44100, 2, id).status, call::Status::OK);
   const std::string pcm = audio::encode_wav(stereo).substr(44);
-  for (std::size_t at = 0; at < pcm.size(); at += 17640) ASSERT_EQ(feed(id, pcm.substr(at, 17640)).status, call::Status::OK);
+  for (std::size_t at = 0; at < pcm.size(); at += 17640)
+    ASSERT_EQ(feed(id, pcm.substr(at, 17640)).status, call::Status::OK);
   std::string text;
   ASSERT_EQ(finish(id, text).status, call::Status::OK);
   EXPECT_EQ(text, "come here");
@@ -243,7 +246,8 @@ TEST_F(Speech, BadInputsNameTheirParameter) {
   std::string eight_bit = audio::encode_wav(audio::Pcm{16000, 1, std::vector<int16_t>(100)});
   eight_bit[34] = 8;
   EXPECT_EQ(invalid_parameter(play_bytes(*grammar_, eight_bit, nullptr)), "wave");
-  EXPECT_EQ(invalid_parameter(play_bytes(*grammar_, audio::encode_wav(audio::Pcm{16000, 1, std::vector<int16_t>(16000 * 61)}), nullptr)),
+  EXPECT_EQ(invalid_parameter(play_bytes(
+                *grammar_, audio::encode_wav(audio::Pcm{16000, 1, std::vector<int16_t>(16000 * 61)}), nullptr)),
             "wave");
 
   uint32_t id = 0;
@@ -288,9 +292,9 @@ TEST_F(Speech, BusyDecodersAnswerNotReady) {
 }
 
 TEST(VoiceDeviceConfig, RefusesWordsOutsideTheDictionaryAndAMissingModel) {
-  EXPECT_THAT(testing::config_error_of(
-                  [] { make_voice_agent(YAML::Load("{decoders: 1, commands: [go to the zorblax]}")); }),
-              ::testing::HasSubstr("commands: words not in the dictionary: zorblax"));
+  EXPECT_THAT(
+      testing::config_error_of([] { make_voice_agent(YAML::Load("{decoders: 1, commands: [go to the zorblax]}")); }),
+      ::testing::HasSubstr("commands: words not in the dictionary: zorblax"));
   EXPECT_THAT(testing::config_error_of([] { make_voice_agent(YAML::Load("{decoders: 1, model_dir: no/such/model}")); }),
               ::testing::HasSubstr("model_dir: "));
 }

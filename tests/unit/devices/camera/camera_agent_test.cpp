@@ -1,12 +1,12 @@
 // The camera agent on its own: the pose it renders from (a mocked PoseSource). Its params:
 // tests/unit/devices/common/params_test.cpp.
 
+#include "urs/camera/camera_agent.hpp"
+
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <set>
-
-#include "urs/camera/camera_agent.hpp"
 
 namespace urs::camera {
 namespace {
@@ -26,10 +26,12 @@ class MockEventSink : public agent::EventSink {
   MOCK_METHOD(call::Reply, publish, (const std::string&, const google::protobuf::Message&), (override));
 };
 
-agent::Outcome invoke(agent::ServiceAgent& agent, const std::string& operation, const google::protobuf::Message& request,
-                      google::protobuf::Message& reply, agent::EventSink& events) {
+agent::Outcome invoke(agent::ServiceAgent& agent, const std::string& operation,
+                      const google::protobuf::Message& request, google::protobuf::Message& reply,
+                      agent::EventSink& events) {
   const auto* method = agent.interface().FindMethodByName(operation);
-  agent::CallContext ctx{"camera", {"", "tester", ""}, std::chrono::steady_clock::now() + std::chrono::seconds(10), &events};
+  agent::CallContext ctx{
+      "camera", {"", "tester", ""}, std::chrono::steady_clock::now() + std::chrono::seconds(10), &events};
   return agent.invoke(*method, request, reply, ctx);
 }
 
@@ -57,10 +59,12 @@ TEST(CameraAgent, RendersFromThePoseSourcesCurrentPose) {
   ASSERT_EQ(no_pose.status, call::Status::USER_EXCEPTION);
   EXPECT_EQ(no_pose.message, "NotReady: no robot pose known yet");
 
-  ASSERT_EQ(invoke(agent, "recognize", URC::ImageRecognition_recognize_Request(), reply, events).status, call::Status::OK);
+  ASSERT_EQ(invoke(agent, "recognize", URC::ImageRecognition_recognize_Request(), reply, events).status,
+            call::Status::OK);
   EXPECT_EQ(contents(reply), (std::set<std::string>{"urs:marker:1@6.5,1.0", "urs:marker:2@6.5,3.0"}));
   reply.Clear();
-  ASSERT_EQ(invoke(agent, "recognize", URC::ImageRecognition_recognize_Request(), reply, events).status, call::Status::OK);
+  ASSERT_EQ(invoke(agent, "recognize", URC::ImageRecognition_recognize_Request(), reply, events).status,
+            call::Status::OK);
   EXPECT_EQ(contents(reply), std::set<std::string>{"urs:marker:3@3.0,4.0"});
 }
 

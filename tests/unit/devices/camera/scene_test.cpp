@@ -1,6 +1,8 @@
 // The simulated camera's world model against ZBar: what geometry says a frame shows is what the
 // recogniser reads from it.
 
+#include "urs/camera/scene.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -8,7 +10,6 @@
 #include <string>
 
 #include "urs/camera/recognizer.hpp"
-#include "urs/camera/scene.hpp"
 
 namespace urs::camera {
 namespace {

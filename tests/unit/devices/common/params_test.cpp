@@ -1,6 +1,8 @@
 // The params reader every device shares (urs/devices/params.hpp), then each device's params read
 // through it: defaults, every setting, and every mistake named by its key.
 
+#include "urs/devices/params.hpp"
+
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -10,7 +12,6 @@
 
 #include "urs/camera/camera_agent.hpp"
 #include "urs/devices/localizer.hpp"
-#include "urs/devices/params.hpp"
 #include "urs/devices/robot.hpp"
 #include "urs/devices/tts.hpp"
 #include "urs/devices/voice.hpp"

@@ -1,11 +1,11 @@
 // The robot's motion model, controller and pose estimate, without threads or DDS.
 
+#include "urs/devices/robot_motion.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <random>
-
-#include "urs/devices/robot_motion.hpp"
 
 namespace {
 

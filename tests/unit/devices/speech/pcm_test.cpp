@@ -1,8 +1,8 @@
+#include "urs/audio/pcm.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
-
-#include "urs/audio/pcm.hpp"
 
 namespace urs::audio {
 namespace {
@@ -48,7 +48,9 @@ TEST(Wav, EncodeThenDecodeGivesTheSameAudio) {
 TEST(Wav, SkipsUnknownChunksAndReadsStereo) {
   std::string wav = encode_wav(Pcm{44100, 2, {10, 20, -30, -50}});
   // A LIST chunk with an odd size (padded) between fmt and data, as some recorders write.
-  wav.insert(36, std::string("LIST\x03\x00\x00\x00" "abc\0", 12));
+  wav.insert(36, std::string("LIST\x03\x00\x00\x00"
+                             "abc\0",
+                             12));
   const Pcm pcm = decode_wav(wav);
   EXPECT_EQ(pcm.sample_rate, 44100u);
   EXPECT_EQ(pcm.channels, 2u);

@@ -44,13 +44,13 @@ struct CameraParams {
   std::shared_ptr<const Scene> scene;  // the room, its markers and the camera model
   Pose pose{3.25, 2.0, 0.0};           // fixed pose, used unless `world` is set
   struct WorldLink {
-    uint32_t domain = 0;               // DDS domain of the world state
-    std::string robot;                 // whose ground-truth pose the camera rides on
+    uint32_t domain = 0;  // DDS domain of the world state
+    std::string robot;    // whose ground-truth pose the camera rides on
   };
-  std::optional<WorldLink> world;      // take the pose from "urs/world/pose" instead
-  unsigned device = 0;                 // the only device number openCamera() accepts
+  std::optional<WorldLink> world;  // take the pose from "urs/world/pose" instead
+  unsigned device = 0;             // the only device number openCamera() accepts
   std::string event_prefix = "camera";
-  double scan_hz = 0;                  // > 0: recognise and publish this often while open
+  double scan_hz = 0;  // > 0: recognise and publish this often while open
 };
 
 // Reads the agent's `params` node (null = all defaults; see docs/devices.md). Throws

@@ -53,7 +53,7 @@ struct CameraModel {
   double hfov_deg = 60;       // horizontal field of view
   double mount_height = 1.0;  // m, optical centre above the floor; the optical axis is horizontal
 
-  double focal_px() const;    // focal length in pixels (square pixels)
+  double focal_px() const;  // focal length in pixels (square pixels)
 };
 
 struct PixelXY {
@@ -75,11 +75,11 @@ inline constexpr double kIllegibleModulePx = 1.5;
 // Where a marker appears from a pose.
 struct MarkerView {
   const WallMarker* marker = nullptr;
-  bool facing = false;                // seen from inside the room, the whole symbol in front of the camera
-  std::array<PixelXY, 4> corners{};   // of the QR symbol (quiet zone excluded), clockwise from its top-left
-  bool in_image = false;              // the whole QR symbol projects inside the image
-  bool overlaps_image = false;        // some of the QR symbol's bounding box projects inside the image
-  double module_px = 0;               // smallest apparent side of one QR module, pixels
+  bool facing = false;               // seen from inside the room, the whole symbol in front of the camera
+  std::array<PixelXY, 4> corners{};  // of the QR symbol (quiet zone excluded), clockwise from its top-left
+  bool in_image = false;             // the whole QR symbol projects inside the image
+  bool overlaps_image = false;       // some of the QR symbol's bounding box projects inside the image
+  double module_px = 0;              // smallest apparent side of one QR module, pixels
   Legibility legibility = Legibility::kIllegible;
 };
 
@@ -107,17 +107,17 @@ class Scene {
 
  private:
   enum class Wall { kWest, kEast, kSouth, kNorth };
-  struct Symbol {                // a marker's QR modules and where they hang
+  struct Symbol {  // a marker's QR modules and where they hang
     Wall wall = Wall::kWest;
-    double right_x = 0;          // unit vector along the wall, to the right of a viewer facing it
+    double right_x = 0;  // unit vector along the wall, to the right of a viewer facing it
     double right_y = 0;
-    int modules = 0;             // QR modules per side, quiet zone excluded
-    std::vector<bool> dark;      // modules*modules, row-major from the top-left
+    int modules = 0;         // QR modules per side, quiet zone excluded
+    std::vector<bool> dark;  // modules*modules, row-major from the top-left
   };
-  struct Ray {                   // the horizontal ray of one image column
-    double cos_offset = 1;       // cosine of the angle between the ray and the optical axis
-    double distance = 0;         // m, along the ray to the wall
-    double hit_x = 0, hit_y = 0; // m, where it meets the wall
+  struct Ray {                    // the horizontal ray of one image column
+    double cos_offset = 1;        // cosine of the angle between the ray and the optical axis
+    double distance = 0;          // m, along the ray to the wall
+    double hit_x = 0, hit_y = 0;  // m, where it meets the wall
     Wall wall = Wall::kWest;
   };
   bool inside(const Pose& pose) const;  // strictly inside the room: walls are seen from inside only

@@ -65,8 +65,8 @@ class LocalizerAgent : public agent::TypedAgent, public agent::Tunable {
 
   const LocalizerConfig config_;
   mutable std::mutex mutex_;
-  double noise_xy_;     // m; tunable
-  double noise_theta_;  // rad; tunable
+  double noise_xy_;                           // m; tunable
+  double noise_theta_;                        // rad; tunable
   std::unique_ptr<world::PoseSample> truth_;  // the latest ground truth, null until one arrived
   std::optional<URC::PoseWithCovariance> latest_;
   std::mt19937 random_;

@@ -42,10 +42,10 @@ struct RobotConfig {
   double time_scale = 1;       // simulated seconds per wall second
   Pose2 start;                 // initial ground-truth pose
   MotionLimits limits;
-  double speed = 0.5;           // m/s, initial cruise speed
-  double tolerance = 0.02;      // m, arrival distance (of the estimate to the target)
-  double odometry_error = 0.01; // relative scale error of the wheel odometry
-  double fusion_gain = 0.2;     // weight of one localizer fix in the estimate
+  double speed = 0.5;            // m/s, initial cruise speed
+  double tolerance = 0.02;       // m, arrival distance (of the estimate to the target)
+  double odometry_error = 0.01;  // relative scale error of the wheel odometry
+  double fusion_gain = 0.2;      // weight of one localizer fix in the estimate
   Feedback feedback = Feedback::localizer;
 };
 
@@ -90,10 +90,10 @@ class RobotAgent : public agent::TypedAgent, public agent::Tunable {
   Truth truth_;
   PoseEstimate estimate_;
   std::optional<Pose2> target_;
-  double cruise_;  // m/s
+  double cruise_;       // m/s
   double tolerance_;    // m; tunable
   double fusion_gain_;  // tunable
-  int state_;      // URC::NavigationState
+  int state_;           // URC::NavigationState
   agent::EventSink* events_ = nullptr;
   std::unique_ptr<world::World> world_;
   std::unique_ptr<SimLoop> loop_;

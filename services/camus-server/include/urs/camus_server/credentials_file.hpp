@@ -24,9 +24,9 @@
 namespace urs::camus_server {
 
 struct CredentialSources {
-  std::string credentials_file;        // --credentials; empty = none
-  std::string token_file;              // --token-file; empty = none
-  std::string token_name = "space";    // --token-name: the name the single token authenticates as
+  std::string credentials_file;                        // --credentials; empty = none
+  std::string token_file;                              // --token-file; empty = none
+  std::string token_name = "space";                    // --token-name: the name the single token authenticates as
   planet::Role token_role = planet::ROLE_UNSPECIFIED;  // --token-role (required with --token-file)
 
   bool any() const { return !credentials_file.empty() || !token_file.empty(); }

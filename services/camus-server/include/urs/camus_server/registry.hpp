@@ -5,12 +5,20 @@
 // Rules:
 //  - Sessions whose credential has role SAM or OPERATOR register services; the server fills owner
 //    (the session's authenticated identity), peer_name (its declared name, for display) and state
-//    "available" and publishes "registry/<name>" (ServiceInfo).
-//  - A name owned by another session is refused: ALREADY_EXISTS "service X is provided by Y".
-//    The same connection, or a connection that resumed the same session (planet::Identity::session,
-//    proven by the server-issued session secret), replaces the registration.
-//  - When the owning session closes, its services are removed and "registry/<name>" is published
-//    with state "gone". Built-in services (owner "camus-server") cannot be replaced or removed.
+//    "available" and publishes "registry/<name>" (ServiceInfo, with `change` and the providers).
+//  - A service has one or more providers: the sessions that registered it. Another session of
+//    the same credential (a replica of the SAM or bridge that holds it) registering the same
+//    interface becomes one more provider ("provider-added"); a session of any other credential,
+//    whatever its role, is refused ALREADY_EXISTS "service X is provided by Y; ...", and so is a
+//    registration of another interface, or of another description of it, while another
+//    provider holds the name. The credential, not a role, is who the operator trusted with
+//    the service's calls: nobody without it can take a share of them.
+//  - The same connection, or a connection that resumed the same session (planet::Identity::session,
+//    proven by the server-issued session secret), replaces its own registration ("updated").
+//  - When a provider's session closes or it unregisters, it leaves the service
+//    ("provider-removed"); the last one leaving removes the service, published with state "gone"
+//    ("unregistered" / "disconnected"). Built-in services (owner "camus-server") cannot be replaced
+//    or removed.
 //  - Descriptor sets are kept per interface (the latest registration wins).
 //
 // Threading: all methods are thread-safe and never block on I/O (events go to a non-blocking
@@ -45,12 +53,17 @@ class SchemaLookup {
   virtual std::shared_ptr<const InterfaceSchema> schema_with_message(const std::string& full_name) const = 0;
 };
 
+// One session providing a service, as a route names it.
+struct RouteProvider {
+  planet::SessionPtr session;
+  std::string name;  // the session's authenticated identity
+};
+
 // Where a call to a service goes.
 struct Route {
   bool builtin = false;
-  planet::SessionPtr owner;  // the provider (null for built-ins)
-  std::string owner_name;
-  uint32_t deadline_ms = 0;  // the service's default deadline (0 = none)
+  std::vector<RouteProvider> providers;  // longest registered first (empty for built-ins)
+  uint32_t deadline_ms = 0;              // the service's default deadline (0 = none)
   std::string interface;
   std::shared_ptr<const InterfaceSchema> schema;  // null if no descriptor set was given
 };
@@ -69,7 +82,8 @@ class Registry final : public SchemaLookup {
   // PERMISSION_DENIED for a session whose role is below SAM, BAD_ARGUMENTS for a bad
   // name/interface/descriptor set, ALREADY_EXISTS as described above.
   Result<Done> register_service(const planet::SessionPtr& session, const camus::RegisterRequest& request);
-  // UNKNOWN_SERVICE if there is no such service; PERMISSION_DENIED if another session owns it.
+  // Removes the session as a provider of `name`. UNKNOWN_SERVICE if there is no such service;
+  // PERMISSION_DENIED if the session does not provide it.
   Result<Done> unregister_service(const planet::Session& session, const std::string& name);
   // Glob on names ("*" any run of characters); empty = all. Sorted by name.
   std::vector<camus::ServiceInfo> list(const std::string& pattern) const;
@@ -80,7 +94,8 @@ class Registry final : public SchemaLookup {
 
   std::optional<Route> route(const std::string& name) const;
 
-  // The session closed: removes what it owns (publishing "gone"); returns the removed names.
+  // The session closed: it leaves every service it provides; returns the names of the services
+  // it was the last provider of (removed, published "gone").
   std::vector<std::string> remove_session(uint64_t session_id);
 
   // SchemaLookup
@@ -88,14 +103,29 @@ class Registry final : public SchemaLookup {
   std::shared_ptr<const InterfaceSchema> schema_with_message(const std::string& full_name) const override;
 
  private:
-  struct Entry {
-    camus::ServiceInfo info;
-    planet::SessionPtr owner;         // null for built-ins
-    uint64_t owner_session = 0;       // Session::id() of the connection
-    uint64_t owner_resumable = 0;     // Session::identity().session
-    std::shared_ptr<const InterfaceSchema> schema;
+  struct Provider {
+    planet::SessionPtr session;
+    uint64_t connection = 0;  // Session::id()
+    uint64_t resumable = 0;   // Session::identity().session
+    camus::ProviderInfo info;
   };
-  void publish_locked(const camus::ServiceInfo& info);
+  struct Entry {
+    camus::ServiceInfo info;          // the service as listed: the first provider's registration
+    std::vector<Provider> providers;  // longest registered first; empty for built-ins
+    std::shared_ptr<const InterfaceSchema> schema;
+    bool builtin() const { return providers.empty(); }
+    // The provider that `session` is (the same connection, or one that resumed its session).
+    std::vector<Provider>::iterator find(const planet::Session& session);
+  };
+  // `entry.info` from its first provider and the providers' list.
+  static void refresh_locked(Entry& entry);
+  // Publishes registry/<name>: the service as it is now (state `state`), what changed and for whom.
+  void publish_locked(const Entry& entry, const std::string& state, const std::string& change,
+                      const camus::ProviderInfo& provider);
+  // `provider` leaves the service at `it` (why: "provider-removed" or, if it was the last one,
+  // `last_change`); returns whether the service is gone.
+  bool remove_provider_locked(std::map<std::string, Entry>::iterator it, std::vector<Provider>::iterator provider,
+                              const std::string& last_change);
 
   const std::string space_;
   agent::EventSink& events_;

@@ -15,9 +15,7 @@ struct Error {
   std::string message;
 };
 
-inline Error make_error(planet::Status status, std::string message) {
-  return Error{status, std::move(message)};
-}
+inline Error make_error(planet::Status status, std::string message) { return Error{status, std::move(message)}; }
 
 // Stands in for "no value" in Result<Done>.
 struct Done {};

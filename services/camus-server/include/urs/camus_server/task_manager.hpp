@@ -14,6 +14,9 @@
 //    iteration (or the iteration's start, or the previously matched event), so an arrival that
 //    happens before the wait begins is not missed.
 //  - A task with a trigger starts one run per matching event, unless a run of it is in progress.
+//  - A task has an owner: the credential that defined it (or ran it inline), "tasks-dir/<file>"
+//    for a --tasks-dir file (a name no credential can have). Its `publish` steps publish as the
+//    owner under a peer's topic rules: never on the server's topics (refused when defined).
 //
 // Threading: thread-safe. define/run/cancel wait for the disk; call them off the I/O thread.
 
@@ -80,9 +83,12 @@ class TaskManager {
   // disarms triggers, joins the run threads. Idempotent.
   void stop();
 
-  Result<camus::TaskDefinition> define(const std::string& name, const std::string& yaml);
-  // `trigger` records why the run started ("cli", "event:<topic>", ...).
-  Result<camus::TaskRun> run(const camus::TaskRunRequest& request, const std::string& trigger);
+  // `owner`: the defining credential (empty: "task:<name>" when it publishes).
+  Result<camus::TaskDefinition> define(const std::string& name, const std::string& yaml, const std::string& owner = "");
+  // `trigger` records why the run started ("cli", "event:<topic>", ...); `caller` owns an inline
+  // run (a named task's run is its definition's owner's).
+  Result<camus::TaskRun> run(const camus::TaskRunRequest& request, const std::string& trigger,
+                             const std::string& caller = "");
   // By run id; else (or when no run has that id) the latest run of the task `name`.
   Result<camus::TaskRun> status(const camus::TaskStatusRequest& request) const;
   Result<camus::TaskRun> cancel(const std::string& run_id, const std::string& by);
@@ -95,15 +101,16 @@ class TaskManager {
   struct Definition {
     std::string yaml;
     TaskSpec spec;
+    std::string owner;
   };
 
   Result<std::shared_ptr<tasks::Run>> start_run_locked(TaskSpec spec, const std::string& yaml,
-                                                       const std::string& trigger);
+                                                       const std::string& trigger, const std::string& owner);
   void launch(const std::shared_ptr<tasks::Run>& run);
   void on_trigger(const std::string& task, const planet::Event& event);
   void reap_locked();
   std::shared_ptr<tasks::Run> find_locked(const std::string& run_id) const;
-  Result<Done> define_locked(const TaskSpec& spec, const std::string& yaml);
+  Result<Done> define_locked(const TaskSpec& spec, const std::string& yaml, const std::string& owner);
   // With mutex_ held, at start(): the stored runs; those found "running" are returned to resume.
   std::vector<std::shared_ptr<tasks::Run>> load_runs_locked();
   void notify_finished();

@@ -7,7 +7,7 @@
 #include <functional>
 #include <map>
 #include <mutex>
-#include <queue>
+#include <set>
 #include <thread>
 #include <unordered_map>
 #include <utility>
@@ -28,8 +28,9 @@ class Scheduler {
   virtual bool cancel(TimerId id) = 0;
 };
 
-// A single thread sleeping on a condition variable until the earliest deadline of a min-heap
-// (cancelled timers are skipped lazily). Callbacks run on that thread, outside its lock.
+// A single thread sleeping on a condition variable until the earliest deadline of an ordered set.
+// A cancelled timer is removed at once (a call answered long before its 24 h deadline leaves
+// nothing behind). Callbacks run on that thread, outside its lock.
 class TimerThread final : public Scheduler {
  public:
   TimerThread();
@@ -41,17 +42,20 @@ class TimerThread final : public Scheduler {
   bool cancel(TimerId id) override;
   // Joins the thread; pending timers are dropped without running. Idempotent.
   void stop();
+  size_t pending() const;
 
  private:
   using TimePoint = std::chrono::steady_clock::time_point;
   void run();
 
-  std::mutex mutex_;
+  struct Timer {
+    TimePoint due;
+    Callback callback;
+  };
+  mutable std::mutex mutex_;
   std::condition_variable wake_;
-  std::priority_queue<std::pair<TimePoint, TimerId>, std::vector<std::pair<TimePoint, TimerId>>,
-                      std::greater<>>
-      heap_;
-  std::unordered_map<TimerId, Callback> callbacks_;
+  std::set<std::pair<TimePoint, TimerId>> order_;  // pending timers, earliest first
+  std::unordered_map<TimerId, Timer> timers_;
   TimerId next_id_ = 1;
   bool stopping_ = false;
   std::thread thread_;

@@ -43,7 +43,7 @@ class TopicPattern {
  private:
   std::string text_;
   std::vector<std::string> levels_;
-  bool tail_ = false;   // ends with "#" (not stored in levels_)
+  bool tail_ = false;  // ends with "#" (not stored in levels_)
   bool exact_ = false;
 };
 

@@ -54,8 +54,7 @@ class ClientLink final : public Link, public FrameSink {
   Connection& connection_;
 };
 
-Connection::Connection(const ClientOptions& options, std::shared_ptr<asio::io_context> io,
-                       SessionListener& listener)
+Connection::Connection(const ClientOptions& options, std::shared_ptr<asio::io_context> io, SessionListener& listener)
     : options_(options),
       target_(options.host + ":" + std::to_string(options.port)),
       tls_(options.tls.enabled ? make_client_tls_context(options.tls) : nullptr),
@@ -162,10 +161,11 @@ void Connection::connect_to(uint64_t attempt, std::vector<asio::ip::tcp::endpoin
   std::lock_guard<std::mutex> lock(mutex_);
   if (attempt != generation_ || stopped_) return;
   connecting_ = std::make_shared<asio::ip::tcp::socket>(asio::make_strand(*io_));
-  asio::async_connect(*connecting_, endpoints,
-                      [this, attempt, keep = connecting_](const std::error_code& error, const asio::ip::tcp::endpoint&) {
-                        on_socket_connected(attempt, error);
-                      });
+  asio::async_connect(
+      *connecting_, endpoints,
+      [this, attempt, keep = connecting_](const std::error_code& error, const asio::ip::tcp::endpoint&) {
+        on_socket_connected(attempt, error);
+      });
 }
 
 void Connection::on_socket_connected(uint64_t attempt, const std::error_code& error) {
@@ -263,8 +263,7 @@ void Connection::on_link_frame(const std::shared_ptr<ClientLink>& from, Frame&& 
   listener_.session_frame(from, std::move(frame));
 }
 
-void Connection::on_handshake_frame_locked(const std::shared_ptr<ClientLink>& from, const Frame& frame,
-                                           Deferred& out) {
+void Connection::on_handshake_frame_locked(const std::shared_ptr<ClientLink>& from, const Frame& frame, Deferred& out) {
   if (frame.has_welcome()) {
     on_welcome_locked(from, frame.welcome(), out);
   } else if (frame.has_refused()) {
@@ -291,8 +290,8 @@ void Connection::on_welcome_locked(const std::shared_ptr<ClientLink>& from, cons
   const uint64_t send_limit = welcome_.max_message_bytes() > 0 ? welcome_.max_message_bytes() : UINT64_MAX;
   CodecLimits limits;
   limits.max_message_bytes = options_.max_message_bytes;
-  limits.max_frame_bytes = std::min<uint64_t>(std::max<uint64_t>(options_.chunk_bytes, welcome_.chunk_bytes()),
-                                              options_.max_message_bytes);
+  limits.max_frame_bytes =
+      std::min<uint64_t>(std::max<uint64_t>(options_.chunk_bytes, welcome_.chunk_bytes()), options_.max_message_bytes);
   const uint32_t chunk_bytes = welcome_.chunk_bytes() >= kMinChunkBytes
                                    ? std::min(options_.chunk_bytes, welcome_.chunk_bytes())
                                    : options_.chunk_bytes;

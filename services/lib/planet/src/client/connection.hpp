@@ -9,7 +9,6 @@
 
 #include <asio.hpp>
 #include <asio/ssl.hpp>
-
 #include <chrono>
 #include <condition_variable>
 #include <cstdint>
@@ -31,8 +30,8 @@ class SessionListener {
   // The handshake succeeded: restore what lives across sessions on `sink` (the server takes
   // messages up to `send_limit` bytes). Called with the connection's lock held: no connection
   // query answers "connected" before it returns.
-  virtual void session_opened(const std::shared_ptr<FrameSink>& sink, const Welcome& welcome,
-                              uint64_t send_limit, Deferred& out) = 0;
+  virtual void session_opened(const std::shared_ptr<FrameSink>& sink, const Welcome& welcome, uint64_t send_limit,
+                              Deferred& out) = 0;
   // A frame of the open session (no lock held).
   virtual void session_frame(const std::shared_ptr<FrameSink>& sink, Frame&& frame) = 0;
   // The connection closed (lock held); `was_open` if its handshake had succeeded, `reason` says why.

@@ -19,9 +19,7 @@ void run_all(Deferred& callbacks) {
 
 void defer_reply(Deferred& out, ReplyHandler handler, CallResult result) {
   if (!handler) return;
-  out.push_back([handler = std::move(handler), result = std::move(result)]() mutable {
-    handler(std::move(result));
-  });
+  out.push_back([handler = std::move(handler), result = std::move(result)]() mutable { handler(std::move(result)); });
 }
 
 }  // namespace urs::planet::detail

@@ -5,7 +5,6 @@
 // Threading: thread-safe.
 
 #include <asio.hpp>
-
 #include <atomic>
 #include <functional>
 #include <memory>

@@ -13,14 +13,12 @@ namespace urs::planet::detail {
 using Clock = std::chrono::steady_clock;
 using std::chrono::milliseconds;
 
-PendingCalls::PendingCalls(asio::io_context& io, std::string target, milliseconds queue_timeout,
-                           QueueBudget& budget)
+PendingCalls::PendingCalls(asio::io_context& io, std::string target, milliseconds queue_timeout, QueueBudget& budget)
     : io_(io), target_(std::move(target)), queue_timeout_(queue_timeout), budget_(budget) {}
 
 PendingCalls::~PendingCalls() = default;
 
-bool PendingCalls::start(Request request, milliseconds deadline, ReplyHandler handler, Deferred& out,
-                         bool first) {
+bool PendingCalls::start(Request request, milliseconds deadline, ReplyHandler handler, Deferred& out, bool first) {
   std::lock_guard<std::mutex> lock(mutex_);
   if (closed_) {
     defer_reply(out, std::move(handler), CallResult::error(Status::UNAVAILABLE, closed_message_));
@@ -165,8 +163,7 @@ void PendingCalls::on_deadline(uint64_t id) {
       message = it->second.label + " not sent: no connection to " + target_ + " within " +
                 std::to_string(queue_timeout_.count()) + " ms";
     } else {
-      message = "no reply from " + it->second.label + " within " +
-                std::to_string(it->second.deadline.count()) + " ms";
+      message = "no reply from " + it->second.label + " within " + std::to_string(it->second.deadline.count()) + " ms";
     }
     calls_.erase(it);
   }

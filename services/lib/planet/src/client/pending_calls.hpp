@@ -16,7 +16,6 @@
 // which must outlive this table.
 
 #include <asio.hpp>
-
 #include <chrono>
 #include <cstdint>
 #include <deque>
@@ -34,8 +33,7 @@ namespace urs::planet::detail {
 class PendingCalls {
  public:
   // `target` ("host:port") names the server in failures.
-  PendingCalls(asio::io_context& io, std::string target, std::chrono::milliseconds queue_timeout,
-               QueueBudget& budget);
+  PendingCalls(asio::io_context& io, std::string target, std::chrono::milliseconds queue_timeout, QueueBudget& budget);
   ~PendingCalls();
   PendingCalls(const PendingCalls&) = delete;
   PendingCalls& operator=(const PendingCalls&) = delete;
@@ -65,9 +63,9 @@ class PendingCalls {
 
  private:
   struct Call {
-    Request request;           // moved out once sent
-    std::string label;         // "service.operation"
-    ReplyHandler handler;      // empty for oneways
+    Request request;       // moved out once sent
+    std::string label;     // "service.operation"
+    ReplyHandler handler;  // empty for oneways
     std::unique_ptr<asio::steady_timer> timer;
     std::chrono::steady_clock::time_point expires;
     std::chrono::milliseconds deadline{0};  // 0: none given, the server's applies once sent

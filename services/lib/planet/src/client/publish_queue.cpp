@@ -4,6 +4,8 @@
 
 #include <utility>
 
+#include "urs/util/trace.hpp"
+
 namespace urs::planet::detail {
 
 namespace {
@@ -30,8 +32,8 @@ CallResult PublishQueue::publish(const std::string& topic, std::string payload, 
   return publish_locked(topic, std::move(payload), content_type, id);
 }
 
-CallResult PublishQueue::publish_locked(const std::string& topic, std::string payload,
-                                        const std::string& content_type, uint64_t& id) {
+CallResult PublishQueue::publish_locked(const std::string& topic, std::string payload, const std::string& content_type,
+                                        uint64_t& id) {
   if (closed_) return CallResult::error(Status::UNAVAILABLE, "client stopped");
   if (!budget_.try_take()) return CallResult::error(Status::UNAVAILABLE, budget_.full_message(sink_ != nullptr));
   Publish publish;
@@ -39,6 +41,8 @@ CallResult PublishQueue::publish_locked(const std::string& topic, std::string pa
   publish.set_topic(topic);
   publish.set_payload(std::move(payload));
   publish.set_content_type(content_type);
+  // An event published while a call is served (util::TraceScope) carries that call's trace.
+  if (const auto* trace = util::current_trace()) publish.set_traceparent(trace->child().traceparent());
   if (sink_) {
     if (!fits_locked(publish)) {
       budget_.give_back();
@@ -62,14 +66,13 @@ CallResult PublishQueue::publish_and_wait(const std::string& topic, std::string 
   if (!queued.ok()) return queued;
   // Registered under the same lock as the publish: the ack, handled under it too, cannot come before.
   awaited_.emplace(id, PublishAck());
-  const bool acked =
-      acked_.wait_for(lock, timeout, [&] { return awaited_.at(id).publish_id() == id || closed_; });
+  const bool acked = acked_.wait_for(lock, timeout, [&] { return awaited_.at(id).publish_id() == id || closed_; });
   const PublishAck ack = awaited_.at(id);
   awaited_.erase(id);
   if (!acked || ack.publish_id() != id) {
-    return CallResult::error(closed_ ? Status::UNAVAILABLE : Status::DEADLINE_EXCEEDED,
-                             "no acknowledgement of the event on '" + topic + "' within " +
-                                 std::to_string(timeout.count()) + " ms");
+    return CallResult::error(
+        closed_ ? Status::UNAVAILABLE : Status::DEADLINE_EXCEEDED,
+        "no acknowledgement of the event on '" + topic + "' within " + std::to_string(timeout.count()) + " ms");
   }
   if (ack.status() != Status::OK) return CallResult::error(ack.status(), ack.message());
   return CallResult::success({});
@@ -81,8 +84,8 @@ void PublishQueue::open(std::shared_ptr<FrameSink> sink, uint64_t send_limit) {
   send_limit_ = send_limit;
   for (auto it = unacked_.begin(); it != unacked_.end();) {
     if (!fits_locked(it->second)) {
-      spdlog::error("planet: dropping publish {} on '{}': {} bytes exceed the server's max_message_bytes {}",
-                    it->first, it->second.topic(), it->second.ByteSizeLong(), send_limit_);
+      spdlog::error("planet: dropping publish {} on '{}': {} bytes exceed the server's max_message_bytes {}", it->first,
+                    it->second.topic(), it->second.ByteSizeLong(), send_limit_);
       it = unacked_.erase(it);
       budget_.give_back();
       continue;

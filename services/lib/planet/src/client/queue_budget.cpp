@@ -5,8 +5,7 @@
 
 namespace urs::planet::detail {
 
-QueueBudget::QueueBudget(size_t capacity, std::string target)
-    : capacity_(capacity), target_(std::move(target)) {}
+QueueBudget::QueueBudget(size_t capacity, std::string target) : capacity_(capacity), target_(std::move(target)) {}
 
 bool QueueBudget::try_take() {
   size_t used = used_.load();
@@ -25,8 +24,8 @@ void QueueBudget::give_back(size_t count) {
 
 std::string QueueBudget::full_message(bool connected) const {
   if (connected) {
-    return "the queue of " + std::to_string(capacity_) + " publishes awaiting acknowledgement from " +
-           target_ + " is full";
+    return "the queue of " + std::to_string(capacity_) + " publishes awaiting acknowledgement from " + target_ +
+           " is full";
   }
   return "not connected to " + target_ + " and the queue of " + std::to_string(capacity_) + " is full";
 }

@@ -56,6 +56,12 @@ void Registrations::remove(const std::string& name) {
                        registrations_.end());
 }
 
+bool Registrations::has(const std::string& name) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return std::any_of(registrations_.begin(), registrations_.end(),
+                     [&](const Registration& r) { return r.request.service().name() == name; });
+}
+
 void Registrations::open(Deferred& out) {
   std::lock_guard<std::mutex> lock(mutex_);
   open_ = true;

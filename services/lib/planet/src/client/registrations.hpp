@@ -24,6 +24,8 @@ class Registrations {
   void add(const camus::RegisterRequest& registration, ReplyHandler handler, Deferred& out);
   // Forgets the service: it is not registered again (unregistering is a call of its own).
   void remove(const std::string& name);
+  // Whether this client provides `name` (added and not removed).
+  bool has(const std::string& name) const;
 
   // A session opened (PendingCalls restoring): registers every service ahead of the queue.
   void open(Deferred& out);
@@ -41,7 +43,7 @@ class Registrations {
   void send_locked(const camus::RegisterRequest& registration, ReplyHandler handler, bool first, Deferred& out);
 
   PendingCalls& calls_;
-  std::mutex mutex_;
+  mutable std::mutex mutex_;
   std::vector<Registration> registrations_;
   bool open_ = false;
   bool closed_ = false;

@@ -60,7 +60,7 @@ void Subscriptions::on_event(const Event& event) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     auto it = subscriptions_.find(event.subscription_id());
-    if (it == subscriptions_.end()) return;           // unsubscribed meanwhile
+    if (it == subscriptions_.end()) return;          // unsubscribed meanwhile
     if (event.seq() <= it->second.last_seq) return;  // duplicate (replayed after a resume)
     it->second.last_seq = event.seq();
     handler = it->second.handler;
@@ -93,15 +93,15 @@ void Subscriptions::on_ack(const SubscribeAck& ack) {
     return;
   }
   if (subscription.last_seq > 0 && ack.oldest_retained_seq() > subscription.last_seq + 1) {
-    spdlog::warn("planet: events {}..{} on '{}' are no longer retained by {}; they are lost",
-                 subscription.last_seq + 1, ack.oldest_retained_seq() - 1, subscription.pattern, target_);
+    spdlog::warn("planet: events {}..{} on '{}' are no longer retained by {}; they are lost", subscription.last_seq + 1,
+                 ack.oldest_retained_seq() - 1, subscription.pattern, target_);
   }
   if (subscription.last_seq == 0) {
     // "Only new events": resume after what was current when subscribing.
     subscription.last_seq = ack.last_seq();
   } else if (ack.last_seq() < subscription.last_seq) {
-    spdlog::warn("planet: {} restarted its event sequence (now {}, had {}); resuming there", target_,
-                 ack.last_seq(), subscription.last_seq);
+    spdlog::warn("planet: {} restarted its event sequence (now {}, had {}); resuming there", target_, ack.last_seq(),
+                 subscription.last_seq);
     subscription.last_seq = ack.last_seq();
   }
 }

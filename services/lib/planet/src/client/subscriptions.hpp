@@ -57,7 +57,7 @@ class Subscriptions {
   std::shared_ptr<FrameSink> sink_;  // null: no session
   uint64_t next_id_ = 1;
   std::map<uint64_t, Subscription> subscriptions_;
-  uint64_t delivering_ = 0;           // the subscription whose handler runs now, or 0
+  uint64_t delivering_ = 0;            // the subscription whose handler runs now, or 0
   std::thread::id delivering_thread_;  // the thread that runs it
 };
 

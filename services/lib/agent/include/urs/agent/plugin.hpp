@@ -52,7 +52,7 @@ struct PluginAgent {
   std::string type;            // the agent type configurations name (urs-sam's `agents[].type`)
   std::string component_type;  // the RT-Component type in urs-rtc-manager (empty: same as type)
   AgentFactory make;
-  std::string description;     // one line, logged when the plug-in is loaded
+  std::string description;  // one line, logged when the plug-in is loaded
 };
 
 class PluginRegistry {
@@ -74,9 +74,9 @@ struct UrsPluginAbi {
 #define URS_PLUGIN_EXPORT __attribute__((visibility("default")))
 
 // Defines the plug-in's ABI symbol; write it once, at namespace scope, in one source file.
-#define URS_PLUGIN_ABI()                                                                   \
+#define URS_PLUGIN_ABI()                                                                             \
   extern "C" URS_PLUGIN_EXPORT const UrsPluginAbi urs_plugin_abi = {::urs::agent::kPluginAbiVersion, \
-                                                                     GOOGLE_PROTOBUF_VERSION}
+                                                                    GOOGLE_PROTOBUF_VERSION}
 
 namespace urs::agent {
 

@@ -46,8 +46,7 @@ class TypedAgent : public ServiceAgent {
   void check_complete() const {
     for (int i = 0; i < interface_->method_count(); ++i) {
       if (handlers_.count(interface_->method(i)->name()) == 0) {
-        throw std::logic_error(interface_->full_name() + "." + interface_->method(i)->name() +
-                               " has no handler");
+        throw std::logic_error(interface_->full_name() + "." + interface_->method(i)->name() + " has no handler");
       }
     }
   }
@@ -69,13 +68,12 @@ class TypedAgent : public ServiceAgent {
   void on(const std::string& operation, std::function<Outcome(const Req&, Rep&, const CallContext&)> fn,
           Run run = Run::on_worker) {
     const auto* method = interface_->FindMethodByName(operation);
-    if (method == nullptr || method->input_type() != Req::descriptor() ||
-        method->output_type() != Rep::descriptor()) {
+    if (method == nullptr || method->input_type() != Req::descriptor() || method->output_type() != Rep::descriptor()) {
       throw std::logic_error("handler for " + interface_->full_name() + "." + operation +
                              " does not match the interface");
     }
     handlers_[operation] = {[fn = std::move(fn)](const google::protobuf::Message& request,
-                                                  google::protobuf::Message& reply, const CallContext& ctx) {
+                                                 google::protobuf::Message& reply, const CallContext& ctx) {
                               return fn(static_cast<const Req&>(request), static_cast<Rep&>(reply), ctx);
                             },
                             run};

@@ -5,6 +5,7 @@
 //   instance: Bridge0               # the bridge's RTC instance name (default Bridge<N>)
 //   activate: true                  # activate the bridge RTC at start (default true)
 //   workers: 16                     # threads running bridged calls towards RT providers
+//   queue: 1024                     # calls waiting for a worker beyond which one is refused (0: none)
 //   idl: [path/Thermostat.idl]      # interfaces the bridge was not built with, loaded at start
 //   include_dirs: [path]            # where those files' #includes are found
 //   rt_to_camus:                    # RT provider ports offered as CAMUS services
@@ -16,7 +17,7 @@
 //                                   # ({host}: the naming context <host>.host_cxt the RTC is bound in)
 //         deadline_ms: 10000        # bound on each call (advertised to CAMUS callers too)
 //   camus_to_rt:                    # CAMUS services offered as RT-Components
-//     poll_ms: 500
+//     poll_ms: 10000                # fallback: the registry is read on its registry/<name> events
 //     services:
 //       - match: "tts*"             # glob on CAMUS service names
 //         instance: "{service}"     # RTC instance name; characters other than [A-Za-z0-9_-] become '_'
@@ -30,11 +31,18 @@
 //   dds:                            # link to other spaces over DDS (docs/federation.md)
 //     domain: 0
 //     lease_ms: 3000                # a silent bridge's services and state leave the others after this
+//     hold_lost_ms: 30000           # ... but its services stay offered, "unreachable" (calls refused with
+//                                   #   UNAVAILABLE naming the space), this long after (0: none)
 //     participant_lease_ms: 20000   # a silent participant is dropped after this (>= lease_ms; no
 //                                   #   shorter than any peer's own lease: docs/federation.md)
 //     udp_only: false               # true between containers (no shared memory)
 //     socket_buffer_bytes: 4194304
 //     initial_peers: [bridge-kr]    # HOST or HOST:PORT, for networks without multicast
+//     transport: udp                # or tcp: one TCP connection between sites (docs/sites.md)
+//     tcp:                          # with transport: tcp
+//       listen: 7400                #   this site listens on this port (forwarded by its router)
+//       public: "198.51.100.2:7400" #   where the others reach it: IPv4[:PORT] (PORT: listen's)
+//       connect: ["198.51.100.2:7400"]  # or/and: the listening sites' public HOST:PORT
 //     security:                     # DDS-Security between spaces (docs/federation.md, "A secured link")
 //       pki: /run/secrets/federation  # deploy/pki.sh's folder: ca.pem, governance.p7s, crl.pem, <space>/...
 //       # or, each overriding the folder's: identity_ca, certificate, private_key, permissions_ca,
@@ -78,10 +86,11 @@
 #include <string>
 #include <vector>
 
-#include "urs/bridge/call_audit.hpp"          // AuditConfig
-#include "urs/bridge/call_authorization.hpp"  // CallerPolicy
-#include "urs/bridge/core/rules.hpp"          // glob_match, allowed, expand
-#include "urs/bridge/dds_link.hpp"    // DdsOptions
+#include "urs/bridge/core/rules.hpp"              // glob_match, allowed, expand
+#include "urs/bridge/dds/call_audit.hpp"          // AuditConfig
+#include "urs/bridge/dds/call_authorization.hpp"  // CallerPolicy
+#include "urs/federation/dds_link.hpp"            // DdsOptions
+#include "urs/federation/state_link.hpp"          // PoseRelay
 
 namespace urs::bridge {
 
@@ -113,35 +122,26 @@ struct EventsToRt {
   std::string port;
 };
 
-// Robot poses of this space's devices (urs/localizer/pose or urs/world/pose in their own DDS
-// domain, idl/dds/WorldState.idl) relayed to the other spaces, each robot at most every `period`.
-struct PoseRelay {
-  uint32_t domain = 1;        // the devices' domain: must differ from the link's
-  bool ground_truth = false;  // false: the localizers' measurements
-  std::vector<std::string> robots;
-  std::chrono::milliseconds period{100};
-};
-
-// What a space shares over DDS besides its catalog (StateLink, docs/federation.md).
+// What a space shares over DDS besides its catalog (federation::StateLink, docs/federation.md).
 struct StateConfig {
-  bool components = true;                   // RTC lifecycle states and CAMUS agents
-  std::chrono::milliseconds period{1000};   // how often RTC states are read
-  std::optional<PoseRelay> poses;
-  std::vector<std::string> events;          // Planet patterns of the CAMUS events shared
-  std::vector<std::string> context_allow;   // globs on the CAMUS context keys shared (none by default)
+  bool components = true;                  // RTC lifecycle states and CAMUS agents
+  std::chrono::milliseconds period{1000};  // how often RTC states are read
+  std::optional<federation::PoseRelay> poses;
+  std::vector<std::string> events;         // Planet patterns of the CAMUS events shared
+  std::vector<std::string> context_allow;  // globs on the CAMUS context keys shared (none by default)
   std::vector<std::string> context_deny;
-  bool import = true;                       // the others' state into this space's CAMUS context and events
+  bool import = true;  // the others' state into this space's CAMUS context and events
 };
 
 // The link's settings as the bridge's defaults have them: a participant lease of 20 s, or
 // lease_ms if longer (load_bridge_config).
-DdsOptions bridge_link_defaults();
+federation::DdsOptions bridge_link_defaults();
 
 struct DdsConfig {
   bool enabled = false;
   // domain, lease, participant_lease, udp_only, socket_buffer_bytes, initial_peers, discovery_*;
   // `space` and `bridge` are left empty here (the bridge sets them from BridgeConfig).
-  DdsOptions link = bridge_link_defaults();
+  federation::DdsOptions link = bridge_link_defaults();
   // dds.security.pki: a folder laid out by deploy/pki.sh whose files of this space (as the bridge
   // learns its space) fill link.security where dds.security names no file of its own.
   std::string security_pki;
@@ -154,6 +154,7 @@ struct DdsConfig {
   std::string as_camus = "{space}/{service}";
   std::string as_rtc = "{space}_{service}";
   uint32_t deadline_ms = 10000;
+  std::chrono::milliseconds hold_lost{30000};  // dds.hold_lost_ms (DdsSideConfig::hold_lost)
   StateConfig state;
 };
 
@@ -166,10 +167,11 @@ struct BridgeConfig {
   std::string instance;
   bool activate = true;
   unsigned workers = 16;
+  std::size_t queue = 1024;  // of each side's AgentHost (agent::HostOptions::max_queued)
   std::vector<std::string> idl;
   std::vector<std::string> include_dirs;
   std::chrono::milliseconds rt_poll{200};
-  std::chrono::milliseconds camus_poll{500};
+  std::chrono::milliseconds camus_poll{10000};  // a fallback: registry/<name> events wake the CAMUS directions
   std::vector<ProviderRule> providers;
   std::vector<ServiceRule> services;
   std::vector<DataToCamus> data_to_camus;

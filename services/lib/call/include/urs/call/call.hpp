@@ -21,20 +21,20 @@ namespace urs::call {
 // library checks it at compile time) and of the DDS CallReply.status: never renumber.
 enum class Status : std::int32_t {
   OK = 0,
-  UNKNOWN_SERVICE = 1,     // no service of that name
-  UNKNOWN_OPERATION = 2,   // the service's interface has no such operation
-  BAD_ARGUMENTS = 3,       // the payload is not the operation's request, or a value is out of range
-  PROVIDER_GONE = 4,       // the provider disconnected or died before replying
-  DEADLINE_EXCEEDED = 5,   // no reply within the call's deadline
-  INTERNAL = 6,            // a bug or unexpected failure in the callee; the message says what
-  USER_EXCEPTION = 7,      // the operation raised an exception its interface declares
-  UNAVAILABLE = 8,         // the callee cannot be reached now, or is shutting down
-  UNAUTHENTICATED = 9,     // the caller's credential is wrong or missing
-  PAYLOAD_TOO_LARGE = 10,  // over the receiver's message size limit
-  ALREADY_EXISTS = 11,     // e.g. a service name another provider owns
-  NOT_FOUND = 12,          // e.g. a context key or task that does not exist
-  RESOURCE_EXHAUSTED = 13, // a queue or quota is full
-  PERMISSION_DENIED = 14,  // the caller's role may not do this
+  UNKNOWN_SERVICE = 1,      // no service of that name
+  UNKNOWN_OPERATION = 2,    // the service's interface has no such operation
+  BAD_ARGUMENTS = 3,        // the payload is not the operation's request, or a value is out of range
+  PROVIDER_GONE = 4,        // the provider disconnected or died before replying
+  DEADLINE_EXCEEDED = 5,    // no reply within the call's deadline
+  INTERNAL = 6,             // a bug or unexpected failure in the callee; the message says what
+  USER_EXCEPTION = 7,       // the operation raised an exception its interface declares
+  UNAVAILABLE = 8,          // the callee cannot be reached now, or is shutting down
+  UNAUTHENTICATED = 9,      // the caller's credential is wrong or missing
+  PAYLOAD_TOO_LARGE = 10,   // over the receiver's message size limit
+  ALREADY_EXISTS = 11,      // e.g. a service name another provider owns
+  NOT_FOUND = 12,           // e.g. a context key or task that does not exist
+  RESOURCE_EXHAUSTED = 13,  // a queue or quota is full
+  PERMISSION_DENIED = 14,   // the caller's role may not do this
 };
 
 // The highest number of Status; numbers 0..kLastStatus are all statuses.
@@ -67,12 +67,13 @@ struct Identity {
 struct Request {
   using Clock = std::chrono::steady_clock;
 
-  std::string service;    // e.g. "robot1.navigation"
-  std::string operation;  // a method of the service's interface, e.g. "moveTo"
-  std::string payload;    // the serialized request message of the operation
+  std::string service;                                    // e.g. "robot1.navigation"
+  std::string operation;                                  // a method of the service's interface, e.g. "moveTo"
+  std::string payload;                                    // the serialized request message of the operation
   Clock::time_point deadline = Clock::time_point::max();  // after this the caller has given up; max: none
   Identity caller;
-  bool oneway = false;    // nothing is sent back
+  bool oneway = false;      // nothing is sent back
+  std::string traceparent;  // the W3C trace context it came with (urs/util/trace.hpp); empty: none
 
   bool has_deadline() const { return deadline != Clock::time_point::max(); }
 };

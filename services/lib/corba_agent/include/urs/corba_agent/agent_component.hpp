@@ -8,9 +8,8 @@
 // An agent that is agent::Tunable offers its parameters as the component's configuration
 // parameters: a tool's change (rtconf set, `urs rtc conf set`) reaches the agent at once.
 
-#include <yaml-cpp/yaml.h>
-
 #include <google/protobuf/dynamic_message.h>
+#include <yaml-cpp/yaml.h>
 
 #include <chrono>
 #include <functional>
@@ -79,6 +78,7 @@ struct AgentComponentConfig {
   std::string interface_instance;  // empty: the same as the port
   std::vector<EventStream> streams;
   std::chrono::milliseconds deadline{10000};  // CallContext::deadline of each call, from its arrival
+  call::CallRecorder* calls = nullptr;        // AgentServantOptions::calls
 };
 
 class AgentComponent : public rtc::Component {
@@ -114,8 +114,10 @@ class AgentComponent : public rtc::Component {
 //   interface_instance:  the provided interface's instance name (default: the port's name)
 //   streams:             [{topic: <event topic>, port: <OutPort name>, type: <Protobuf message>}]
 //   deadline_ms:         the deadline the agent sees for each call (AgentComponentConfig::deadline)
-// make_agent and the keys above throw urs::util::ConfigError naming the key.
+// make_agent and the keys above throw urs::util::ConfigError naming the key. With `calls`, the
+// components' calls are counted there (AgentServantOptions::calls; it outlives them).
 rtc::ComponentFactory agent_component_factory(
-    std::string type_name, std::function<std::shared_ptr<agent::ServiceAgent>(const YAML::Node& params)> make_agent);
+    std::string type_name, std::function<std::shared_ptr<agent::ServiceAgent>(const YAML::Node& params)> make_agent,
+    call::CallRecorder* calls = nullptr);
 
 }  // namespace urs::corba_agent

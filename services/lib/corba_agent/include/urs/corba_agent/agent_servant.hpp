@@ -17,13 +17,17 @@
 #include <vector>
 
 #include "urs/agent/agent.hpp"
+#include "urs/call/recorder.hpp"
 #include "urs/corba_agent/cdr_codec.hpp"
 
 namespace urs::corba_agent {
 
 struct AgentServantOptions {
-  std::string service_name;                      // CallContext::service the agent sees
-  std::chrono::milliseconds deadline{10000};     // CallContext::deadline, from the call's arrival
+  std::string service_name;                   // CallContext::service the agent sees
+  std::chrono::milliseconds deadline{10000};  // CallContext::deadline, from the call's arrival
+  // Where each call is counted when answered (metrics), as service_name and the operation of the
+  // interface (an operation it does not have: "other"); null: not counted. Outlives the servant.
+  call::CallRecorder* calls = nullptr;
 };
 
 class AgentServant : public PortableServer::DynamicImplementation {

@@ -18,8 +18,8 @@
 #include <map>
 #include <memory>
 #include <mutex>
-#include <thread>
 #include <string>
+#include <thread>
 
 #include "urs/agent/agent.hpp"
 #include "urs/corba_agent/cdr_codec.hpp"
@@ -36,6 +36,9 @@ struct CorbaProxyOptions {
   // does not exist when its owner knows (e.g. "provider component P is INACTIVE; activate it
   // with `urs rtc act P`"), answered as UNAVAILABLE with that text; "" keeps "provider gone".
   std::function<std::string()> explain_missing_target{};
+  // The ORB's bound on calls in flight at once to one process (rtc::OrbOptions::max_calls_per_peer),
+  // named in the DEADLINE_EXCEEDED of a call whose deadline passed before it could be sent; 0: not named.
+  unsigned max_calls_per_peer = 0;
 };
 
 class CorbaProxyAgent : public agent::ServiceAgent {
@@ -66,7 +69,7 @@ class CorbaProxyAgent : public agent::ServiceAgent {
   std::string target_ior_;
   mutable std::mutex references_mutex_;
   mutable std::map<std::thread::id, CORBA::Object_var> references_;  // one per calling thread
-  google::protobuf::DynamicMessageFactory factory_;  // exception messages; read-only once built
+  google::protobuf::DynamicMessageFactory factory_;                  // exception messages; read-only once built
   std::unique_ptr<CdrCodec> codec_;
   std::map<const google::protobuf::MethodDescriptor*, std::unique_ptr<Call>> calls_;
 };

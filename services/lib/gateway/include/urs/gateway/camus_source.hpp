@@ -54,7 +54,7 @@ class CamusSource : public SpaceSource {
   PayloadDecoder decoder_;
   std::unique_ptr<planet::Client> client_;
   ViewSink* sink_ = nullptr;
-  std::set<std::string> described_;  // interfaces in decoder_.pool() (the poller's own)
+  std::set<std::string> described_;      // interfaces in decoder_.pool() (the poller's own)
   std::atomic<bool> context_due_{true};  // after every (re)connection
   Poller poller_;
 };

@@ -19,9 +19,9 @@
 #include <mutex>
 #include <string>
 
-#include "urs/bridge/dds_link.hpp"
-#include "urs/bridge/link_retry.hpp"
-#include "urs/bridge/state_link.hpp"
+#include "urs/federation/dds_link.hpp"
+#include "urs/federation/link_retry.hpp"
+#include "urs/federation/state_link.hpp"
 #include "urs/gateway/payloads.hpp"
 #include "urs/gateway/poller.hpp"
 #include "urs/gateway/space_view.hpp"
@@ -29,11 +29,11 @@
 namespace urs::gateway {
 
 struct DdsSourceOptions {
-  std::string space;         // the gateway's own space
-  bridge::DdsOptions link;   // domain, lease, transports, peers; `space` and `bridge` are set here
-  bool own_services = true;  // the own space's catalog entries and components too
-  bool own_state = true;     // the own space's context entries and events too
-  bool own_poses = true;     // the own space's poses too
+  std::string space;            // the gateway's own space
+  federation::DdsOptions link;  // domain, lease, transports, peers; `space` and `bridge` are set here
+  bool own_services = true;     // the own space's catalog entries and components too
+  bool own_state = true;        // the own space's context entries and events too
+  bool own_poses = true;        // the own space's poses too
 };
 
 class DdsSource : public SpaceSource {
@@ -51,21 +51,22 @@ class DdsSource : public SpaceSource {
 
  private:
   void join();
-  bridge::StateHandlers state_handlers();
+  federation::StateHandlers state_handlers();
   void read_catalog();
-  void component(const bridge::ComponentState& state, bool alive);
+  void component(const federation::ComponentState& state, bool alive);
   bool wanted(const std::string& space, bool own) const { return own || space != options_.space; }
 
   const DdsSourceOptions options_;
   ViewSink* sink_ = nullptr;
   PayloadDecoder decoder_;
-  std::unique_ptr<bridge::DdsLink> link_;
-  std::unique_ptr<bridge::StateLink> state_;
+  std::unique_ptr<federation::DdsLink> link_;
+  std::unique_ptr<federation::StateLink> state_;
 
   std::mutex components_mutex_;
   std::map<std::pair<std::string, std::string>, Component> components_;
-  bridge::LinkRetry link_retry_;  // the poller's thread only (and start()'s, before it runs)
-  Poller poller_;  // joins the link until it is joined, then reads the catalog when DDS says it changed; liveliness ends at a lease's pace
+  federation::LinkRetry link_retry_;  // the poller's thread only (and start()'s, before it runs)
+  Poller poller_;  // joins the link until it is joined, then reads the catalog when DDS says it changed; liveliness
+                   // ends at a lease's pace
 };
 
 }  // namespace urs::gateway

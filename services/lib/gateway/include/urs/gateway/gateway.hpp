@@ -9,6 +9,7 @@
 //   /trails       urs.gateway.Trail       each robot's recent path (for clients that join late)
 //   /context      urs.gateway.ContextEntry  context entries of every space (latched per key)
 //   /events       urs.gateway.Event       events of every space, payloads decoded (recent ones kept)
+//   /calls        urs.gateway.Call        every call made through the gateway, with its reply
 //   /<space>/<robot>/pose                 one robot's poses, for plots in Foxglove and Lichtblick
 //
 // and the sources' operations as Foxglove services, plus the connection graph.
@@ -30,17 +31,19 @@
 namespace urs::gateway {
 
 struct GatewayOptions {
-  std::string space;                          // the gateway's own space
-  std::vector<std::string> middlewares;       // of its own space: "camus", "rtc"
-  bool dds = false;                           // it reads the DDS link
+  std::string space;                     // the gateway's own space
+  std::vector<std::string> middlewares;  // of its own space: "camus", "rtc"
+  bool dds = false;                      // it reads the DDS link
   uint32_t dds_domain = 0;
-  std::size_t trail_points = 600;             // per robot
+  std::size_t trail_points = 600;  // per robot
   // A trail point only when the robot moved this far from the last one: more than a localizer's
   // noise (2 cm standard deviation by default), so a robot standing still keeps its path.
   double trail_spacing_m = 0.1;
   std::chrono::milliseconds trail_period{1000};  // /trails is published at most this often per robot
-  std::size_t event_history = 200;            // events kept for clients that subscribe later
-  std::size_t max_robots = 64;                // robots with a channel of their own
+  std::size_t event_history = 200;               // events kept for clients that subscribe later
+  std::size_t max_robots = 64;                   // robots with a channel of their own
+  std::size_t call_history = 100;                // calls kept for clients that subscribe later
+  std::size_t max_call_json = 64 * 1024;         // a longer request or reply is left out of /calls
 };
 
 class Gateway : public ViewSink {
@@ -59,6 +62,9 @@ class Gateway : public ViewSink {
   void context(const ContextEntry& entry) override;
   void event(const Event& event) override;
 
+  // A call made through the gateway, answered: published on /calls (a recording's, when playing).
+  void call(const Call& call);
+
   // The hub's channel id of a fixed topic ("/poses"), 0 if none; for tests and benchmarks.
   uint32_t channel(const std::string& topic) const;
 
@@ -75,6 +81,7 @@ class Gateway : public ViewSink {
     std::string response_schema;
   };
 
+  void serve(const std::string& name, const Caller& caller, std::string json, std::function<void(CallReply)> reply);
   void publish_snapshots();  // caller holds mutex_
   void publish_graph();      // caller holds mutex_
   void publish(uint32_t channel, const google::protobuf::Message& message, uint64_t stamp_ns,

@@ -4,10 +4,15 @@
 // it answers what clients send and fans each published message out to the clients subscribed to
 // its channel — only to them (docs/dashboard.md).
 //
+// With HubOptions.client_publish (a gateway playing a recording back) an operator's client may
+// advertise channels of its own (clientPublish) and send messages on them: each goes to the
+// PublishHandler, which says whether it was taken.
+//
 // Threading: every member function may be called from any thread; one mutex guards the state and
 // is held while messages are handed to the clients' outboxes, which never block. Service calls are
 // handed to their handler with the mutex released; the handler answers through `reply`, from any
-// thread, exactly once.
+// thread, exactly once. A published message is handed to the PublishHandler with the mutex
+// released, on the thread that received it.
 // Memory: what a slow client has not taken yet is bounded by its outbox (the WebSocket session
 // drops it); what the hub keeps is bounded per channel (latched values, history) and by
 // HubOptions.
@@ -45,7 +50,8 @@ const char* role_name(Role role);
 struct Caller {
   uint64_t client = 0;
   Role role = Role::viewer;
-  std::string login;  // the login session's id ("" for an anonymous viewer); see Logins
+  std::string login;     // the login session's id ("" for an anonymous viewer); see Logins. A secret.
+  std::string identity;  // the login's credential name as the CAMUS server named it ("" if none)
 };
 
 // The outcome of one service call: `json` on success, else `error` (what the client is told).
@@ -58,6 +64,10 @@ struct CallReply {
 };
 using ServiceHandler =
     std::function<void(const Caller& caller, std::string request_json, std::function<void(CallReply)> reply)>;
+// Takes one message a client published on its channel `topic`; returns "" if taken, else why not
+// (sent back to that client as an error Status).
+using PublishHandler = std::function<std::string(const Caller& caller, const std::string& topic,
+                                                 const std::string& schema_name, const std::string& payload)>;
 
 // How a channel keeps what it published, for clients that subscribe later.
 enum class Latch {
@@ -77,10 +87,12 @@ struct ChannelSpec {
 struct HubOptions {
   std::string name = "urs-gateway";
   std::vector<std::pair<std::string, std::string>> metadata;
-  std::string session_id;                 // serverInfo.sessionId: this process's run
-  std::size_t max_calls_in_flight = 8;    // per client; more are refused at once
-  std::size_t max_subscriptions = 4096;   // per client
+  std::string session_id;                // serverInfo.sessionId: this process's run
+  std::size_t max_calls_in_flight = 8;   // per client; more are refused at once
+  std::size_t max_subscriptions = 4096;  // per client
   std::size_t max_keys_per_channel = 4096;
+  bool client_publish = false;           // offer clientPublish (operators only)
+  std::size_t max_client_channels = 64;  // per client
 };
 
 class Hub {
@@ -103,10 +115,12 @@ class Hub {
   void remove_service(uint32_t id);
   // The whole connection graph now; clients subscribed to it get what changed.
   void set_graph(const foxglove::GraphUpdate& graph);
+  // Where clients' published messages go (with HubOptions.client_publish); set before clients come.
+  void set_publish_handler(PublishHandler handler);
 
   // ---- clients ----
   // Sends serverInfo, the channels and the services; returns the client's id.
-  uint64_t connect(std::shared_ptr<Outbox> outbox, Role role, std::string login);
+  uint64_t connect(std::shared_ptr<Outbox> outbox, Role role, std::string login, std::string identity = {});
   void disconnect(uint64_t client);
   // A client's text or binary message. Bad input is answered with a Status (error level) and
   // changes nothing; the client stays connected.
@@ -138,7 +152,9 @@ class Hub {
     std::shared_ptr<Outbox> outbox;
     Role role = Role::viewer;
     std::string login;
-    std::map<uint32_t, uint32_t> subscriptions;  // subscription id -> channel id
+    std::string identity;
+    std::map<uint32_t, foxglove::ClientChannel> published;  // its clientPublish channels, by its ids
+    std::map<uint32_t, uint32_t> subscriptions;             // subscription id -> channel id
     bool graph = false;
     std::size_t calls_in_flight = 0;
   };
@@ -147,6 +163,9 @@ class Hub {
   void subscribe(uint64_t id, Client& client, const foxglove::Subscribe& request);
   void unsubscribe(uint64_t id, Client& client, const foxglove::Unsubscribe& request);
   void call(uint64_t id, Client& client, foxglove::ServiceCallRequest request);
+  void advertise(Client& client, const foxglove::ClientAdvertise& request);
+  void unadvertise(Client& client, const foxglove::ClientUnadvertise& request);
+  std::vector<std::string> capabilities() const;
   void answer(uint64_t client, uint32_t service_id, uint32_t call_id, const CallReply& reply);
   static void send_message(Client& client, uint32_t subscription, const Latched& message);
 
@@ -159,6 +178,7 @@ class Hub {
   std::map<uint32_t, ServiceState> services_;
   std::map<uint64_t, Client> clients_;
   foxglove::GraphUpdate graph_;  // the whole graph, as last set
+  PublishHandler publish_handler_;
 };
 
 }  // namespace urs::gateway

@@ -38,7 +38,7 @@ class JsonWriter {
   void separate();
 
   std::string out_;
-  bool first_ = true;      // no element written yet in the current object or array
+  bool first_ = true;  // no element written yet in the current object or array
   bool after_key_ = false;
 };
 

@@ -18,12 +18,12 @@
 // call it off the network thread.
 
 #include <chrono>
+#include <deque>
 #include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
-#include <deque>
 
 #include "urs/gateway/hub.hpp"
 #include "urs/planet/client.hpp"

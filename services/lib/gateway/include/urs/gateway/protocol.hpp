@@ -20,15 +20,16 @@ namespace urs::gateway::foxglove {
 inline constexpr const char* kSubprotocol = "foxglove.websocket.v1";
 
 // Limits on what one client message may hold (checked before anything is allocated for it).
-inline constexpr std::size_t kMaxTextMessage = 64 * 1024;        // bytes of one JSON message
-inline constexpr std::size_t kMaxBinaryMessage = 1024 * 1024;    // bytes of one binary message
-inline constexpr std::size_t kMaxIdsPerMessage = 1024;           // subscriptions, ids per message
-inline constexpr std::size_t kMaxEncodingLength = 64;            // bytes of a service call's encoding
+inline constexpr std::size_t kMaxTextMessage = 64 * 1024;      // bytes of one JSON message
+inline constexpr std::size_t kMaxBinaryMessage = 1024 * 1024;  // bytes of one binary message
+inline constexpr std::size_t kMaxIdsPerMessage = 1024;         // subscriptions, ids per message
+inline constexpr std::size_t kMaxEncodingLength = 64;          // bytes of a service call's encoding
+inline constexpr std::size_t kMaxNameLength = 256;             // bytes of a client channel's topic or schema name
 
 // ---- client -> server ------------------------------------------------------------------------
 
 struct Subscription {
-  uint32_t id = 0;          // chosen by the client
+  uint32_t id = 0;  // chosen by the client
   uint32_t channel_id = 0;
 };
 struct Subscribe {
@@ -45,8 +46,26 @@ struct ServiceCallRequest {
   std::string encoding;
   std::string payload;
 };
-// An operation of the specification the gateway does not offer (clientPublish, parameters,
-// assets): refused with a Status naming it.
+// clientPublish: a client's channels (their schema, if sent, is not kept), their withdrawal, and
+// one message on one of them.
+struct ClientChannel {
+  uint32_t id = 0;  // chosen by the client
+  std::string topic;
+  std::string encoding;
+  std::string schema_name;
+};
+struct ClientAdvertise {
+  std::vector<ClientChannel> channels;
+};
+struct ClientUnadvertise {
+  std::vector<uint32_t> channel_ids;
+};
+struct ClientMessageData {
+  uint32_t channel_id = 0;
+  std::string payload;
+};
+// An operation of the specification the gateway does not offer (parameters, assets): refused
+// with a Status naming it.
 struct Unsupported {
   std::string op;
 };
@@ -55,8 +74,9 @@ struct ProtocolError {
   std::string message;  // e.g. "subscribe: subscriptions[2].channelId is not an integer in 0..4294967295"
 };
 
-using ClientMessage = std::variant<Subscribe, Unsubscribe, SubscribeConnectionGraph, UnsubscribeConnectionGraph,
-                                   ServiceCallRequest, Unsupported, ProtocolError>;
+using ClientMessage =
+    std::variant<Subscribe, Unsubscribe, SubscribeConnectionGraph, UnsubscribeConnectionGraph, ServiceCallRequest,
+                 ClientAdvertise, ClientUnadvertise, ClientMessageData, Unsupported, ProtocolError>;
 
 ClientMessage parse_text(std::string_view text);
 ClientMessage parse_binary(std::string_view bytes);
@@ -70,7 +90,7 @@ struct Channel {
   std::string topic;
   std::string encoding = "json";
   std::string schema_name;
-  std::string schema;                        // JSON Schema text for encoding "json"
+  std::string schema;  // JSON Schema text for encoding "json"
   std::string schema_encoding = "jsonschema";
 };
 
@@ -109,7 +129,8 @@ struct GraphUpdate {
 // JSON messages (text frames).
 std::string server_info(const std::string& name, const std::vector<std::string>& capabilities,
                         const std::vector<std::string>& supported_encodings,
-                        const std::vector<std::pair<std::string, std::string>>& metadata, const std::string& session_id);
+                        const std::vector<std::pair<std::string, std::string>>& metadata,
+                        const std::string& session_id);
 std::string status(StatusLevel level, const std::string& message, const std::string& id = {});
 std::string advertise(const std::vector<const Channel*>& channels);
 std::string unadvertise(const std::vector<uint32_t>& channel_ids);

@@ -18,11 +18,11 @@
 #include <vector>
 
 #include "urs/agent/agent.hpp"
-#include "urs/bridge/interfaces.hpp"
 #include "urs/gateway/poller.hpp"
 #include "urs/gateway/space_view.hpp"
 #include "urs/rtc/naming.hpp"
 #include "urs/rtc/orb.hpp"
+#include "urs/schema/interface_catalog.hpp"
 
 namespace urs::gateway {
 
@@ -54,7 +54,7 @@ class RtSource : public SpaceSource {
   const RtSourceOptions options_;
   rtc::Orb& orb_;
   rtc::NamingClient naming_;
-  bridge::InterfaceCatalog catalog_;
+  schema::InterfaceCatalog catalog_;
   ViewSink* sink_ = nullptr;
   std::unique_ptr<agent::WorkerPool> pool_;
   bool reported_unreachable_ = false;  // the poller's own

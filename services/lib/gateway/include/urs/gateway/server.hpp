@@ -34,10 +34,10 @@ namespace urs::gateway {
 
 struct ServerOptions {
   std::string host = "127.0.0.1";
-  uint16_t port = 0;                     // 0: any free port (see port())
-  std::string web_dir;                   // the dashboard's files
+  uint16_t port = 0;    // 0: any free port (see port())
+  std::string web_dir;  // the dashboard's files
   std::string space;
-  std::optional<Role> anonymous;         // the role of a connection without a login; none: refused
+  std::optional<Role> anonymous;  // the role of a connection without a login; none: refused
   std::size_t max_connections = 256;
   std::size_t max_clients = 64;
   std::size_t max_queue_bytes = 8u << 20;

@@ -24,11 +24,11 @@ namespace urs::gateway {
 
 // One operation clients may call, offered as a Foxglove service named `name`.
 struct Operation {
-  std::string name;      // e.g. "diag/echo", "labpc.host_cxt/Robot0.rtc:navigation/moveTo"
-  std::string type;      // e.g. "URS.Diagnostic.echo", "urs.gateway.Lifecycle.activate"
-  std::string space;     // the space of the service it calls
-  std::string service;   // that service's name (Service.name), or the component's (Component.name)
-  const google::protobuf::Descriptor* request = nullptr;   // valid as long as the source
+  std::string name;     // e.g. "diag/echo", "labpc.host_cxt/Robot0.rtc:navigation/moveTo"
+  std::string type;     // e.g. "URS.Diagnostic.echo", "urs.gateway.Lifecycle.activate"
+  std::string space;    // the space of the service it calls
+  std::string service;  // that service's name (Service.name), or the component's (Component.name)
+  const google::protobuf::Descriptor* request = nullptr;  // valid as long as the source
   const google::protobuf::Descriptor* response = nullptr;
   ServiceHandler handler;  // runs the call; must not block the calling thread (hand work to a pool)
 };

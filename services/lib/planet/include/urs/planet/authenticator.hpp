@@ -14,11 +14,11 @@ inline constexpr const char* kAnonymousIdentity = "anonymous";
 
 // The authenticated identity of an open session.
 struct Identity {
-  std::string name;          // the credential's name (kAnonymousIdentity on an open server)
-  Role role = CLIENT;        // what the session may do: CLIENT < SAM < OPERATOR
-  uint64_t session = 0;      // the resumable session: the same across the reconnects that
-                             // presented its Welcome.session_secret; unique in the server process
-  std::string fingerprint;   // of the credential as admitted; changes when the operator changes it
+  std::string name;         // the credential's name (kAnonymousIdentity on an open server)
+  Role role = CLIENT;       // what the session may do: CLIENT < SAM < OPERATOR
+  uint64_t session = 0;     // the resumable session: the same across the reconnects that
+                            // presented its Welcome.session_secret; unique in the server process
+  std::string fingerprint;  // of the credential as admitted; changes when the operator changes it
 };
 
 // The outcome of checking a Hello's credential.
@@ -47,10 +47,14 @@ class Authenticator {
 // "client", "sam", "operator" (lower case, as in credentials files); "none" otherwise.
 inline const char* role_word(Role role) {
   switch (role) {
-    case CLIENT: return "client";
-    case SAM: return "sam";
-    case OPERATOR: return "operator";
-    default: return "none";
+    case CLIENT:
+      return "client";
+    case SAM:
+      return "sam";
+    case OPERATOR:
+      return "operator";
+    default:
+      return "none";
   }
 }
 

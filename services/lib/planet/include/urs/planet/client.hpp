@@ -10,6 +10,9 @@
 //   resent after a reconnect (at-least-once; the server drops duplicates within its lifetime).
 // - Heartbeats: the server's Welcome sets the interval and timeout; a silent server is declared
 //   dead after heartbeat_timeout and the client reconnects.
+// - Trace context: every call carries a W3C traceparent (Request.traceparent): the child of the
+//   calling thread's current trace (util::TraceScope), else a new trace. A request served is
+//   handled, and answered, inside a TraceScope of the traceparent it came with.
 // - Identity: `token` names the client's credential to the server. The server's Welcome carries a
 //   session secret that the client presents on every reconnect to resume its session (its
 //   registrations and publish de-duplication carry over); the secret is never logged.
@@ -26,30 +29,38 @@
 #include "camus.pb.h"
 #include "planet.pb.h"
 #include "urs/call/call.hpp"
+#include "urs/call/recorder.hpp"
 #include "urs/planet/status.hpp"
 #include "urs/util/tls.hpp"
+#include "urs/util/trace.hpp"
 
 namespace urs::planet {
 
 struct ClientOptions {
   std::string host = "127.0.0.1";
   uint16_t port = 0;
-  std::string token;                  // the credential's token (e.g. read from --token-file)
-  std::string peer_name = "client";   // for display only; the server acts on the credential
-  Role role = CLIENT;                 // the least role needed: SAM to register services
+  std::string token;                 // the credential's token (e.g. read from --token-file)
+  std::string peer_name = "client";  // for display only; the server acts on the credential
+  Role role = CLIENT;                // the least role needed: SAM to register services
   std::chrono::milliseconds connect_timeout{2000};
   std::chrono::milliseconds reconnect_min{50};
   std::chrono::milliseconds reconnect_max{2000};
   // A call made without a deadline may wait this long for a connection (then UNAVAILABLE);
   // once sent, the server bounds it (see call_async).
   std::chrono::milliseconds queue_timeout{10000};
-  size_t max_queued = 10000;              // calls + publishes waiting for a connection
+  size_t max_queued = 10000;  // calls + publishes waiting for a connection
   uint64_t max_message_bytes = 64ull << 20;
   uint32_t chunk_bytes = 64u << 10;
   // TLS 1.3 when tls.enabled: the server's certificate is verified against tls.ca_file (else the
   // system's CAs) and must name tls.server_name (else `host`); tls.cert_file/key_file present a
   // client certificate (mutual TLS).
   util::TlsConfig tls;
+  // Metrics (docs/operations.md, "Monitoring"): the calls this client makes (`calls`, counted
+  // under their names once the callee's answer confirms them: CallRecorder::record_unchecked) and
+  // those it answers as a provider (`served_calls`, under the names of the services it registered).
+  // Null: not counted. They outlive the client.
+  call::CallRecorder* calls = nullptr;
+  call::CallRecorder* served_calls = nullptr;
 };
 
 using ReplyHandler = std::function<void(CallResult)>;
@@ -107,6 +118,10 @@ class Client {
   // answer (or a lost connection), and bounds only the wait for a connection by queue_timeout.
   void call_async(const std::string& service, const std::string& operation, std::string payload,
                   std::chrono::milliseconds deadline, ReplyHandler handler);
+  // The same with an explicit trace: the request carries `trace` as it is (the caller made it,
+  // e.g. `urs call`, which prints its id).
+  void call_async(const std::string& service, const std::string& operation, std::string payload,
+                  std::chrono::milliseconds deadline, ReplyHandler handler, const util::TraceContext& trace);
   CallResult call(const std::string& service, const std::string& operation, std::string payload,
                   std::chrono::milliseconds deadline = std::chrono::milliseconds{0});
   // Fire-and-forget; returns false (and logs) only if the queue is full.

@@ -61,7 +61,7 @@ enum class ProtocolErrorCode {
   kNestedChunk,             // a reassembled message is itself a Chunk
   kChunkBeforeHandshake,    // a Chunk frame before the handshake completed
   kReassemblyLimit,         // chunked messages in progress over max_reassembly_bytes
-  kServerBudget,            // the server-wide max_buffered_bytes would be exceeded
+  kServerBudget,            // the server's buffer budget (max_buffered_bytes, its share) would be exceeded
 };
 
 // Stable name of a code, e.g. "FRAME_TOO_LARGE".
@@ -81,10 +81,24 @@ class ProtocolError : public std::runtime_error {
   ProtocolErrorCode code_;
 };
 
-// Bytes held by all connections of a process together (reassembly buffers and send queues),
-// against one limit (ServerOptions::max_buffered_bytes). Thread-safe; a check followed by add()
-// may overshoot by what other threads add in between (bounded by one frame or piece each).
-class MemoryBudget {
+// Where a connection's buffered bytes (reassembly buffers, send queue) are counted: its server's
+// budgets. Thread-safe.
+class BufferBudget {
+ public:
+  virtual ~BufferBudget() = default;
+  // Counts `bytes` more and returns true, or counts nothing and returns false with `why` set to
+  // the refusal naming the limit.
+  virtual bool take(uint64_t bytes, std::string& why) = 0;
+  // Counts `bytes` more whatever the limit (the envelope of what take() admitted).
+  virtual void force(uint64_t bytes) = 0;
+  virtual void give(uint64_t bytes) = 0;
+  virtual uint64_t used() const = 0;
+};
+
+// One limit for all connections together (ServerOptions::max_buffered_bytes without fair shares:
+// tests, fuzzing). Thread-safe; a check followed by add() may overshoot by what other threads add
+// in between (bounded by one frame or piece each).
+class MemoryBudget final : public BufferBudget {
  public:
   explicit MemoryBudget(uint64_t limit) : limit_(limit) {}
   MemoryBudget(const MemoryBudget&) = delete;
@@ -93,8 +107,13 @@ class MemoryBudget {
   bool fits(uint64_t bytes) const { return used_.load(std::memory_order_relaxed) + bytes <= limit_; }
   void add(uint64_t bytes) { used_.fetch_add(bytes, std::memory_order_relaxed); }
   void release(uint64_t bytes) { used_.fetch_sub(bytes, std::memory_order_relaxed); }
-  uint64_t used() const { return used_.load(std::memory_order_relaxed); }
   uint64_t limit() const { return limit_; }
+
+  // BufferBudget
+  bool take(uint64_t bytes, std::string& why) override;
+  void force(uint64_t bytes) override { add(bytes); }
+  void give(uint64_t bytes) override { release(bytes); }
+  uint64_t used() const override { return used_.load(std::memory_order_relaxed); }
 
  private:
   const uint64_t limit_;
@@ -102,16 +121,16 @@ class MemoryBudget {
 };
 
 struct CodecLimits {
-  uint64_t max_frame_bytes = 64u << 10;       // largest single frame after the prefix
-  uint64_t max_message_bytes = 64ull << 20;   // largest reassembled (chunked) message
-  size_t max_partial_messages = 16;           // chunked messages in progress at once
+  uint64_t max_frame_bytes = 64u << 10;      // largest single frame after the prefix
+  uint64_t max_message_bytes = 64ull << 20;  // largest reassembled (chunked) message
+  size_t max_partial_messages = 16;          // chunked messages in progress at once
   // Bytes the buffers of chunked messages in progress may hold together (their capacity).
   uint64_t max_reassembly_bytes = UINT64_MAX;
   // Before the handshake: max_frame_bytes is the Hello limit (named max_hello_bytes in errors)
   // and a Chunk frame is a protocol error (nothing of a declared size is ever allocated).
   bool before_handshake = false;
-  // Shared by every connection of a server (null: none); reassembly buffers are counted in it.
-  std::shared_ptr<MemoryBudget> budget;
+  // Where this connection's reassembly buffers are counted (null: nowhere).
+  std::shared_ptr<BufferBudget> budget;
 };
 
 // Splits a byte stream into Frames. Accepts arbitrary slices: a frame may arrive in any number of
@@ -289,12 +308,12 @@ class Outbox {
 
  private:
   struct Entry {
-    std::string bytes;     // small: whole wire frame
+    std::string bytes;                                         // small: whole wire frame
     std::shared_ptr<const detail::SerializedMessage> message;  // chunked: the message to cut
     bool chunked = false;
     uint64_t message_id = 0;
-    size_t offset = 0;     // chunked: bytes already sent
-    size_t segment = 0;    // chunked: index of the byte range that holds `offset`
+    size_t offset = 0;          // chunked: bytes already sent
+    size_t segment = 0;         // chunked: index of the byte range that holds `offset`
     size_t segment_offset = 0;  // chunked: position of `offset` in that range
   };
   using Lane = std::deque<Entry>;
@@ -314,9 +333,9 @@ class Outbox {
   std::vector<Lane> active_large_;  // one entry each
   Lane waiting_large_;
   bool general_turn_ = true;
-  size_t cursor_ = 0;               // round-robin position among bulk lanes
+  size_t cursor_ = 0;  // round-robin position among bulk lanes
   size_t queued_bytes_ = 0;
-  size_t queued_frames_ = 0;        // Frames (not wire frames) not yet fully popped
+  size_t queued_frames_ = 0;  // Frames (not wire frames) not yet fully popped
 };
 
 // Name of the Frame's body ("request", "chunk", ...; "empty" if none), for logs and errors.

@@ -11,7 +11,7 @@
 namespace urs::planet {
 
 struct Credential {
-  std::string name;          // [A-Za-z0-9._@:-], 1..64 characters; not "camus-server" or "anonymous"
+  std::string name;  // [A-Za-z0-9._@:-], 1..64 characters; not "camus-server" or "anonymous"
   Role role = CLIENT;
   std::string token_sha256;  // SHA-256 of the token, 64 hex digits; empty = no token
   std::string certificate;   // client-certificate name (subject CN) mapped to it; empty = none

@@ -24,9 +24,7 @@ struct CallResult {
   bool ok() const { return status == Status::OK; }
 
   static CallResult success(std::string payload) { return {Status::OK, {}, std::move(payload), {}}; }
-  static CallResult error(Status status, std::string message) {
-    return {status, std::move(message), {}, {}};
-  }
+  static CallResult error(Status status, std::string message) { return {status, std::move(message), {}, {}}; }
   static CallResult user_exception(std::string type, std::string payload, std::string message) {
     return {Status::USER_EXCEPTION, std::move(message), std::move(payload), std::move(type)};
   }

@@ -12,22 +12,22 @@
 
 #include "RTC.hh"
 #include "urs/agent/agent.hpp"
-#include "urs/bridge/interfaces.hpp"
 #include "urs/rtc/orb.hpp"
+#include "urs/schema/interface_catalog.hpp"
 
 namespace urs::rt_call {
 
 struct ProviderTarget {
-  std::string ior;                                            // the provided object
-  std::string type_name;                                      // e.g. "URC::Navigation"
+  std::string ior;                                                 // the provided object
+  std::string type_name;                                           // e.g. "URC::Navigation"
   const google::protobuf::ServiceDescriptor* interface = nullptr;  // its description
-  std::string error;                                          // why there is none ("" if found)
+  std::string error;                                               // why there is none ("" if found)
 };
 
 // What `port` (named `what` in messages) provides, of type `type_name` if not empty, and the
 // catalog's description of it. Blocking (two CORBA calls: connect, disconnect); CORBA system
 // exceptions propagate.
-ProviderTarget provider_target(RTC::PortService_ptr port, const bridge::InterfaceCatalog& catalog,
+ProviderTarget provider_target(RTC::PortService_ptr port, const schema::InterfaceCatalog& catalog,
                                const std::string& type_name, const std::string& what);
 
 // What a call came to. An IDL exception is given as its type and its fields in JSON: the message
@@ -42,8 +42,8 @@ struct ProviderOutcome {
 // Calls `method` of `target` with `request`, filling `reply` on OK; the outcome names the IDL
 // exception or the CORBA failure. Bounded by `deadline`. Blocking; never throws for a CORBA failure.
 ProviderOutcome call_provider(const rtc::Orb& orb, const ProviderTarget& target,
-                             const google::protobuf::MethodDescriptor& method, const google::protobuf::Message& request,
-                             google::protobuf::Message& reply, std::chrono::milliseconds deadline,
-                             const std::string& what);
+                              const google::protobuf::MethodDescriptor& method,
+                              const google::protobuf::Message& request, google::protobuf::Message& reply,
+                              std::chrono::milliseconds deadline, const std::string& what);
 
 }  // namespace urs::rt_call

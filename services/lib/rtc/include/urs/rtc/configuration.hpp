@@ -98,9 +98,9 @@ class ComponentConfiguration : public virtual POA_SDOPackage::Configuration {
   mutable std::mutex mutex_;
   std::string owner_;
   std::vector<ParameterSpec> parameters_;
-  std::vector<Set> sets_;   // "default" first
-  std::string active_;      // id of the active set
-  Values in_effect_;        // per parameter, the value last applied
+  std::vector<Set> sets_;  // "default" first
+  std::string active_;     // id of the active set
+  Values in_effect_;       // per parameter, the value last applied
 };
 
 }  // namespace urs::rtc

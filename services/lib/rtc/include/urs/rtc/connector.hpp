@@ -59,7 +59,7 @@ struct ConnectorLink {
   std::string provider_port;
   std::string provider_interface;  // the provided interface's instance_name ("" if unknown)
   std::string connector_id;
-  bool made = false;               // made by this connector (or one of the same name)
+  bool made = false;  // made by this connector (or one of the same name)
 };
 
 struct ConnectorEvent {
@@ -74,10 +74,10 @@ struct ConnectorEvent {
 
 // What one poll saw and did, for logs, tests and latency measurements.
 struct PollReport {
-  std::string naming_error;   // non-empty: the naming service could not be read, nothing changed
-  std::size_t bindings = 0;   // watched component bindings found
-  std::size_t fetched = 0;    // component profiles read
-  std::size_t probes = 0;     // liveness probes made
+  std::string naming_error;  // non-empty: the naming service could not be read, nothing changed
+  std::size_t bindings = 0;  // watched component bindings found
+  std::size_t fetched = 0;   // component profiles read
+  std::size_t probes = 0;    // liveness probes made
   std::size_t connected = 0;
   std::size_t disconnected = 0;
   std::chrono::microseconds naming_time{0};  // listing and resolving
@@ -129,7 +129,7 @@ class Connector {
     std::string instance;
     bool reachable = false;
     std::chrono::steady_clock::time_point retry_at;
-    CORBA::Object_var probe;  // own reference to the component, with the probe timeout
+    CORBA::Object_var probe;         // own reference to the component, with the probe timeout
     std::vector<ServicePort> ports;  // service ports only, sorted by name
   };
   // (consumer path, consumer port, required type, required instance)
@@ -177,7 +177,7 @@ class Connector {
   const ConnectorOptions options_;
   std::function<void(const ConnectorEvent&)> listener_;
 
-  std::mutex poll_mutex_;  // one poll at a time; guards components_ and changes to links_
+  std::mutex poll_mutex_;                        // one poll at a time; guards components_ and changes to links_
   std::map<std::string, Component> components_;  // by naming path
 
   mutable std::mutex links_mutex_;  // also held by the poll for changes, so links() reads safely

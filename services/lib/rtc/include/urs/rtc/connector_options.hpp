@@ -11,9 +11,9 @@
 namespace urs::rtc {
 
 struct ConnectorRule {
-  std::string interface;         // PortInterfaceProfile type_name, e.g. "URS::Diagnostic"
-  std::string consumers = "*";   // glob (fnmatch, '*' also crosses '/') on consumers' naming paths
-  std::string providers = "*";   // glob on providers' naming paths
+  std::string interface;        // PortInterfaceProfile type_name, e.g. "URS::Diagnostic"
+  std::string consumers = "*";  // glob (fnmatch, '*' also crosses '/') on consumers' naming paths
+  std::string providers = "*";  // glob on providers' naming paths
 };
 
 struct ConnectorOptions {

@@ -54,8 +54,7 @@ class CorbaPort : public PortBase {
   // Offers `servant` (activated by the port when it is attached) as interface `type_name` (the
   // IDL scoped name, e.g. "URS::Diagnostic") named `instance_name`. Call before the component
   // adds the port. The servant must outlive the port.
-  void provide(const std::string& instance_name, const std::string& type_name,
-               PortableServer::ServantBase& servant);
+  void provide(const std::string& instance_name, const std::string& type_name, PortableServer::ServantBase& servant);
   // Declares a required interface; the returned consumer lives as long as the port.
   Consumer& require(const std::string& instance_name, const std::string& type_name);
 
@@ -75,7 +74,7 @@ class CorbaPort : public PortBase {
     std::string instance_name;
     std::string type_name;
     PortableServer::ServantBase* servant;
-    std::string ior;  // set when first published
+    std::string ior;                    // set when first published
     PortableServer::ObjectId_var id{};  // its object id in the POA, kept while inactive
     bool active = false;
   };

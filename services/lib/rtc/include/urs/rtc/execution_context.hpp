@@ -68,7 +68,7 @@ class PeriodicExecutionContext : public virtual POA_RTC::ExecutionContextService
     RTC::LifeCycleState state = RTC::INACTIVE;
     Request request = Request::kNone;
     RTC::LifeCycleState request_result = RTC::CREATED;  // the state the last request led to
-    bool busy = false;  // a callback of this participant is running outside the lock
+    bool busy = false;                                  // a callback of this participant is running outside the lock
   };
 
   using ParticipantPtr = std::shared_ptr<Participant>;
@@ -86,7 +86,7 @@ class PeriodicExecutionContext : public virtual POA_RTC::ExecutionContextService
   // Runs `call` for every participant (lock not held); a participant that no longer exists
   // is removed.
   void for_each_participant(const std::function<void(const Participant&)>& call);
-  ParticipantPtr find(RTC::LightweightRTObject_ptr comp);  // lock held
+  ParticipantPtr find(RTC::LightweightRTObject_ptr comp);         // lock held
   void remove_gone(const ParticipantPtr& p, const char* during);  // lock held
   bool on_own_thread() const { return std::this_thread::get_id() == thread_.get_id(); }
 

@@ -42,8 +42,7 @@ struct ComponentEnv {
 
 // Builds a component of one type from its `config:` node (may be null). Throws
 // urs::util::ConfigError for bad configuration.
-using ComponentFactory =
-    std::function<std::unique_ptr<Component>(const YAML::Node& config, const ComponentEnv& env)>;
+using ComponentFactory = std::function<std::unique_ptr<Component>(const YAML::Node& config, const ComponentEnv& env)>;
 
 struct ComponentSpec {
   std::string type;
@@ -61,7 +60,7 @@ struct ComponentSpec {
 class Manager {
  public:
   Manager(Orb& orb, NamingClient& naming, ManagerOptions options);  // options.host "" -> gethostname()
-  ~Manager();  // shutdown()
+  ~Manager();                                                       // shutdown()
 
   void add_factory(const std::string& type, ComponentFactory factory);
 
@@ -87,7 +86,7 @@ class Manager {
     std::string path;
   };
   std::string bind_unique(const ComponentSpec& spec, CORBA::Object_ptr object);  // returns instance name
-  void release(Hosted& hosted);  // unbinds if still ours
+  void release(Hosted& hosted);                                                  // unbinds if still ours
 
   Orb& orb_;
   NamingClient& naming_;

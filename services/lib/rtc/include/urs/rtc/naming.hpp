@@ -5,9 +5,9 @@
 // ("lab.example.org.host_cxt" is id "lab.example.org", kind "host_cxt").
 
 #include <omniORB4/CORBA.h>
-#include <omniORB4/Naming.hh>
 
 #include <mutex>
+#include <omniORB4/Naming.hh>
 #include <stdexcept>
 #include <string>
 #include <vector>

@@ -11,6 +11,11 @@
 
 namespace urs::rtc {
 
+// How many calls a process sends at once to one peer process unless told otherwise (--max-calls-per-peer):
+// the calls a bridge runs at once towards RT providers, `workers` (16) from each of its CAMUS and DDS sides.
+inline constexpr unsigned kDefaultMaxCallsPerPeer = 32;
+inline constexpr unsigned kMaxCallsPerPeerLimit = 1024;  // the largest --max-calls-per-peer accepted
+
 struct OrbOptions {
   // giop:tcp:<host>:<port> to listen on; empty lets omniORB choose (all interfaces, ephemeral port).
   std::string endpoint;
@@ -18,16 +23,25 @@ struct OrbOptions {
   std::chrono::milliseconds call_timeout{10000};
   // Bound on establishing a connection to a peer that does not answer (0: omniORB's default).
   std::chrono::milliseconds connect_timeout{2000};
+  // Calls in flight at once from this process to one peer process (an RT provider's manager, the
+  // naming service), each on a connection of its own: omniORB sends one call per connection at a
+  // time and opens at most this many connections to a peer (its maxGIOPConnectionPerServer, which
+  // is 5 unless set). A call beyond it waits for one of those calls to return, within its own
+  // call timeout; past that it fails with CORBA::TIMEOUT, COMPLETED_NO (it was never sent).
+  // 1..kMaxCallsPerPeerLimit.
+  unsigned max_calls_per_peer = kDefaultMaxCallsPerPeer;
 };
 
 class Orb {
  public:
+  // Throws std::invalid_argument if options.max_calls_per_peer is outside 1..kMaxCallsPerPeerLimit.
   explicit Orb(const OrbOptions& options = {});
   ~Orb();  // shuts the ORB down and destroys it (waits for calls in progress)
   Orb(const Orb&) = delete;
   Orb& operator=(const Orb&) = delete;
 
   CORBA::ORB_ptr orb() const { return orb_.in(); }
+  unsigned max_calls_per_peer() const { return max_calls_per_peer_; }
   PortableServer::POA_ptr poa() const { return poa_.in(); }
 
   // Activates `servant` in the root POA; the returned reference is owned by the caller and
@@ -62,6 +76,7 @@ class Orb {
   CORBA::Object_ptr fresh_reference(CORBA::Object_ptr object) const;  // caller owns
   static void set_call_timeout(CORBA::Object_ptr object, std::chrono::milliseconds timeout);
 
+  unsigned max_calls_per_peer_;
   CORBA::ORB_var orb_;
   PortableServer::POA_var poa_;
 };

@@ -40,8 +40,8 @@ class PortBase : public virtual POA_RTC::PortService {
   PortBase& operator=(const PortBase&) = delete;
 
   const std::string& short_name() const { return short_name_; }
-  std::string name() const;           // "<instance>.<name>" once added, else the short name
-  std::string instance_name() const;  // the owning component's instance name ("" before)
+  std::string name() const;                // "<instance>.<name>" once added, else the short name
+  std::string instance_name() const;       // the owning component's instance name ("" before)
   RTC::PortService_ptr reference() const;  // nil before the port is attached; caller owns
 
   // ---- RTC::PortService ----

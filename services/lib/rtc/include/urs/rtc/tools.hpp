@@ -25,8 +25,7 @@ RTC::PortService_ptr find_port(RTC::RTObject_ptr rtc, const std::string& name);
 // new-style "<inst>.port.<port>.required.<type>.<name>" key naming that provider; for data ports
 // (port.port_type DataInPort/DataOutPort) the defaults corba_cdr / push / flush / little endian
 // and dataport.data_type from the out port's profile.
-SDOPackage::NVList connector_properties(const std::vector<RTC::PortProfile>& ports,
-                                        const SDOPackage::NVList& extra);
+SDOPackage::NVList connector_properties(const std::vector<RTC::PortProfile>& ports, const SDOPackage::NVList& extra);
 
 // True if two IDL type names name the same type: each may be a scoped name ("URC::Navigation"),
 // a repository ID ("IDL:URC/Navigation:1.0", "IDL:omg.org/RTC/TimedLong:1.0") or a bare name

@@ -22,6 +22,4 @@ std::string json_to_message(const std::string& json, google::protobuf::Message& 
 // printed (even when 0/""/false). pretty: indented, multi-line. Returns "" on success.
 std::string message_to_json(const google::protobuf::Message& msg, std::string& out, bool pretty = false);
 
-
-
 }  // namespace urs::schema

@@ -7,18 +7,26 @@
 #include <stdexcept>
 #include <string>
 
-namespace urs::util {
+#include "urs/util/error.hpp"  // ConfigError
 
-class ConfigError : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
+namespace urs::util {
 
 // Valid --log-level values, for help texts.
 inline constexpr const char* kLogLevels = "trace|debug|info|warn|error|critical|off";
 
-// Sets the default spdlog logger (stderr, "<program>" in every line) to `level`.
+// Sets the default spdlog logger (stderr, "<program>" in every line) to `level`, text lines.
 void init_logging(const std::string& program, const std::string& level);
+
+// How a program logs: --log-level, --log-format (text|json: urs/util/log_format.hpp) and the space
+// its JSON lines name (empty: none).
+struct LogOptions {
+  std::string program;
+  std::string level = "info";
+  std::string format = "text";
+  std::string space;
+};
+// As above, in `options.format`; throws ConfigError naming --log-level or --log-format.
+void init_logging(const LogOptions& options);
 
 struct Endpoint {
   std::string host;
@@ -31,6 +39,13 @@ Endpoint parse_endpoint(const std::string& text, const std::string& what);
 
 // The token in FILE (surrounding white space removed). Empty path gives "".
 std::string read_token_file(const std::string& path);
+// The token in `text`, the content of the token file `path` (surrounding white space removed);
+// throws ConfigError if there is none.
+std::string token_from_text(std::string text, const std::string& path);
+
+// Raises this process's soft limit of open file descriptors (RLIMIT_NOFILE) to its hard limit
+// (a server's connections each need one). Returns the soft limit now in force; never throws.
+uint64_t raise_descriptor_limit();
 
 // Blocks SIGINT/SIGTERM (and SIGHUP if `with_reload`) in the calling thread (call first in main,
 // before threads start); wait_for_shutdown() then blocks until SIGINT or SIGTERM arrives and

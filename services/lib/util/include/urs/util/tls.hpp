@@ -9,11 +9,11 @@
 namespace urs::util {
 
 struct TlsConfig {
-  bool enabled = false;   // TLS 1.3 on every connection (server: when cert_file is set)
-  std::string ca_file;    // client: CAs that verify the server (empty: the system's);
-                          // server: CAs that verify client certificates (empty: no mutual TLS)
-  std::string cert_file;  // PEM certificate chain: the server's (required), or the client's (mutual TLS)
-  std::string key_file;   // PEM private key of cert_file
+  bool enabled = false;     // TLS 1.3 on every connection (server: when cert_file is set)
+  std::string ca_file;      // client: CAs that verify the server (empty: the system's);
+                            // server: CAs that verify client certificates (empty: no mutual TLS)
+  std::string cert_file;    // PEM certificate chain: the server's (required), or the client's (mutual TLS)
+  std::string key_file;     // PEM private key of cert_file
   std::string server_name;  // client: the name the server certificate must carry (empty: the host)
 };
 

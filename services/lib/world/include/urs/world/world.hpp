@@ -29,11 +29,11 @@ enum class Channel {
 };
 
 struct PoseSample {
-  std::string robot;                      // the DDS key: one instance per robot
-  double x = 0;                           // m
-  double y = 0;                           // m
-  double theta = 0;                       // rad, counter-clockwise from +x
-  std::array<double, 9> covariance{};     // row-major (x, y, theta); zero on ground truth
+  std::string robot;                            // the DDS key: one instance per robot
+  double x = 0;                                 // m
+  double y = 0;                                 // m
+  double theta = 0;                             // rad, counter-clockwise from +x
+  std::array<double, 9> covariance{};           // row-major (x, y, theta); zero on ground truth
   std::chrono::system_clock::time_point stamp;  // wall clock, when written
   // Ground truth only: s of simulated time since the robot started. Motion measured against it
   // is exact whatever the machine's load (a late tick delays the sample, not its sim_time).

@@ -1,0 +1,138 @@
+#include "bridge_metrics.hpp"
+
+#include <algorithm>
+#include <fastdds/dds/domain/DomainParticipant.hpp>
+
+namespace urs::bridge {
+
+namespace {
+
+using metrics::Kind;
+using metrics::Sample;
+
+constexpr std::size_t kMaxSpaceName = 64;
+
+// The space of a participant of the link ("urs-bridge/<space>/<bridge>", dds_participant.cpp), if
+// its name is one and the space a usable label value (printable ASCII, at most kMaxSpaceName).
+std::optional<std::string> space_of_participant(const std::string& name) {
+  static const std::string kPrefix = "urs-bridge/";
+  if (name.rfind(kPrefix, 0) != 0) return std::nullopt;
+  const auto end = name.find('/', kPrefix.size());
+  if (end == std::string::npos || end == kPrefix.size()) return std::nullopt;
+  std::string space = name.substr(kPrefix.size(), end - kPrefix.size());
+  if (space.size() > kMaxSpaceName) return std::nullopt;
+  if (std::any_of(space.begin(), space.end(), [](unsigned char c) { return c < 0x20 || c > 0x7e; })) {
+    return std::nullopt;
+  }
+  return space;
+}
+
+std::string direction_label(const core::DirectionConfig& direction) { return direction.from + "->" + direction.to; }
+
+}  // namespace
+
+BridgeMetrics::BridgeMetrics(metrics::Metrics& metrics)
+    : metrics_(metrics),
+      calls_(prometheus::BuildCounter()
+                 .Name("urslink_bridge_calls_total")
+                 .Help("Calls the bridge's stand-ins took, by direction (from->to: services of side from standing "
+                       "on side to), service, operation and final status.")
+                 .Register(metrics.registry())),
+      durations_(prometheus::BuildHistogram()
+                     .Name("urslink_bridge_call_duration_seconds")
+                     .Help("From a stand-in handing a call on to its outcome, by direction, service and operation.")
+                     .Register(metrics.registry())) {}
+
+call::CallRecorder* BridgeMetrics::direction(const core::DirectionConfig& direction) {
+  const std::string label = direction_label(direction);
+  auto& slot = directions_[label];
+  if (!slot) {
+    slot = std::make_unique<metrics::CallMetrics>(calls_, durations_, prometheus::Labels{{"direction", label}},
+                                                  metrics_.max_call_series());
+  }
+  return slot.get();
+}
+
+std::map<std::string, BridgeMetrics::Space> BridgeMetrics::spaces(const federation::DdsLink& link) {
+  const std::string& here = link.options().space;
+  std::map<std::string, Space> now;
+  for (const std::string& name : link.participant()->get_participant_names()) {
+    const auto space = space_of_participant(name);
+    if (space && *space != here) ++now[*space].participants;
+  }
+  for (const auto& entry : link.catalog()) ++now[entry.space].entries;
+  std::map<std::string, Space> out;
+  std::lock_guard lock(spaces_mutex_);
+  for (const auto& [name, space] : now) {
+    if (seen_.size() < kMaxSpaces || seen_.count(name)) seen_.insert(name);
+  }
+  for (const std::string& name : seen_) {
+    const auto found = now.find(name);
+    Space space = found == now.end() ? Space{} : found->second;
+    // Lost: every bridge of it the link saw lost its liveliness or left, or nothing of it is left.
+    space.up = (space.participants > 0 || space.entries > 0) && !link.lost_since(name);
+    out[name] = space;
+  }
+  return out;
+}
+
+void BridgeMetrics::watch(const core::Bridge& bridge) {
+  const core::Bridge* watched = &bridge;
+  metrics_.health().add("active", [watched] {
+    return watched->status().active ? std::string() : "inactive (the bridge RTC is not activated)";
+  });
+  for (const std::string& name : bridge.sides()) {
+    metrics_.health().add("side " + name, [watched, name] {
+      const core::BridgeStatus status = watched->status();
+      if (std::find(status.open.begin(), status.open.end(), name) == status.open.end()) {
+        const auto failing = status.failing.find(name);
+        return failing == status.failing.end() ? std::string("not open") : "not open: " + failing->second;
+      }
+      const core::Side* side = watched->side(name);
+      return side == nullptr ? std::string() : side->not_ready();
+    });
+  }
+  metrics_.add_scraped(
+      "urslink_bridge_side_open", "Whether each side of the bridge is open (1) or not (0).", Kind::kGauge, [watched] {
+        const core::BridgeStatus status = watched->status();
+        std::vector<Sample> samples;
+        for (const std::string& name : watched->sides()) {
+          const bool open = std::find(status.open.begin(), status.open.end(), name) != status.open.end();
+          samples.push_back({{{"side", name}}, open ? 1.0 : 0.0});
+        }
+        return samples;
+      });
+  metrics_.add_scraped("urslink_bridge_stand_ins", "Stand-ins the bridge offers now, by direction (from->to).",
+                       Kind::kGauge, [watched] {
+                         std::vector<Sample> samples;
+                         for (const auto& direction : watched->status().directions) {
+                           std::string label = direction.name;
+                           label.erase(std::remove(label.begin(), label.end(), ' '), label.end());
+                           samples.push_back({{{"direction", label}}, static_cast<double>(direction.routes.size())});
+                         }
+                         return samples;
+                       });
+  const auto* dds = dynamic_cast<const DdsSide*>(bridge.side("dds"));
+  if (dds == nullptr) return;
+  // The link's families, read together at each scrape (one family reads, the next reuse it).
+  auto read = [this, dds](auto field) {
+    std::vector<Sample> samples;
+    const std::shared_ptr<federation::DdsLink> link = dds->link();
+    if (!link) return samples;
+    for (const auto& [name, space] : spaces(*link)) samples.push_back({{{"space", name}}, field(space)});
+    return samples;
+  };
+  metrics_.add_scraped("urslink_bridge_link_up",
+                       "Whether each other space is reachable over the link (1) or lost (0): seen on the link, and "
+                       "not every bridge of it lost (its liveliness) or gone.",
+                       Kind::kGauge, [read] { return read([](const Space& s) { return s.up ? 1.0 : 0.0; }); });
+  metrics_.add_scraped("urslink_bridge_link_participants",
+                       "Participants of each other space discovered on the link (its bridges and gateways).",
+                       Kind::kGauge,
+                       [read] { return read([](const Space& s) { return static_cast<double>(s.participants); }); });
+  metrics_.add_scraped("urslink_bridge_link_catalog_entries",
+                       "Services of each other space in the catalog this bridge reads (imported).", Kind::kGauge,
+                       [read] { return read([](const Space& s) { return static_cast<double>(s.entries); }); });
+}
+
+}  // namespace urs::bridge
