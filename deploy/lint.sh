@@ -15,8 +15,9 @@
 #   committed or not (untracked new files too); on main itself or a detached HEAD (a CI run on a
 #   fresh clone of main): those changed by its last ${URS_LINT_COMMITS:-10} first-parent commits,
 #   that is the last merges and commits that landed, and any uncommitted change.
-# Reported are the names on the changed lines of those files (a new file: all its lines), so that
-# a name the tree already had elsewhere in a file does not fail a change; --whole-files reports
+# Reported are the names on the changed lines of those files (a new file: all its lines; a line
+# whose change is only white space is not a changed one), so that a name the tree already had
+# elsewhere in a file does not fail a change; --whole-files reports
 # every name of a changed file (--all: of every file). A file whose change is only white space (a
 # formatting commit) is not checked. A changed header is checked through one translation unit that
 # includes it (ninja's dependency log, else any source that names it).
@@ -186,13 +187,14 @@ units = sorted(set(units))
 json.dump([by_source[unit] for unit in units], open(os.path.join(out_dir, "compile_commands.json"), "w"))
 open(os.path.join(out_dir, "units"), "w").write("".join(unit + "\n" for unit in units))
 open(os.path.join(out_dir, "unchecked"), "w").write("".join(path + "\n" for path in unchecked))
-# What is reported: the changed lines of each changed file (git diff -U0 against the base), or
-# whole files (--whole-files, --all, and files new to git).
+# What is reported: the changed lines of each changed file (git diff -U0 against the base, white
+# space ignored: a line whose change is only its layout, as a formatting commit's, changed no
+# name), or whole files (--whole-files, --all, and files new to git).
 base = os.environ.get("URS_LINT_DIFF_BASE", "")
 line_filter = []
 if base:
     import subprocess
-    diff = subprocess.run(["git", "diff", "-U0", "--no-color", "--no-ext-diff", base, "--", *changed],
+    diff = subprocess.run(["git", "diff", "-U0", "-w", "--no-color", "--no-ext-diff", base, "--", *changed],
                           cwd=root, check=True, capture_output=True, text=True).stdout
     ranges, current = {}, None
     for line in diff.splitlines():

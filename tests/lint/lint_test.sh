@@ -120,6 +120,12 @@ check "--whole-files reports it" 1 "OldName" -- lint --names --whole-files
 append_function AnotherBadName services/demo/old.cpp
 check "a bad name on a changed line of that file fails" 1 "AnotherBadName" -- lint --names
 git -C "$repo" checkout -q -- services/demo/old.cpp
+# The old name's line re-spaced (as a formatting commit aligns comments) while the file changes elsewhere:
+# that line's change is only white space, so its name is not reported.
+sed -i "s/^int OldName() { return 1; }$/int  OldName()  {  return 1;  }/" "$repo/services/demo/old.cpp"
+append_function another_new_name services/demo/old.cpp
+check "an old name on a line whose change is only layout passes" 0 "lint: names: as .clang-tidy says" -- lint --names
+git -C "$repo" checkout -q -- services/demo/old.cpp
 
 # On main itself (a CI run on a fresh clone): the last first-parent commits count as changed.
 git -C "$repo" checkout -q main
