@@ -1,7 +1,10 @@
 #include "bridge_metrics.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <fastdds/dds/domain/DomainParticipant.hpp>
+
+#include "urs/call/call.hpp"
 
 namespace urs::bridge {
 
@@ -61,6 +64,9 @@ std::map<std::string, BridgeMetrics::Space> BridgeMetrics::spaces(const federati
     if (space && *space != here) ++now[*space].participants;
   }
   for (const auto& entry : link.catalog()) ++now[entry.space].entries;
+  for (auto& [name, calls] : link.space_calls()) {
+    if (name != here) now[name].calls = std::move(calls);
+  }
   std::map<std::string, Space> out;
   std::lock_guard lock(spaces_mutex_);
   for (const auto& [name, space] : now) {
@@ -133,6 +139,53 @@ void BridgeMetrics::watch(const core::Bridge& bridge) {
   metrics_.add_scraped("urslink_bridge_link_catalog_entries",
                        "Services of each other space in the catalog this bridge reads (imported).", Kind::kGauge,
                        [read] { return read([](const Space& s) { return static_cast<double>(s.entries); }); });
+  metrics_.add_scraped("urslink_bridge_link_round_trips_total",
+                       "Replies read to this bridge's calls to each other space (each one round trip of the link).",
+                       Kind::kCounter,
+                       [read] { return read([](const Space& s) { return static_cast<double>(s.calls.replies); }); });
+  metrics_.add_scraped("urslink_bridge_link_round_trip_seconds_total",
+                       "Round trips of the replies read from each other space, summed: a request written to its "
+                       "reply read, the serving there included (divide by urslink_bridge_link_round_trips_total).",
+                       Kind::kCounter,
+                       [read] { return read([](const Space& s) { return s.calls.round_trip_seconds; }); });
+  metrics_.add_scraped("urslink_bridge_link_last_round_trip_seconds",
+                       "The latest round trip of a call to each other space (0 before the first reply).", Kind::kGauge,
+                       [read] { return read([](const Space& s) { return s.calls.last_round_trip_seconds; }); });
+  metrics_.add_scraped("urslink_bridge_link_last_failure_timestamp_seconds",
+                       "When the link last failed a call to each other space (Unix time; 0 if never): no reply "
+                       "within its deadline, the space's bridges lost or gone, the request not written.",
+                       Kind::kGauge, [read] {
+                         return read([](const Space& s) {
+                           if (s.calls.failures.empty()) return 0.0;
+                           return std::chrono::duration<double>(s.calls.last_failure_at.time_since_epoch()).count();
+                         });
+                       });
+  metrics_.add_scraped("urslink_bridge_link_call_failures_total",
+                       "Calls to each other space the link failed, by the status it gave them (an error the called "
+                       "space answered is not one).",
+                       Kind::kCounter, [this, dds] {
+                         std::vector<Sample> samples;
+                         const std::shared_ptr<federation::DdsLink> link = dds->link();
+                         if (!link) return samples;
+                         for (const auto& [name, space] : spaces(*link)) {
+                           for (const auto& [status, count] : space.calls.failures) {
+                             samples.push_back({{{"space", name}, {"status", std::string(call::status_name(status))}},
+                                                static_cast<double>(count)});
+                           }
+                         }
+                         return samples;
+                       });
+  metrics_.add_scraped("urslink_bridge_link_samples_lost_total",
+                       "Samples the link's readers lost (DDS SAMPLE_LOST), by topic: DDS does not say whose.",
+                       Kind::kCounter, [dds] {
+                         std::vector<Sample> samples;
+                         const std::shared_ptr<federation::DdsLink> link = dds->link();
+                         if (!link) return samples;
+                         for (const auto& [topic, count] : link->samples_lost()) {
+                           samples.push_back({{{"topic", topic}}, static_cast<double>(count)});
+                         }
+                         return samples;
+                       });
 }
 
 }  // namespace urs::bridge

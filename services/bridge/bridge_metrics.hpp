@@ -2,9 +2,10 @@
 // What urs-bridge reports (docs/operations.md, "Monitoring"): the calls its stand-ins take, by
 // direction (recorded by the core, once per call: urs/bridge/core/call_meter.hpp), the calls other
 // spaces make to this one over DDS, and what it sees of the link to the other spaces, per remote
-// space: whether the space is reachable, its participants on the link and the catalog entries
-// imported from it. Its readiness: every side open (the DDS side: joined to its link) and working
-// (the CAMUS side: its session connected).
+// space: whether the space is reachable, its participants on the link, the catalog entries
+// imported from it, the round trips of the calls to it and the failures the link gave them; and
+// the samples the link's readers lost, by topic. Its readiness: every side open (the DDS side: joined to its link) and
+// working (the CAMUS side: its session connected).
 //
 // Threading: direction() while the bridge is built; the rest is read by the metrics endpoint's
 // thread when Prometheus scrapes.
@@ -47,6 +48,7 @@ class BridgeMetrics {
     bool up = false;               // reachable: seen on the link, and not lost (DdsLink::lost_since)
     std::size_t participants = 0;  // its participants discovered on the link
     std::size_t entries = 0;       // its catalog entries this bridge reads (live ones)
+    federation::SpaceCalls calls;  // what this bridge's calls to it met (DdsLink::space_calls)
   };
   // The spaces of the link but this one (at most kMaxSpaces), by name; a space once seen stays
   // (down) when it is gone.

@@ -165,6 +165,64 @@ TEST_F(BridgeOperations, EachHopOfACrossSpaceCallIsCountedAndTheLinkIsSeenPerSpa
   EXPECT_EQ(metric_value(lost, "urslink_bridge_link_catalog_entries", {{"space", "jp"}}), 0.0);
 }
 
+// The link per remote space, as kr's bridge meets it in its calls to jp: each reply a round trip;
+// a call past its deadline and calls to jp once its bridge is gone are the link's failures, by
+// status, with the time of the last one.
+TEST_F(BridgeOperations, TheRoundTripsAndFailuresOfTheCallsToEachSpaceAreCounted) {
+  const std::string before = scrape(kr_metrics_);
+  const std::map<std::string, std::string> jp{{"space", "jp"}};
+  constexpr int kCalls = 3;
+  for (int i = 0; i < kCalls; ++i) ASSERT_FALSE(echo_across("round trip " + std::to_string(i)).empty());
+  std::string after = scrape(kr_metrics_);
+  EXPECT_EQ(metric_sum(after, "urslink_bridge_link_round_trips_total", jp) -
+                metric_sum(before, "urslink_bridge_link_round_trips_total", jp),
+            kCalls)
+      << after;
+  EXPECT_GT(metric_sum(after, "urslink_bridge_link_round_trip_seconds_total", jp) -
+                metric_sum(before, "urslink_bridge_link_round_trip_seconds_total", jp),
+            0.0);
+  EXPECT_GT(metric_value(after, "urslink_bridge_link_last_round_trip_seconds", jp).value_or(0), 0.0);
+  EXPECT_EQ(metric_value(after, "urslink_bridge_link_last_failure_timestamp_seconds", jp), 0.0) << after;
+  EXPECT_EQ(metric_sum(after, "urslink_bridge_link_call_failures_total", jp), 0.0);
+
+  // A sleep longer than its deadline: the link gives up on it (jp answers too late).
+  const auto start = std::chrono::system_clock::now();
+  const CommandResult late = urs({"call", "--deadline-ms", "500", "jp/rt.Diagnostic0", "sleep", "{\"ms\":3000}"});
+  EXPECT_NE(late.exit_code, 0) << late.out;
+  const std::map<std::string, std::string> jp_late{{"space", "jp"}, {"status", "DEADLINE_EXCEEDED"}};
+  EXPECT_TRUE(wait_until(
+      [&] {
+        after = scrape(kr_metrics_);
+        return metric_value(after, "urslink_bridge_link_call_failures_total", jp_late) == 1.0;
+      },
+      5s))
+      << after;
+  const double since_epoch = std::chrono::duration<double>(start.time_since_epoch()).count();
+  EXPECT_GE(metric_value(after, "urslink_bridge_link_last_failure_timestamp_seconds", jp).value_or(0), since_epoch);
+
+  // jp's bridge gone: kr refuses calls to it (unreachable), each a failure of the link.
+  jp_.reset();
+  ASSERT_TRUE(wait_until(
+      [&] {
+        return metric_value(scrape(kr_metrics_), "urslink_bridge_link_up", {{"space", "jp"}}) == 0.0;
+      },
+      15s));
+  const CommandResult refused = urs({"call", "jp/rt.Diagnostic0", "echo", "{\"text\":\"anyone?\"}"});
+  EXPECT_NE(refused.exit_code, 0) << refused.out;
+  EXPECT_THAT(refused.out + refused.err, HasSubstr("unreachable"));
+  const std::map<std::string, std::string> jp_unavailable{{"space", "jp"}, {"status", "UNAVAILABLE"}};
+  EXPECT_TRUE(wait_until(
+      [&] {
+        after = scrape(kr_metrics_);
+        return metric_value(after, "urslink_bridge_link_call_failures_total", jp_unavailable).value_or(0) >= 1.0;
+      },
+      5s))
+      << after;
+  const CommandResult checked = promtool_check_metrics(after);
+  EXPECT_EQ(checked.exit_code, 0) << checked.out << checked.err;
+  EXPECT_EQ(checked.out + checked.err, "");
+}
+
 // A bridge whose CAMUS server is not there is alive but not ready, and says which check fails.
 TEST_F(BridgeOperations, ABridgeWithoutItsCamusSessionIsNotReadyAndSaysWhy) {
   auto lonely = launch_bridge("bridge-lonely", "name: bridge-lonely\n" + dds(),

@@ -151,6 +151,26 @@ void DdsCalls::step(Pending& call) {
   }
 }
 
+SpaceCalls* DdsCalls::counts_of(const std::string& space) {
+  auto it = counts_.find(space);
+  if (it != counts_.end()) return &it->second;
+  if (counts_.size() >= DdsLink::kMaxCountedSpaces) return nullptr;
+  return &counts_[space];
+}
+
+std::map<std::string, SpaceCalls> DdsCalls::space_calls() const {
+  std::lock_guard lock(counts_mutex_);
+  return counts_;
+}
+
+void DdsCalls::count_failure(const std::string& space, const call::Reply& reply) {
+  std::lock_guard lock(counts_mutex_);
+  SpaceCalls* counts = counts_of(space);
+  if (counts == nullptr) return;
+  ++counts->failures[reply.status];
+  counts->last_failure_at = std::chrono::system_clock::now();
+}
+
 void DdsCalls::fail_pending(const std::string& space) {
   std::vector<std::shared_ptr<Pending>> failed;
   {
@@ -165,9 +185,12 @@ void DdsCalls::fail_pending(const std::string& space) {
       }
     }
   }
+  if (failed.empty()) return;
+  const call::Reply gone =
+      call::Reply::error(call::Status::PROVIDER_GONE, "the bridge of space " + space + " left during the call");
   for (auto& call : failed) {
-    end(*call,
-        call::Reply::error(call::Status::PROVIDER_GONE, "the bridge of space " + space + " left during the call"));
+    count_failure(space, gone);
+    end(*call, gone);
   }
 }
 
@@ -219,9 +242,12 @@ void DdsCalls::run() {
     }
     lock.unlock();
     for (auto& call : expired) {
-      end(*call, call::Reply::error(call::Status::DEADLINE_EXCEEDED,
-                                    "no reply from space " + call->space + " for " + call->service + "." +
-                                        call->operation + " within " + std::to_string(call->deadline.count()) + " ms"));
+      call::Reply late =
+          call::Reply::error(call::Status::DEADLINE_EXCEEDED, "no reply from space " + call->space + " for " +
+                                                                  call->service + "." + call->operation + " within " +
+                                                                  std::to_string(call->deadline.count()) + " ms");
+      count_failure(call->space, late);
+      end(*call, std::move(late));
     }
     for (const auto& [writer, id] : retiring) RpcRegistrations::retire(writer, id, false);
     lock.lock();
@@ -266,6 +292,7 @@ void DdsCalls::start(const std::string& space, fdds::DataWriter* writer, const s
   request.caller_name(caller);
   request.traceparent(util::outgoing_trace().traceparent());  // the caller's trace, continued there
   spdlog::debug("dds: request {} to space {}: {}.{}", call->id, space, service, operation);
+  call->started = Clock::now();  // before the write: a reply may be read before it returns
   if (writer->write(&request)) {
     step(*call);
     return;
@@ -276,9 +303,12 @@ void DdsCalls::start(const std::string& space, fdds::DataWriter* writer, const s
     failed = take(call->id);
   }
   // Nothing to retire: it was never registered.
-  if (failed)
-    failed->done(
-        call::Reply::error(call::Status::UNAVAILABLE, "the request to space " + space + " could not be written"));
+  if (failed) {
+    call::Reply unwritten =
+        call::Reply::error(call::Status::UNAVAILABLE, "the request to space " + space + " could not be written");
+    count_failure(space, unwritten);
+    failed->done(std::move(unwritten));
+  }
 }
 
 call::Reply DdsCalls::call(const std::string& space, const std::string& service, const std::string& operation,
@@ -293,17 +323,22 @@ call::Reply DdsCalls::call(const std::string& space, const std::string& service,
     std::lock_guard lock(writers_mutex_);
     route = request_writer(space);
   } catch (const std::exception& e) {
-    if (options_.security.enabled()) {  // on a secured link, the access control refused the writer
-      return call::Reply::error(call::Status::PERMISSION_DENIED,
-                                "the permissions of space " + options_.space + " do not grant calls to space " + space);
-    }
-    return call::Reply::error(call::Status::UNAVAILABLE, e.what());
+    // On a secured link, the access control refused the writer.
+    call::Reply refused =
+        options_.security.enabled()
+            ? call::Reply::error(call::Status::PERMISSION_DENIED,
+                                 "the permissions of space " + options_.space + " do not grant calls to space " + space)
+            : call::Reply::error(call::Status::UNAVAILABLE, e.what());
+    count_failure(space, refused);
+    return refused;
   }
   // A writer made for this call waits for discovery; a known space's is matched already.
   if (!route.listener->wait_matched(std::min(until, Clock::now() + kMatchWait))) {
     if (gate_.closing()) return call::Reply::error(call::Status::UNAVAILABLE, "bridge stopping");
-    return call::Reply::error(call::Status::UNAVAILABLE,
-                              "space " + space + " is not reachable over DDS (no bridge of it matched)");
+    call::Reply unmatched = call::Reply::error(
+        call::Status::UNAVAILABLE, "space " + space + " is not reachable over DDS (no bridge of it matched)");
+    count_failure(space, unmatched);
+    return unmatched;
   }
   // The completion may outlive this frame by a moment (it runs on to its end after waking it).
   auto answer = std::make_shared<std::promise<call::Reply>>();
@@ -378,6 +413,15 @@ void DdsCalls::read_replies(fdds::DataReader* reader) {
       if (!identities_.speaks_for(info.publication_handle, it->second->space, "reply to", sample.request_id()))
         continue;
       call = take(sample.request_id());
+    }
+    {
+      const double round_trip = std::chrono::duration<double>(Clock::now() - call->started).count();
+      std::lock_guard lock(counts_mutex_);
+      if (SpaceCalls* counts = counts_of(call->space)) {
+        ++counts->replies;
+        counts->round_trip_seconds += round_trip;
+        counts->last_round_trip_seconds = round_trip;
+      }
     }
     call::Reply result;
     const auto status = call::status_from_number(sample.status());

@@ -72,6 +72,11 @@ class DdsCalls {
                                    std::string&& payload, const std::string& caller);
 
   void read_replies(eprosima::fastdds::dds::DataReader* reader);
+  // What the calls to each space met (DdsLink::space_calls()).
+  std::map<std::string, SpaceCalls> space_calls() const;
+  // Counts a failure the link gave a call to `space` (`reply` is not OK). Any thread, no lock held.
+  void count_failure(const std::string& space, const call::Reply& reply);
+
   // The calls waiting for a reply from `space` fail (PROVIDER_GONE): its bridge left or was lost.
   void fail_pending(const std::string& space);
   // The link is closing (the gate closed): callers waiting for a match are woken, those waiting
@@ -86,6 +91,7 @@ class DdsCalls {
     std::string service;
     std::string operation;
     eprosima::fastdds::dds::DataWriter* writer = nullptr;  // its request's
+    Clock::time_point started;                             // its request about to be written
     Clock::time_point until;                               // its deadline
     std::chrono::milliseconds deadline{0};                 // as the caller gave it, for the message
     Done done;
@@ -139,6 +145,8 @@ class DdsCalls {
   void step(Pending& call);  // written or ended: the second hands its request to the call thread
   // The call thread: ends the calls whose deadline passed and retires the requests of those that ended.
   void run();
+  // The counts of `space`, made if there is room (null if not). Caller holds counts_mutex_.
+  SpaceCalls* counts_of(const std::string& space);
 
   const DdsOptions& options_;
   LinkParticipant& participant_;
@@ -173,6 +181,10 @@ class DdsCalls {
   std::condition_variable wake_;  // the call thread: an earlier deadline, retirements due earlier, closing
   bool closed_ = false;
   std::atomic<uint64_t> next_id_{1};
+  // What the calls met, by space (at most DdsLink::kMaxCountedSpaces). Its own lock, taken with no
+  // other held: replies are counted on listener threads, the counts read by a metrics scrape.
+  mutable std::mutex counts_mutex_;
+  std::map<std::string, SpaceCalls> counts_;
   std::thread thread_;  // the call thread; last: started once the rest exists
 };
 

@@ -11,6 +11,8 @@
 #include <fastdds/dds/subscriber/DataReaderListener.hpp>
 #include <fastdds/dds/subscriber/SampleInfo.hpp>
 #include <fastdds/dds/topic/TopicDescription.hpp>
+#include <map>
+#include <mutex>
 #include <optional>
 
 #include "call_gate.hpp"
@@ -59,13 +61,27 @@ struct DdsLink::Impl : public fdds::DataReaderListener {
   // Asserts the keyed-state writers' liveliness (the link's and StateLink's); stopped first.
   std::unique_ptr<LivelinessAsserter> asserter;
 
-  // Why a call to `space` is refused at once, if it is: the link is closing, or the space lost.
-  std::optional<call::Reply> refusal(const CallGate::InProgress& in_progress, const std::string& space) const {
+  // Samples lost by the link's readers and StateLink's, by topic.
+  std::mutex lost_mutex;
+  std::map<std::string, uint64_t> lost;
+
+  // Why a call to `space` is refused at once, if it is: the link is closing, or the space lost
+  // (counted).
+  std::optional<call::Reply> refusal(const CallGate::InProgress& in_progress, const std::string& space) {
     if (!in_progress.admitted()) return call::Reply::error(call::Status::UNAVAILABLE, "bridge stopping");
     if (catalog.space_lost(space)) {
-      return call::Reply::error(call::Status::UNAVAILABLE, "the bridge of space " + space + " lost its liveliness");
+      call::Reply lost_space =
+          call::Reply::error(call::Status::UNAVAILABLE, "the bridge of space " + space + " lost its liveliness");
+      calls.count_failure(space, lost_space);
+      return lost_space;
     }
     return std::nullopt;
+  }
+
+  void count_lost(const std::string& topic, uint64_t count) {
+    std::lock_guard lock(lost_mutex);
+    // The link's own topics and StateLink's: a few, named by the code.
+    lost[topic] += count;
   }
 
   // The listeners run on DDS threads from the moment each reader exists, while the constructor is
@@ -88,6 +104,9 @@ struct DdsLink::Impl : public fdds::DataReaderListener {
   }
   void on_liveliness_changed(fdds::DataReader* reader, const fdds::LivelinessChangedStatus& status) override {
     if (topic_of(reader) == DdsCatalog::kCatalogTopic) catalog.liveliness_changed(status);
+  }
+  void on_sample_lost(fdds::DataReader* reader, const fdds::SampleLostStatus& status) override {
+    if (status.total_count_change > 0) count_lost(topic_of(reader), static_cast<uint64_t>(status.total_count_change));
   }
 };
 
@@ -137,6 +156,19 @@ void DdsLink::keep_alive(fdds::DataWriter* writer) { impl_->asserter->add(writer
 void DdsLink::let_go(fdds::DataWriter* writer) { impl_->asserter->remove(writer); }
 
 std::vector<ServiceEntry> DdsLink::catalog() const { return impl_->catalog.entries(); }
+
+std::map<std::string, SpaceCalls> DdsLink::space_calls() const { return impl_->calls.space_calls(); }
+
+void DdsLink::count_failure(const std::string& space, const call::Reply& reply) {
+  impl_->calls.count_failure(space, reply);
+}
+
+std::map<std::string, uint64_t> DdsLink::samples_lost() const {
+  std::lock_guard lock(impl_->lost_mutex);
+  return impl_->lost;
+}
+
+void DdsLink::count_samples_lost(const std::string& topic, uint64_t count) { impl_->count_lost(topic, count); }
 
 void DdsLink::announce(const ServiceEntry& entry) { impl_->catalog.announce(entry); }
 

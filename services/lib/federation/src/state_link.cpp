@@ -317,6 +317,13 @@ struct StateLink::Impl : public fdds::DataReaderListener {
     }
   }
 
+  void on_sample_lost(fdds::DataReader* reader, const fdds::SampleLostStatus& status) override {
+    if (status.total_count_change > 0) {
+      link.count_samples_lost(reader->get_topicdescription()->get_name(),
+                              static_cast<uint64_t>(status.total_count_change));
+    }
+  }
+
   void read_poses(fdds::DataReader* reader) {
     dds::SpacePose sample;
     fdds::SampleInfo info;

@@ -71,15 +71,17 @@ class DdsCallSink : public core::CallSink {
     const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(request.deadline - Clock::now());
     return std::max(left, std::chrono::milliseconds(1));
   }
-  // A space whose bridges are all lost is refused at once, by name: a call would otherwise wait
-  // for a bridge of it to match until its deadline.
-  std::optional<call::Reply> unreachable(const federation::DdsLink& link) const {
+  // A space whose bridges are all lost is refused at once, by name (and counted as the link's
+  // failure): a call would otherwise wait for a bridge of it to match until its deadline.
+  std::optional<call::Reply> unreachable(federation::DdsLink& link) const {
     const auto since = link.lost_since(space_);
     if (!since) return std::nullopt;
     const auto ago = std::chrono::duration_cast<std::chrono::milliseconds>(Clock::now() - *since).count();
-    return call::Reply::error(call::Status::UNAVAILABLE,
-                              fmt::format("space {} is unreachable: every bridge of it was lost {}.{} s ago", space_,
-                                          ago / 1000, ago % 1000 / 100));
+    call::Reply refused = call::Reply::error(
+        call::Status::UNAVAILABLE, fmt::format("space {} is unreachable: every bridge of it was lost {}.{} s ago",
+                                               space_, ago / 1000, ago % 1000 / 100));
+    link.count_failure(space_, refused);
+    return refused;
   }
   call::Reply closed() const {
     return call::Reply::error(call::Status::UNAVAILABLE, "the link to space " + space_ + " is closed");

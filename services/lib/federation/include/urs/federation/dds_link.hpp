@@ -16,6 +16,7 @@
 #include <chrono>
 #include <cstdint>
 #include <functional>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -113,8 +114,24 @@ struct ServiceEntry {
   std::string descriptor_set;
 };
 
+// What this bridge's calls to one other space met (DdsLink::space_calls()): the round trip of each
+// reply read (its request written to its reply read, the serving there included), and the failures
+// the link itself gave a call: no reply within its deadline, the space's bridges gone or lost
+// during the call or before it, the request not written. An error the called space answered is
+// that call's outcome, not the link's, and is not counted here.
+struct SpaceCalls {
+  uint64_t replies = 0;                                     // replies read
+  double round_trip_seconds = 0;                            // their round trips, summed
+  double last_round_trip_seconds = 0;                       // the latest one's
+  std::map<call::Status, uint64_t> failures;                // by the status the link gave
+  std::chrono::system_clock::time_point last_failure_at{};  // the epoch if none
+};
+
 class DdsLink {
  public:
+  // Spaces beyond this many get no SpaceCalls of their own (their calls are made, not counted).
+  static constexpr std::size_t kMaxCountedSpaces = 64;
+
   // The other spaces' catalog changed (an entry written, disposed, or its bridge lost or back):
   // read catalog() for what it holds now. Runs on a DDS thread; must not block.
   using CatalogHandler = std::function<void()>;
@@ -160,6 +177,19 @@ class DdsLink {
   // left (killed, paused, cut off, stopped), and none is back yet; nullopt if it was never lost or
   // is back. A space never seen is not lost: it is unknown.
   std::optional<std::chrono::steady_clock::time_point> lost_since(const std::string& space) const;
+
+  // The calls made to each other space (at most kMaxCountedSpaces), by space.
+  std::map<std::string, SpaceCalls> space_calls() const;
+  // Samples the link's readers lost (DDS's SAMPLE_LOST: a gap in a writer's sequence, a sample
+  // dropped for a full history or a best-effort one not received), by topic, since the link was
+  // joined. DDS does not say whose sample was lost, so they are not counted per space.
+  std::map<std::string, uint64_t> samples_lost() const;
+  // Counts a failure given to a call to `space` for the link's reasons by the link's user (a call
+  // refused because the space is held unreachable), as the link counts its own.
+  void count_failure(const std::string& space, const call::Reply& reply);
+  // Counts `count` more samples lost by a reader of `topic` on this link's participant (its own
+  // readers' and StateLink's listeners). Any thread.
+  void count_samples_lost(const std::string& topic, uint64_t count);
 
   // This space's catalog: announce (or update) and withdraw one service.
   void announce(const ServiceEntry& entry);
