@@ -28,6 +28,8 @@
 #include <condition_variable>
 #include <cstring>
 #include <fastdds/dds/domain/DomainParticipant.hpp>
+#include <fastdds/dds/log/Log.hpp>
+#include <fastdds/dds/log/StdoutErrConsumer.hpp>
 #include <fastdds/dds/publisher/DataWriter.hpp>
 #include <fastdds/dds/publisher/DataWriterListener.hpp>
 #include <fastdds/dds/publisher/Publisher.hpp>
@@ -255,6 +257,13 @@ int main(int argc, char** argv) {
   }
   if (argc - next < 3) usage();
   urs::util::block_shutdown_signals(true);  // every thread (Fast DDS's too) inherits the mask
+  // Fast DDS's own log (the refusals this peer provokes) goes to stderr: its log thread would
+  // otherwise write into stdout at the moment say() does, and cut one of the report lines the
+  // tests grep for.
+  auto fastdds_log = std::make_unique<eprosima::fastdds::dds::StdoutErrConsumer>();
+  fastdds_log->stderr_threshold(eprosima::fastdds::dds::Log::Kind::Info);
+  eprosima::fastdds::dds::Log::ClearConsumers();
+  eprosima::fastdds::dds::Log::RegisterConsumer(std::move(fastdds_log));
   urs::federation::DdsOptions options;
   options.domain = static_cast<uint32_t>(std::stoul(argv[next]));
   options.space = argv[next + 1];
