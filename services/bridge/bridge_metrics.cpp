@@ -120,7 +120,8 @@ void BridgeMetrics::watch(const core::Bridge& bridge) {
                        });
   const auto* dds = dynamic_cast<const DdsSide*>(bridge.side("dds"));
   if (dds == nullptr) return;
-  // The link's families, read together at each scrape (one family reads, the next reuse it).
+  // The link's families: each reads the link anew at each scrape (spaces(): the catalog, the
+  // participants and the calls' counts), eight reads per scrape.
   auto read = [this, dds](auto field) {
     std::vector<Sample> samples;
     const std::shared_ptr<federation::DdsLink> link = dds->link();
