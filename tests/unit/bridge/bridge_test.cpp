@@ -214,6 +214,19 @@ TEST_F(BridgeWithMemorySides, ASideThatLostItsStandInsGetsThemAgain) {
   EXPECT_EQ(b_->offered(), 2);
 }
 
+TEST_F(BridgeWithMemorySides, ASideThatAsksToBeOpenedAgainIsClosedAndOpenedWithItsRoutesAndFlows) {
+  BridgeLayout layout = layout_of({direction("a", "b")});
+  layout.state = {{"b", "a"}};
+  make(std::move(layout));
+  a_->add_own("diag");
+  ASSERT_TRUE(b_->wait_for([&] { return b_->holds("diag") && b_->state_wired(); }));
+  b_->ask_to_reopen();
+  EXPECT_TRUE(b_->wait_for([&] { return b_->opened() == 2 && b_->holds("diag") && b_->state_wired(); }));
+  EXPECT_EQ(b_->offered(), 2);  // withdrawn from the old session, offered on the new one
+  EXPECT_EQ(a_->opened(), 1);   // the other side kept its session
+  EXPECT_EQ(b_->call("diag", "echo", echo_request("x")).status, call::Status::OK);
+}
+
 TEST_F(BridgeWithMemorySides, ASourceThatCannotSayKeepsItsRoutes) {
   make(layout_of({direction("a", "b")}));
   a_->add_own("diag");

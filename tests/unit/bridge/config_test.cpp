@@ -137,6 +137,9 @@ TEST_F(BridgeConfigTest, TheLinkOverTcpListensOrConnects) {
   EXPECT_EQ(connecting.dds.link.tcp.listen, 0);
   EXPECT_EQ(connecting.dds.link.tcp.connect, (std::vector<std::string>{"site-a.example:7400", "10.0.0.2:443"}));
   EXPECT_TRUE(connecting.dds.link.tcp.public_address.empty());
+  EXPECT_EQ(connecting.dds.rejoin_unmet, std::chrono::seconds(20));
+  EXPECT_EQ(load("dds: {transport: tcp, tcp: {connect: [\"a:7400\"], rejoin_after_ms: 0}}\n").dds.rejoin_unmet,
+            std::chrono::milliseconds(0));
   EXPECT_EQ(
       load("dds: {transport: tcp, tcp: {connect: [\"a:7400\"], public: 192.168.10.2}}\n").dds.link.tcp.public_address,
       "192.168.10.2");
@@ -165,6 +168,9 @@ TEST_F(BridgeConfigTest, EveryTcpErrorIsNamedWithItsKey) {
        }) {
     EXPECT_NE(message.find(expected), std::string::npos) << "missing \"" << expected << "\" in:\n" << message;
   }
+  EXPECT_NE(refused("dds: {transport: tcp, tcp: {connect: [\"a:7400\"], rejoin_after_ms: 500}}\n")
+                .find("dds.tcp.rejoin_after_ms: 500 is neither 0 nor in 1000..3600000"),
+            std::string::npos);
   EXPECT_NE(refused("dds: {transport: quic}\n").find("dds.transport: 'quic' is neither udp nor tcp"),
             std::string::npos);
   EXPECT_NE(refused("dds: {tcp: {listen: 7400}}\n").find("dds.tcp: only with dds.transport: tcp"), std::string::npos);

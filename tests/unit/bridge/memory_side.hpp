@@ -93,6 +93,9 @@ class MemorySide : public core::Side,
   void set_active(bool active) {
     if (events_ != nullptr) events_->set_active(active);
   }
+  void ask_to_reopen() {
+    if (events_ != nullptr) events_->reopen();
+  }
 
   // Failures on demand.
   // Stand-in names offer() refuses from now on (none: it takes every one again).

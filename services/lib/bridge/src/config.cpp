@@ -209,8 +209,9 @@ bool is_ipv4(const std::string& text) {
   return inet_pton(AF_INET, text.c_str(), &address) == 1;
 }
 
-// dds.transport (udp | tcp) and dds.tcp {listen, public, connect}.
-void read_transport(const YAML::Node& node, federation::DdsOptions& link, std::vector<std::string>& errors) {
+// dds.transport (udp | tcp) and dds.tcp {listen, public, connect, rejoin_after_ms}.
+void read_transport(const YAML::Node& node, DdsConfig& dds, std::vector<std::string>& errors) {
+  federation::DdsOptions& link = dds.link;
   using Transport = federation::DdsOptions::Transport;
   std::string transport = "udp";
   if (node["transport"] && util::read_scalar(node["transport"], "dds.transport", transport, errors)) {
@@ -241,7 +242,16 @@ void read_transport(const YAML::Node& node, federation::DdsOptions& link, std::v
     errors.push_back("dds.tcp: a map is expected");
     return;
   }
-  util::check_keys(tcp, "dds.tcp", {"listen", "public", "connect"}, errors);
+  util::check_keys(tcp, "dds.tcp", {"listen", "public", "connect", "rejoin_after_ms"}, errors);
+  if (tcp["rejoin_after_ms"]) {
+    int ms = 0;
+    if (util::read_scalar(tcp["rejoin_after_ms"], "dds.tcp.rejoin_after_ms", ms, errors)) {
+      if (ms != 0 && (ms < 1000 || ms > 3600000)) {
+        errors.push_back("dds.tcp.rejoin_after_ms: " + std::to_string(ms) + " is neither 0 nor in 1000..3600000");
+      }
+      dds.rejoin_unmet = std::chrono::milliseconds(ms);
+    }
+  }
   if (tcp["listen"] && util::read_scalar(tcp["listen"], "dds.tcp.listen", link.tcp.listen, errors) &&
       link.tcp.listen == 0) {
     errors.push_back("dds.tcp.listen: must be a port, 1..65535");
@@ -329,7 +339,7 @@ void read_dds(const YAML::Node& node, const std::string& base, DdsConfig& dds, s
     util::read_scalar(node["socket_buffer_bytes"], "dds.socket_buffer_bytes", dds.link.socket_buffer_bytes, errors);
   }
   if (node["initial_peers"]) dds.link.initial_peers = read_strings(node["initial_peers"], "dds.initial_peers", errors);
-  read_transport(node, dds.link, errors);
+  read_transport(node, dds, errors);
   if (const YAML::Node discovery = node["discovery"]) {
     util::check_keys(discovery, "dds.discovery", {"listen", "id", "servers"}, errors);
     auto host_port = [&](const std::string& address, const std::string& where) {

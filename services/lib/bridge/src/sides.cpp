@@ -104,6 +104,7 @@ Composition compose(const BridgeConfig& config, const SideResources& resources) 
     side.audit = config.dds.audit;
     side.poses = config.dds.state.poses;
     side.hold_lost = config.dds.hold_lost;
+    side.rejoin_unmet = config.dds.rejoin_unmet;
     side.workers = config.workers;
     side.queue = config.queue;
     out.sides.push_back(std::make_unique<DdsSide>(std::move(side)));

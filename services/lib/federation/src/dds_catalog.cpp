@@ -69,6 +69,18 @@ std::optional<std::chrono::steady_clock::time_point> DdsCatalog::lost_since(cons
   return lost->second;
 }
 
+std::optional<std::chrono::system_clock::time_point> DdsCatalog::reached_since(const std::string& space) const {
+  std::lock_guard lock(catalog_mutex_);
+  const auto reached = reached_since_.find(space);
+  if (reached == reached_since_.end()) return std::nullopt;
+  return reached->second;
+}
+
+void DdsCatalog::reached(const std::string& space) const {
+  lost_since_.erase(space);
+  reached_since_.try_emplace(space, std::chrono::system_clock::now());
+}
+
 void DdsCatalog::writer_state(const fdds::InstanceHandle_t& writer, bool alive) {
   std::string lost;  // a space none of whose catalog writers is alive any more
   {
@@ -76,7 +88,7 @@ void DdsCatalog::writer_state(const fdds::InstanceHandle_t& writer, bool alive) 
     if (alive) {
       dead_writers_.erase(writer);
       const auto known = writer_spaces_.find(writer);
-      if (known != writer_spaces_.end()) lost_since_.erase(known->second);
+      if (known != writer_spaces_.end()) reached(known->second);
     } else {
       dead_writers_.insert(writer);
       auto it = writer_spaces_.find(writer);
@@ -93,6 +105,7 @@ void DdsCatalog::writer_state(const fdds::InstanceHandle_t& writer, bool alive) 
     {
       std::lock_guard lock(catalog_mutex_);
       lost_since_.try_emplace(lost, std::chrono::steady_clock::now());
+      reached_since_.erase(lost);
     }
     on_space_lost_(lost);
   }
@@ -195,7 +208,7 @@ std::vector<ServiceEntry> DdsCatalog::entries() const {
   {
     std::lock_guard lock(catalog_mutex_);
     for (auto& [writer, space] : spaces) {
-      if (!dead.count(writer)) lost_since_.erase(space);  // one of its writers is alive: the space is back
+      if (!dead.count(writer)) reached(space);  // one of its writers is alive: the space is back, or new
       writer_spaces_[writer] = std::move(space);
     }
   }

@@ -61,6 +61,9 @@ class DdsCatalog {
   // bridge killed, paused, cut off or stopped), until one of that space's is alive again; nullopt
   // for a space that was never lost, or is back.
   std::optional<std::chrono::steady_clock::time_point> lost_since(const std::string& space) const;
+  // Since when `space` has been reached: a catalog writer of it read alive, none lost since (all of
+  // them lost ends it); nullopt if it is not reached now.
+  std::optional<std::chrono::system_clock::time_point> reached_since(const std::string& space) const;
 
   // From the readers' listener (urs/catalog only).
   void subscription_matched(const eprosima::fastdds::dds::SubscriptionMatchedStatus& status);
@@ -89,13 +92,17 @@ class DdsCatalog {
   std::mutex interfaces_mutex_;
   std::map<std::string, std::chrono::steady_clock::time_point> interfaces_written_;  // digest -> when last written
 
-  // Guards dead_writers_, writer_spaces_, lost_since_, held_, refused_digests_ and descriptions_.
+  // Guards dead_writers_, writer_spaces_, lost_since_, reached_since_, held_, refused_digests_ and descriptions_.
   mutable std::mutex catalog_mutex_;
   std::set<eprosima::fastdds::dds::InstanceHandle_t> dead_writers_;  // catalog writers whose liveliness is lost
   // Catalog writers seen, by space written (filled by entries(); a writer refused that space is not).
   mutable std::map<eprosima::fastdds::dds::InstanceHandle_t, std::string> writer_spaces_;
   // The spaces all of whose catalog writers are lost, and since when (lost_since()).
   mutable std::map<std::string, std::chrono::steady_clock::time_point> lost_since_;
+  // The spaces reached, and since when (reached_since()).
+  mutable std::map<std::string, std::chrono::system_clock::time_point> reached_since_;
+  // `space` has a catalog writer alive: it is back if it was lost, reached from now if it was not.
+  void reached(const std::string& space) const;    // catalog_mutex_ held
   mutable std::set<std::string> refused_digests_;  // descriptions not matching their digest (logged once each)
   mutable std::map<std::string, std::string> descriptions_;  // by digest: those entries() took last
   // The entries entries() read last (what an ignored end or sample keeps).

@@ -146,6 +146,10 @@ std::optional<std::chrono::steady_clock::time_point> DdsLink::lost_since(const s
   return impl_->catalog.lost_since(space);
 }
 
+std::optional<std::chrono::system_clock::time_point> DdsLink::reached_since(const std::string& space) const {
+  return impl_->catalog.reached_since(space);
+}
+
 bool DdsLink::speaks_for(const fdds::SampleInfo& info, const std::string& space, const char* kind,
                          const std::string& name) const {
   return impl_->identities.speaks_for(info.publication_handle, space, kind, name);
@@ -156,6 +160,8 @@ void DdsLink::keep_alive(fdds::DataWriter* writer) { impl_->asserter->add(writer
 void DdsLink::let_go(fdds::DataWriter* writer) { impl_->asserter->remove(writer); }
 
 std::vector<ServiceEntry> DdsLink::catalog() const { return impl_->catalog.entries(); }
+
+uint64_t DdsLink::discoveries() const { return impl_->identities.discoveries(); }
 
 std::map<std::string, SpaceCalls> DdsLink::space_calls() const { return impl_->calls.space_calls(); }
 

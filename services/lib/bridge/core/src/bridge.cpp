@@ -26,6 +26,10 @@ struct Bridge::Slot : SideEvents {
     bridge.signal();
   }
   void set_active(bool active) override { bridge.want_active(active); }
+  void reopen() override {
+    reopen_wanted = true;
+    bridge.signal();
+  }
 
   Bridge& bridge;
   std::unique_ptr<Side> side;
@@ -38,6 +42,7 @@ struct Bridge::Slot : SideEvents {
   // From any thread:
   std::atomic<bool> offers_dirty{false};
   std::atomic<bool> stand_ins_dirty{false};
+  std::atomic<bool> reopen_wanted{false};
 };
 
 struct Bridge::Direction {
@@ -270,15 +275,7 @@ void Bridge::deactivate() {
     routes->withdraw_all();
   }
   for (auto it = slots_.rbegin(); it != slots_.rend(); ++it) {
-    Slot& slot = **it;
-    if (!slot.open) continue;
-    try {
-      slot.side->close();
-    } catch (const std::exception& e) {
-      spdlog::error("bridge {}: closing side {}: {}", name_, slot.side->name(), e.what());
-    }
-    std::lock_guard lock(mutex_);
-    slot.open = false;
+    if ((*it)->open) close_side(**it);
   }
   spdlog::info("bridge {}: inactive; {} route(s) withdrawn", name_, withdrawn);
 }
@@ -320,7 +317,35 @@ void Bridge::wire(Flow& flow, bool on) {
   }
 }
 
+void Bridge::close_side(Slot& slot) {
+  for (auto& flow : flows_) {
+    if (&flow->from == &slot || &flow->to == &slot) wire(*flow, false);
+  }
+  for (auto& direction : directions_) {
+    if (&direction->from != &slot && &direction->to != &slot) continue;
+    std::unique_ptr<RouteReconciler> routes;
+    {
+      std::lock_guard lock(mutex_);
+      routes.swap(direction->routes);
+    }
+    if (routes) routes->withdraw_all();
+  }
+  try {
+    slot.side->close();
+  } catch (const std::exception& e) {
+    spdlog::error("bridge {}: closing side {}: {}", name_, slot.side->name(), e.what());
+  }
+  std::lock_guard lock(mutex_);
+  slot.open = false;
+}
+
 void Bridge::pass(Clock::time_point now) {
+  for (auto& slot : slots_) {
+    if (!slot->reopen_wanted.exchange(false) || !slot->open) continue;
+    spdlog::warn("bridge {}: side {} is opened again", name_, slot->side->name());
+    close_side(*slot);
+    slot->retry_at = now;
+  }
   for (auto& slot : slots_) {
     if (!slot->open && now >= slot->retry_at) try_open(*slot, now);
   }

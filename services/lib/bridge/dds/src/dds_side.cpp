@@ -190,7 +190,8 @@ void DdsSide::open() {
     spdlog::error("bridge {}: the spaces share no state: {}", config_.bridge, e.what());
   }
   catalog_read_at_ = {};
-  announced_at_ = Clock::now();
+  announced_at_ = joined_at_ = Clock::now();
+  rejoin_asked_ = false;
   std::lock_guard lock(session_mutex_);
   session_ = std::move(session);
 }
@@ -217,6 +218,27 @@ Clock::time_point DdsSide::poll(Clock::time_point now) {
     events_->stand_ins_lost();
   }
   Clock::time_point next = announced_at_ + lease + std::chrono::milliseconds(1);
+  const federation::DdsOptions& link = config_.link;
+  const bool connects_over_tcp = link.transport == federation::DdsOptions::Transport::kTcp &&
+                                 (!link.tcp.connect.empty() || !link.discovery_servers.empty());
+  if (connects_over_tcp && config_.rejoin_unmet.count() > 0 && !rejoin_asked_) {
+    const std::shared_ptr<Session> session = this->session();
+    if (session && session->link->discoveries() == 0) {
+      if (now - joined_at_ >= config_.rejoin_unmet) {
+        std::string to;
+        for (const auto& address : link.tcp.connect) to += (to.empty() ? "" : ", ") + address;
+        for (const auto& address : link.discovery_servers) to += (to.empty() ? "" : ", ") + address;
+        spdlog::warn(
+            "bridge {}: the link over TCP to {} has met no one {:g} s after joining (a connection that carries "
+            "nothing, or no site listening): joining again",
+            config_.bridge, to, std::chrono::duration<double>(now - joined_at_).count());
+        rejoin_asked_ = true;
+        events_->reopen();
+      } else {
+        next = std::min(next, joined_at_ + config_.rejoin_unmet);
+      }
+    }
+  }
   for (const auto& [key, held] : held_) {
     if (held.until <= now) {
       events_->offers_changed();  // a hold ended: the offers are read again

@@ -43,6 +43,7 @@
 //       listen: 7400                #   this site listens on this port (forwarded by its router)
 //       public: "198.51.100.2:7400" #   where the others reach it: IPv4[:PORT] (PORT: listen's)
 //       connect: ["198.51.100.2:7400"]  # or/and: the listening sites' public HOST:PORT
+//       rejoin_after_ms: 20000      #   a site connecting out that met no one this long joins again (0: never)
 //     security:                     # DDS-Security between spaces (docs/federation.md, "A secured link")
 //       pki: /run/secrets/federation  # deploy/pki.sh's folder: ca.pem, governance.p7s, crl.pem, <space>/...
 //       # or, each overriding the folder's: identity_ca, certificate, private_key, permissions_ca,
@@ -154,7 +155,8 @@ struct DdsConfig {
   std::string as_camus = "{space}/{service}";
   std::string as_rtc = "{space}_{service}";
   uint32_t deadline_ms = 10000;
-  std::chrono::milliseconds hold_lost{30000};  // dds.hold_lost_ms (DdsSideConfig::hold_lost)
+  std::chrono::milliseconds hold_lost{30000};     // dds.hold_lost_ms (DdsSideConfig::hold_lost)
+  std::chrono::milliseconds rejoin_unmet{20000};  // dds.tcp.rejoin_after_ms (DdsSideConfig::rejoin_unmet)
   StateConfig state;
 };
 

@@ -177,6 +177,14 @@ class DdsLink {
   // left (killed, paused, cut off, stopped), and none is back yet; nullopt if it was never lost or
   // is back. A space never seen is not lost: it is unknown.
   std::optional<std::chrono::steady_clock::time_point> lost_since(const std::string& space) const;
+  // Since when `space` has been reached: an entry of it read from a bridge alive, and not every
+  // bridge of it lost since; nullopt if it is not reached now (lost, or never seen).
+  std::optional<std::chrono::system_clock::time_point> reached_since(const std::string& space) const;
+
+  // How many times this link's participant discovered another (a bridge, a discovery server, a
+  // third-party peer; one dropped and found again counts again) since it joined. 0: it has met no
+  // one, e.g. a site connecting over TCP whose connection carries nothing.
+  uint64_t discoveries() const;
 
   // The calls made to each other space (at most kMaxCountedSpaces), by space.
   std::map<std::string, SpaceCalls> space_calls() const;

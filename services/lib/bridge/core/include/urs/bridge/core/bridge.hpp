@@ -111,6 +111,7 @@ class Bridge {
   void deactivate();
   void pass(Clock::time_point now);
   void try_open(Slot& slot, Clock::time_point now);
+  void close_side(Slot& slot);  // what deactivate() does for one open side, its routes and flows first
   void wire(Flow& flow, bool on);
   Clock::time_point next_due() const;  // under mutex_
   void signal();

@@ -46,6 +46,9 @@ class SideEvents {
   // For a side whose lifecycle drives the bridge (Side::drives_activity): the bridge is active
   // (its sides open, its directions routed) while this says so.
   virtual void set_active(bool active) = 0;
+  // Its session, open, will not work (a link that never came up) and only a new one may: the
+  // bridge withdraws the routes into and from it, unwires its flows, closes it and opens it again.
+  virtual void reopen() = 0;
 };
 
 // The services a side offers, and the calls to them.

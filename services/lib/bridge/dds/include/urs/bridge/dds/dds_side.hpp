@@ -20,7 +20,9 @@
 //                    entries and events as they came
 //
 // poll() reads the catalog again once a lease (offers_changed), and once a lease says the others
-// may have forgotten what this space announced (stand_ins_lost: it is announced again).
+// may have forgotten what this space announced (stand_ins_lost: it is announced again); on a site
+// connecting out over TCP, it asks to be opened again while its link has met no one
+// (DdsSideConfig::rejoin_unmet).
 //
 // Threads: the control methods on the bridge's thread; calls from other spaces arrive on DDS
 // listener threads (never blocked); the other spaces' state is handed to the sink on StateLink's
@@ -62,6 +64,11 @@ struct DdsSideConfig {
   // "unreachable", and a space back within it finds its stand-ins where they were. 0: they leave
   // with their space at once.
   std::chrono::milliseconds hold_lost{30000};
+  // A site connecting out over TCP (link.tcp.connect, or discovery servers over TCP) whose link has
+  // met no other participant this long after joining leaves and joins again (the side is opened
+  // again: SideEvents::reopen): Fast DDS 2.9.1's TCP transport can leave a first connection
+  // established with nothing flowing, for good (docs/sites.md, "Limits"). 0: never.
+  std::chrono::milliseconds rejoin_unmet{20000};
   unsigned workers = 16;     // threads running the calls from other spaces that block (RT providers)
   std::size_t queue = 1024;  // calls waiting for a worker beyond which a call is refused
 };
@@ -135,6 +142,8 @@ class DdsSide final : public core::Side,
   bool failed_to_join_ = false;  // the last open() could not join the link
   Clock::time_point catalog_read_at_{};
   Clock::time_point announced_at_{};
+  Clock::time_point joined_at_{};                            // when open() joined the link
+  bool rejoin_asked_ = false;                                // reopen() asked since
   std::map<std::string, federation::ServiceEntry> catalog_;  // the others' entries last read, by "<space>/<service>"
   // Of catalog_, those no longer in the link's catalog but held: while their space is lost (up to
   // hold_lost), or just back and yet to announce them again.
