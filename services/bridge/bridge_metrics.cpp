@@ -77,6 +77,8 @@ std::map<std::string, BridgeMetrics::Space> BridgeMetrics::spaces(const federati
     Space space = found == now.end() ? Space{} : found->second;
     // Lost: every bridge of it the link saw lost its liveliness or left, or nothing of it is left.
     space.up = (space.participants > 0 || space.entries > 0) && !link.lost_since(name);
+    const auto reached = link.reached_since(name);
+    if (space.up && reached) space.reached_since = std::chrono::duration<double>(reached->time_since_epoch()).count();
     out[name] = space;
   }
   return out;
@@ -121,7 +123,7 @@ void BridgeMetrics::watch(const core::Bridge& bridge) {
   const auto* dds = dynamic_cast<const DdsSide*>(bridge.side("dds"));
   if (dds == nullptr) return;
   // The link's families: each reads the link anew at each scrape (spaces(): the catalog, the
-  // participants and the calls' counts), eight reads per scrape.
+  // participants and the calls' counts), nine reads per scrape.
   auto read = [this, dds](auto field) {
     std::vector<Sample> samples;
     const std::shared_ptr<federation::DdsLink> link = dds->link();
@@ -133,6 +135,10 @@ void BridgeMetrics::watch(const core::Bridge& bridge) {
                        "Whether each other space is reachable over the link (1) or lost (0): seen on the link, and "
                        "not every bridge of it lost (its liveliness) or gone.",
                        Kind::kGauge, [read] { return read([](const Space& s) { return s.up ? 1.0 : 0.0; }); });
+  metrics_.add_scraped("urslink_bridge_link_reached_since_timestamp_seconds",
+                       "Since when each other space has been reachable (Unix time; 0 while it is not): an entry of "
+                       "its catalog read from a bridge alive, and not every bridge of it lost since.",
+                       Kind::kGauge, [read] { return read([](const Space& s) { return s.reached_since; }); });
   metrics_.add_scraped("urslink_bridge_link_participants",
                        "Participants of each other space discovered on the link (its bridges and gateways).",
                        Kind::kGauge,

@@ -24,6 +24,7 @@
 
 #include "camus.pb.h"
 #include "dynamic_caller.hpp"
+#include "link_command.hpp"
 #include "recording_commands.hpp"
 #include "rtc_commands.hpp"
 #include "urs/planet/authenticator.hpp"
@@ -62,12 +63,7 @@ std::string unreachable_for(const std::string& unix_seconds) {
   int64_t since = 0;
   const auto [end, error] = std::from_chars(unix_seconds.data(), unix_seconds.data() + unix_seconds.size(), since);
   if (error != std::errc() || end != unix_seconds.data() + unix_seconds.size()) return "?";
-  const int64_t now =
-      std::chrono::duration_cast<std::chrono::seconds>(std::chrono::system_clock::now().time_since_epoch()).count();
-  const int64_t ago = std::max<int64_t>(now - since, 0);
-  if (ago < 120) return std::to_string(ago) + "s";
-  if (ago < 7200) return std::to_string(ago / 60) + "m";
-  return std::to_string(ago / 3600) + "h";
+  return urs::cli::ago(since);
 }
 
 std::string to_json(const google::protobuf::Message& message) {
@@ -130,6 +126,16 @@ int main(int argc, char** argv) {
   auto* spaces = app.add_subcommand(
       "spaces", "List the other spaces whose services this space imports: reachable or unreachable (for how long)");
   spaces->add_flag("--json", json_out, "Print the registry's JSON reply");
+
+  auto* link_command = app.add_subcommand(
+      "link",
+      "Show the link to each other space as one bridge meets it: state and since when, peers, services, round "
+      "trips, the link's failures (read from the bridge's --metrics-listen endpoint)");
+  std::string link_bridge;
+  link_command
+      ->add_option("bridge", link_bridge, "The bridge's metrics endpoint HOST:PORT (urs-bridge --metrics-listen)")
+      ->required();
+  link_command->add_flag("--json", json_out, "Print one JSON object");
 
   auto* whoami = app.add_subcommand("whoami", "Print who the server takes this client for: identity, role, space");
 
@@ -213,6 +219,14 @@ int main(int argc, char** argv) {
     return app.exit(e) == 0 ? kOk : kUsage;  // --help exits 0; anything else is bad usage
   }
   if (rtc.selected()) return rtc.run(log_level);
+  if (*link_command) {  // no CAMUS server: the bridge's metrics endpoint
+    if (timeout_ms <= 0) {
+      std::cerr << "urs: --timeout-ms: " << timeout_ms << " must be positive\n";
+      return kUsage;
+    }
+    return urs::cli::run_link_command(link_bridge, json_out, std::chrono::milliseconds(timeout_ms)) == 0 ? kOk
+                                                                                                         : kFailed;
+  }
 
   urs::planet::ClientOptions options;
   try {

@@ -72,7 +72,7 @@ int main(int argc, char** argv) {
   bool read_only = false, dds_udp_only = false, playback = false;
   int dds_domain = -1, devices_domain = -1, dds_lease_ms = 3000, rt_poll_ms = 1000, call_deadline_ms = 10000,
       max_clients = 64, max_queue_kib = 8192;
-  std::vector<std::string> dds_peers, dds_servers, idl_files;
+  std::vector<std::string> dds_peers, dds_servers, dds_tcp_connect, idl_files;
   std::string dds_pki;
   app.add_option("--space", space, "Name of the space the gateway shows and drives")->required()->envname("URS_SPACE");
   app.add_option("--server", server, "CAMUS server HOST:PORT (none: a space without CAMUS)")->envname("URS_SERVER");
@@ -101,6 +101,10 @@ int main(int argc, char** argv) {
                  "Unicast DDS peer HOST or HOST:PORT (repeatable), for networks without multicast");
   app.add_option("--dds-discovery-server", dds_servers, "Fast DDS discovery server HOST:PORT (repeatable)");
   app.add_flag("--dds-udp-only", dds_udp_only, "No shared-memory transport (between containers)");
+  app.add_option("--dds-tcp-connect", dds_tcp_connect,
+                 "Read a link that runs over TCP (dds.transport: tcp): a listening bridge's HOST:PORT (repeatable)")
+      ->excludes("--dds-peer")
+      ->excludes("--dds-udp-only");
   app.add_option("--dds-pki", dds_pki,
                  "Join a link secured with DDS-Security: deploy/pki.sh's folder (ca.pem, governance.p7s, crl.pem) "
                  "holding this gateway's member folder urs-gateway.<space>")
@@ -253,6 +257,10 @@ int main(int argc, char** argv) {
       options.link.udp_only = dds_udp_only;
       options.link.initial_peers = dds_peers;
       options.link.discovery_servers = dds_servers;
+      if (!dds_tcp_connect.empty()) {
+        options.link.transport = urs::federation::DdsOptions::Transport::kTcp;
+        options.link.tcp.connect = dds_tcp_connect;
+      }
       if (!dds_pki.empty())
         options.link.security = urs::federation::security_from_folder(dds_pki, gw::DdsSource::reader_name(space));
       options.own_services = server.empty() && naming.empty();

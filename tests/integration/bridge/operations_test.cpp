@@ -11,6 +11,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <iostream>
 #include <regex>
 
 #include "bridge_fixture.hpp"
@@ -184,6 +185,15 @@ TEST_F(BridgeOperations, TheRoundTripsAndFailuresOfTheCallsToEachSpaceAreCounted
   EXPECT_GT(metric_value(after, "urslink_bridge_link_last_round_trip_seconds", jp).value_or(0), 0.0);
   EXPECT_EQ(metric_value(after, "urslink_bridge_link_last_failure_timestamp_seconds", jp), 0.0) << after;
   EXPECT_EQ(metric_sum(after, "urslink_bridge_link_call_failures_total", jp), 0.0);
+  EXPECT_GT(metric_value(after, "urslink_bridge_link_reached_since_timestamp_seconds", jp).value_or(0), 0.0) << after;
+  // `urs link` shows the same, read from that endpoint: jp up, its round trips, no failure.
+  const std::string kr_link = "127.0.0.1:" + std::to_string(kr_metrics_);
+  CommandResult shown = urs({"link", kr_link});
+  ASSERT_EQ(shown.exit_code, 0) << shown.err;
+  std::cout << "urs link " << kr_link << ":\n" << shown.out;
+  EXPECT_THAT(shown.out, ::testing::ContainsRegex("\njp +up [0-9]+[smh] +[1-9][0-9]* +[1-9][0-9]* +[0-9]+ +[0-9.]+ms "
+                                                  "+[0-9.]+ms +none\n"))
+      << shown.out;
 
   // A sleep longer than its deadline: the link gives up on it (jp answers too late).
   const auto start = std::chrono::system_clock::now();
@@ -199,6 +209,8 @@ TEST_F(BridgeOperations, TheRoundTripsAndFailuresOfTheCallsToEachSpaceAreCounted
       << after;
   const double since_epoch = std::chrono::duration<double>(start.time_since_epoch()).count();
   EXPECT_GE(metric_value(after, "urslink_bridge_link_last_failure_timestamp_seconds", jp).value_or(0), since_epoch);
+  shown = urs({"link", kr_link});
+  EXPECT_THAT(shown.out, HasSubstr("1 (DEADLINE_EXCEEDED 1), last ")) << shown.out;
 
   // jp's bridge gone: kr refuses calls to it (unreachable), each a failure of the link.
   jp_.reset();
@@ -218,6 +230,13 @@ TEST_F(BridgeOperations, TheRoundTripsAndFailuresOfTheCallsToEachSpaceAreCounted
       },
       5s))
       << after;
+  shown = urs({"link", "--json", kr_link});
+  EXPECT_THAT(shown.out, HasSubstr("{\"space\":\"jp\",\"state\":\"lost\",\"reached_since\":0,")) << shown.out;
+  EXPECT_THAT(shown.out, ::testing::ContainsRegex("\"failures\":\\{\"DEADLINE_EXCEEDED\":1,\"UNAVAILABLE\":[1-9]"))
+      << shown.out;
+  const CommandResult nothing = urs({"link", "127.0.0.1:1"});
+  EXPECT_EQ(nothing.exit_code, 1);
+  EXPECT_THAT(nothing.err, HasSubstr("urs link: 127.0.0.1:1: Connection refused")) << nothing.err;
   const CommandResult checked = promtool_check_metrics(after);
   EXPECT_EQ(checked.exit_code, 0) << checked.out << checked.err;
   EXPECT_EQ(checked.out + checked.err, "");
