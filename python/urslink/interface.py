@@ -11,13 +11,17 @@ from google.protobuf import descriptor_pb2, descriptor_pool, json_format, messag
 from ._proto import urs_options_pb2 as uo
 from .errors import UserException
 
+_PACKAGE_DIR = os.path.dirname(os.path.abspath(__file__))
+# Where the omniidl Planet back-end is looked for, after URS_OMNIIDL_BACKEND_DIR (an override):
 _DEFAULT_BACKEND_DIRS = (
+    # the copy python/setup.py puts into the package when pip builds it
+    os.path.join(_PACKAGE_DIR, "omniidl_planet"),
+    # the package's own tree: <prefix>/share/urslink/python/urslink -> <prefix>/share/urslink/idl
+    # (the .deb, `cmake --install`), and a checkout's python/urslink -> idl
+    os.path.join(os.path.dirname(os.path.dirname(_PACKAGE_DIR)), "idl", "omniidl_planet"),
     "/usr/share/urslink/idl/omniidl_planet",
     "/usr/local/share/urslink/idl/omniidl_planet",
     "/opt/urslink/share/urslink/idl/omniidl_planet",
-    # the source tree, when the package is used from a checkout (python/urslink/..)
-    os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))),
-                 "idl", "omniidl_planet"),
 )
 
 
@@ -128,7 +132,8 @@ class Interface:
 
         Needs the omniidl and protoc programs (Debian: omniidl, protobuf-compiler); found on PATH
         or through URS_OMNIIDL / URS_PROTOC. The back-end folder is URS_OMNIIDL_BACKEND_DIR, else
-        the installed one (share/urslink/idl/omniidl_planet), else the source tree's."""
+        the copy inside the package (pip), else the package's tree (share/urslink/idl/omniidl_planet
+        installed, idl/omniidl_planet in a checkout)."""
         return cls(compile_idl(path, include_dirs), name)
 
 
