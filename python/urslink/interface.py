@@ -1,23 +1,28 @@
-"""Service interfaces described at run time: the message classes of an IDL interface, built from
-its descriptor set (from camus.registry Describe, a .desc file, or an IDL file through the
-project's omniidl back-end and protoc)."""
+"""Types and service interfaces described at run time: the message classes of an IDL file (Types)
+or of one IDL interface (Interface), built from a descriptor set (from camus.registry Describe, a
+.desc file, or an IDL file through the project's omniidl back-end and protoc)."""
 import os
 import shutil
 import subprocess
 import tempfile
 
 from google.protobuf import descriptor_pb2, descriptor_pool, json_format, message_factory
+from google.protobuf.message import DecodeError
 
 from ._proto import urs_options_pb2 as uo
 from .errors import UserException
 
+_PACKAGE_DIR = os.path.dirname(os.path.abspath(__file__))
+# Where the omniidl Planet back-end is looked for, after URS_OMNIIDL_BACKEND_DIR (an override):
 _DEFAULT_BACKEND_DIRS = (
+    # the copy python/setup.py puts into the package when pip builds it
+    os.path.join(_PACKAGE_DIR, "omniidl_planet"),
+    # the package's own tree: <prefix>/share/urslink/python/urslink -> <prefix>/share/urslink/idl
+    # (the .deb, `cmake --install`), and a checkout's python/urslink -> idl
+    os.path.join(os.path.dirname(os.path.dirname(_PACKAGE_DIR)), "idl", "omniidl_planet"),
     "/usr/share/urslink/idl/omniidl_planet",
     "/usr/local/share/urslink/idl/omniidl_planet",
     "/opt/urslink/share/urslink/idl/omniidl_planet",
-    # the source tree, when the package is used from a checkout (python/urslink/..)
-    os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))),
-                 "idl", "omniidl_planet"),
 )
 
 
@@ -41,28 +46,104 @@ class Method:
                                            self.reply.DESCRIPTOR.full_name, ", oneway" if self.oneway else "")
 
 
-class Interface:
-    """An IDL interface as Planet sees it: `name` ("Demo.Thermostat"), `descriptor_set` (the
-    serialized FileDescriptorSet, imports included: what an agent registers), `methods` (name ->
-    Method), and the message classes of every type the description holds."""
+# Files compile_idl() adds to every descriptor set: their messages are no type of the IDL file.
+_SUPPORT_FILES = frozenset((descriptor_pb2.DESCRIPTOR.name, uo.DESCRIPTOR.name))
 
-    def __init__(self, descriptor_set, name=None):
-        files = descriptor_pb2.FileDescriptorSet.FromString(descriptor_set)
+
+def _message_names(prefix, messages):
+    for m in messages:
+        yield prefix + m.name
+        yield from _message_names(prefix + m.name + ".", m.nested_type)
+
+
+class Types:
+    """The message types of a descriptor set, whether or not it declares a service: e.g. the
+    structs of an IDL file with no interface (OpenRTM-aist's BasicDataType.idl: "RTC.TimedLong"),
+    to publish and read events of. `descriptor_set` (the serialized FileDescriptorSet), `pool`,
+    `messages` (the full names of the messages it declares, sorted; those of descriptor.proto and
+    urs_options.proto left out)."""
+
+    def __init__(self, descriptor_set):
+        self._files = descriptor_pb2.FileDescriptorSet.FromString(descriptor_set).file
         self.descriptor_set = bytes(descriptor_set)
         self.pool = descriptor_pool.DescriptorPool()
+        for f in self._files:
+            self.pool.Add(f)
+        self.messages = sorted(name for f in self._files if f.name not in _SUPPORT_FILES
+                               for name in _message_names(f.package + "." if f.package else "", f.message_type))
+        self._factory = message_factory.MessageFactory(self.pool)
+
+    def message_class(self, full_name):
+        """The class of message `full_name` (e.g. "Demo.Reading"); KeyError if the description has none."""
+        descriptor = self.pool.FindMessageTypeByName(full_name)
+        make = getattr(message_factory, "GetMessageClass", None)
+        return make(descriptor) if make else self._factory.GetPrototype(descriptor)
+
+    def decode(self, event):
+        """The payload of `event` (a planet_pb2.Event) as a message of its content type. ValueError
+        when the content type is none of these types or the payload does not parse as one."""
+        try:
+            cls = self.message_class(event.content_type)
+        except KeyError:
+            raise ValueError("the event on '%s' has content type '%s', which is none of these types: load the "
+                             "IDL file that declares it" % (event.topic, event.content_type)) from None
+        try:
+            return cls.FromString(event.payload)
+        except DecodeError as e:
+            raise ValueError("the payload of the event on '%s' (%d bytes) is no %s: %s"
+                             % (event.topic, len(event.payload), event.content_type, e)) from None
+
+    def to_json(self, message):
+        return json_format.MessageToJson(message, preserving_proto_field_name=True,
+                                         including_default_value_fields=True)
+
+    def __repr__(self):
+        return "Types(%s)" % ", ".join(self.messages)
+
+    # ---- where descriptions come from ------------------------------------------------------------
+
+    @classmethod
+    def from_descriptor_set_file(cls, path, **options):
+        """From a serialized FileDescriptorSet on disk (e.g. the build's URS_DESCRIPTOR_SET .desc).
+        `options` are the class's own (Interface: `name`)."""
+        with open(path, "rb") as f:
+            return cls(f.read(), **options)
+
+    @classmethod
+    def from_idl(cls, path, include_dirs=(), **options):
+        """From an IDL file, translated at run time by the project's omniidl back-end
+        (docs/idl-mapping.md) and compiled by protoc into a descriptor set (compile_idl()).
+        `options` are the class's own (Interface: `name`).
+
+        Needs the omniidl and protoc programs (Debian: omniidl, protobuf-compiler); found on PATH
+        or through URS_OMNIIDL / URS_PROTOC. The back-end folder is URS_OMNIIDL_BACKEND_DIR, else
+        the copy inside the package (pip), else the package's tree (share/urslink/idl/omniidl_planet
+        installed, idl/omniidl_planet in a checkout)."""
+        return cls(compile_idl(path, include_dirs), **options)
+
+
+class Interface(Types):
+    """An IDL interface as Planet sees it: `name` ("Demo.Thermostat"), `descriptor_set` (the
+    serialized FileDescriptorSet, imports included: what an agent registers), `methods` (name ->
+    Method), and the message classes of every type the description holds (as Types)."""
+
+    def __init__(self, descriptor_set, name=None):
+        super().__init__(descriptor_set)
         services = []
         method_options = {}
-        for f in files.file:
-            self.pool.Add(f)
+        for f in self._files:
             package = f.package + "." if f.package else ""
             for s in f.service:
                 services.append(package + s.name)
                 for m in s.method:
                     method_options[(package + s.name, m.name)] = m.options
         if name is None:
-            if len(services) != 1:
+            if not services:
+                raise ValueError("the descriptor set declares no service (its IDL file has no interface): "
+                                 "load its message types with urslink.Types")
+            if len(services) > 1:
                 raise ValueError("the descriptor set declares %d services (%s): name the interface"
-                                 % (len(services), ", ".join(services) or "none"))
+                                 % (len(services), ", ".join(services)))
             name = services[0]
         try:
             self.service = self.pool.FindServiceByName(name)
@@ -70,19 +151,12 @@ class Interface:
             raise ValueError("the descriptor set has no service '%s' (it has: %s)"
                              % (name, ", ".join(services) or "none")) from None
         self.name = name
-        self._factory = message_factory.MessageFactory(self.pool)
         self.methods = {}
         for m in self.service.methods:
             options = method_options.get((name, m.name), descriptor_pb2.MethodOptions())
             self.methods[m.name] = Method(m.name, self.message_class(m.input_type.full_name),
                                           self.message_class(m.output_type.full_name),
                                           bool(options.Extensions[uo.oneway]), list(options.Extensions[uo.raises]))
-
-    def message_class(self, full_name):
-        """The class of message `full_name` (e.g. "Demo.Reading"); KeyError if the description has none."""
-        descriptor = self.pool.FindMessageTypeByName(full_name)
-        make = getattr(message_factory, "GetMessageClass", None)
-        return make(descriptor) if make else self._factory.GetPrototype(descriptor)
 
     def _exception_type(self, name):
         if "." not in name:
@@ -106,30 +180,8 @@ class Interface:
             value = None
         return UserException(type_name, payload, message, value)
 
-    def to_json(self, message):
-        return json_format.MessageToJson(message, preserving_proto_field_name=True,
-                                         including_default_value_fields=True)
-
     def __repr__(self):
         return "Interface(%s: %s)" % (self.name, ", ".join(self.methods))
-
-    # ---- where descriptions come from ------------------------------------------------------------
-
-    @classmethod
-    def from_descriptor_set_file(cls, path, name=None):
-        """From a serialized FileDescriptorSet on disk (e.g. the build's URS_DESCRIPTOR_SET .desc)."""
-        with open(path, "rb") as f:
-            return cls(f.read(), name)
-
-    @classmethod
-    def from_idl(cls, path, include_dirs=(), name=None):
-        """From an IDL file, translated at run time by the project's omniidl back-end
-        (docs/idl-mapping.md) and compiled by protoc into a descriptor set.
-
-        Needs the omniidl and protoc programs (Debian: omniidl, protobuf-compiler); found on PATH
-        or through URS_OMNIIDL / URS_PROTOC. The back-end folder is URS_OMNIIDL_BACKEND_DIR, else
-        the installed one (share/urslink/idl/omniidl_planet), else the source tree's."""
-        return cls(compile_idl(path, include_dirs), name)
 
 
 def _tool(env, program, package):

@@ -9,6 +9,7 @@ example's Python agent serving Demo.Thermostat:
     the C++ agent does;
   - the Python client calling the C++ diagnostic agent: results, chunked payloads both ways,
     declared exceptions, deadlines, oneways and their events, errors, the registry, context, tasks;
+  - an event of a type with no interface (RTC.TimedLong, urslink.Types) published and read back;
   - an RT consumer (`urs rtc call`, CORBA) calling the Python agent through urs-bridge;
   - credentials: a wrong token, roles;
   - reconnection: the server restarts on the same port; the agent's registration and a client's
@@ -272,6 +273,20 @@ async def check_diagnostic(space):
         expect(tasks is not None, "task_list()")
 
 
+async def check_types_event(space):
+    """An event of a type from an IDL file without an interface (OpenRTM-aist's RTC.TimedLong),
+    published and read back with urslink.Types."""
+    rtc = urslink.Types.from_idl(os.path.join(ROOT, "idl", "rtc", "BasicDataType.idl"))
+    TimedLong = rtc.message_class("RTC.TimedLong")
+    async with urslink.Client(space.server, token_file=space.tokens["client"], peer_name="sdk-types") as client:
+        counts = await client.subscribe("sdk/rt/count")
+        await client.publish("sdk/rt/count", TimedLong(tm={"sec": 12, "nsec": 345}, data=-7))
+        event = await counts.get(timeout=10)
+        value = rtc.decode(event)
+        expect(event.content_type == "RTC.TimedLong" and (value.tm.sec, value.tm.nsec, value.data) == (12, 345, -7),
+               "an RTC.TimedLong event published and decoded with urslink.Types", (event, value))
+
+
 async def check_transparency(space):
     """A Python agent serving URS.Diagnostic (described by the server, no IDL file) answers `urs call`
     as the C++ diagnostic agent does: same output and exit status, exceptions included."""
@@ -519,7 +534,8 @@ class Skip(Exception):
 
 
 CHECKS = [("urs_call_python_agent", check_urs_call), ("python_client_example", check_example_client),
-          ("python_client_diagnostic", check_diagnostic), ("python_agent_as_cpp_agent", check_transparency),
+          ("python_client_diagnostic", check_diagnostic), ("python_types_event", check_types_event),
+          ("python_agent_as_cpp_agent", check_transparency),
           ("python_client_context", check_context),
           ("python_client_credentials", check_credentials), ("python_client_queue", check_queue),
           ("python_resume", check_resume), ("python_rt_consumer_via_bridge", check_rt_consumer),

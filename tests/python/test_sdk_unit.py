@@ -1,8 +1,9 @@
 #!/usr/bin/python3
 """Unit tests of the Python SDK (python/urslink) without a server: framing and chunk reassembly
-with their limits, interfaces built from IDL at run time, an agent's dispatch (results, declared
-exceptions, errors), and a Client speaking to a scripted server on loopback (handshake, Pings,
-Refused, heartbeat timeout, an oversized frame, a call lost with its connection).
+with their limits, interfaces built from IDL at run time, the types of an IDL file without an
+interface, an agent's dispatch (results, declared exceptions, errors), and a Client speaking to a
+scripted server on loopback (handshake, Pings, Refused, heartbeat timeout, an oversized frame, a
+call lost with its connection, an event of such a type published and received).
 
   python3 -m unittest tests/python/test_sdk_unit.py   (from the repository root)"""
 import asyncio
@@ -22,6 +23,7 @@ from urslink import planet_pb2 as pl  # noqa: E402
 from urslink.wire import ProtocolError, Reassembler, encode, read_frame  # noqa: E402
 
 THERMOSTAT = os.path.join(ROOT, "examples", "python", "Thermostat.idl")
+BASIC_DATA_TYPES = os.path.join(ROOT, "idl", "rtc", "BasicDataType.idl")   # OpenRTM-aist's: structs, no interface
 logging.getLogger("urslink").setLevel(logging.CRITICAL)   # the tests read last_error, not the log
 
 
@@ -124,6 +126,39 @@ class InterfaceTest(unittest.TestCase):
     def test_descriptor_set_needs_a_known_service(self):
         with self.assertRaisesRegex(ValueError, "no service 'Demo.Nope'"):
             urslink.Interface(self.interface.descriptor_set, "Demo.Nope")
+
+
+class TypesTest(unittest.TestCase):
+    """urslink.Types: the message types of an IDL file that declares no interface."""
+
+    @classmethod
+    def setUpClass(cls):
+        cls.types = urslink.Types.from_idl(BASIC_DATA_TYPES)
+
+    def test_types_of_a_file_without_interface(self):
+        self.assertIn("RTC.TimedLong", self.types.messages)
+        self.assertIn("RTC.TimedDoubleSeq", self.types.messages)
+        self.assertNotIn("google.protobuf.FileDescriptorProto", self.types.messages)
+        TimedLong = self.types.message_class("RTC.TimedLong")
+        value = TimedLong(tm=self.types.message_class("RTC.Time")(sec=12, nsec=345), data=-7)
+        self.assertEqual(TimedLong.FromString(value.SerializeToString()), value)
+        self.assertEqual(value.DESCRIPTOR.full_name, "RTC.TimedLong")
+        with self.assertRaisesRegex(ValueError, r"^the descriptor set declares no service \(its IDL file has no "
+                                                r"interface\): load its message types with urslink.Types$"):
+            urslink.Interface.from_idl(BASIC_DATA_TYPES)
+
+    def test_an_interface_is_types_too(self):
+        interface = urslink.Interface.from_idl(THERMOSTAT)
+        self.assertIn("Demo.Reading", interface.messages)
+        self.assertEqual(urslink.Types(interface.descriptor_set).messages, interface.messages)
+
+    def test_decode_names_what_it_cannot_decode(self):
+        with self.assertRaisesRegex(ValueError, r"^the event on 'rt/count' has content type 'RTC.Nothing', which is "
+                                                r"none of these types: load the IDL file that declares it$"):
+            self.types.decode(pl.Event(topic="rt/count", content_type="RTC.Nothing"))
+        with self.assertRaisesRegex(ValueError, r"^the payload of the event on 'rt/count' \(2 bytes\) is no "
+                                                r"RTC.TimedLong: "):
+            self.types.decode(pl.Event(topic="rt/count", content_type="RTC.TimedLong", payload=b"\xff\xff"))
 
 
 class AgentTest(unittest.TestCase):
@@ -337,6 +372,35 @@ class ClientTest(unittest.TestCase):
                 return raised.exception
         error = asyncio.run(run())
         self.assertEqual((error.code, error.message), ("UNAVAILABLE", "connection to server lost"))
+
+    def test_event_of_a_type_without_interface_published_and_received(self):
+        types = urslink.Types.from_idl(BASIC_DATA_TYPES)
+
+        async def script(server, reader, writer):
+            subscribe = (await read_frame(reader, 65536)).subscribe
+            server.send(writer, pl.Frame(subscribe_ack=pl.SubscribeAck(subscription_id=subscribe.subscription_id,
+                                                                       status=pl.OK)))
+            server.published = (await read_frame(reader, 65536)).publish
+            server.send(writer, pl.Frame(publish_ack=pl.PublishAck(publish_id=server.published.publish_id, seq=5,
+                                                                   status=pl.OK)))
+            server.send(writer, pl.Frame(event=pl.Event(
+                subscription_id=subscribe.subscription_id, seq=5, topic=server.published.topic,
+                payload=server.published.payload, content_type=server.published.content_type, source="unit-client")))
+            await reader.read()
+
+        async def run():
+            async with ScriptedServer(welcome, script) as server:
+                client = urslink.Client(server.address, token="x")
+                await client.start(timeout=5)
+                subscription = await client.subscribe("rt/#")
+                seq = await client.publish("rt/count", types.message_class("RTC.TimedLong")(data=42))
+                event = await subscription.get(timeout=5)
+                await client.close()
+                return server.published, seq, event
+        published, seq, event = asyncio.run(run())
+        self.assertEqual((published.topic, published.content_type, seq), ("rt/count", "RTC.TimedLong", 5))
+        received = types.decode(event)
+        self.assertEqual((received.DESCRIPTOR.full_name, received.data), ("RTC.TimedLong", 42))
 
 
 if __name__ == "__main__":
