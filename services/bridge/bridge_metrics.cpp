@@ -67,6 +67,11 @@ std::map<std::string, BridgeMetrics::Space> BridgeMetrics::spaces(const federati
   for (auto& [name, calls] : link.space_calls()) {
     if (name != here) now[name].calls = std::move(calls);
   }
+  for (const auto& [name, served] : link.space_served()) {
+    // Only spaces seen otherwise: a caller's declared space (plain link) makes no series of its own.
+    const auto known = now.find(name);
+    if (known != now.end()) known->second.served = served;
+  }
   std::map<std::string, Space> out;
   std::lock_guard lock(spaces_mutex_);
   for (const auto& [name, space] : now) {
@@ -123,7 +128,7 @@ void BridgeMetrics::watch(const core::Bridge& bridge) {
   const auto* dds = dynamic_cast<const DdsSide*>(bridge.side("dds"));
   if (dds == nullptr) return;
   // The link's families: each reads the link anew at each scrape (spaces(): the catalog, the
-  // participants and the calls' counts), nine reads per scrape.
+  // participants and the calls' counts), ten reads per scrape.
   auto read = [this, dds](auto field) {
     std::vector<Sample> samples;
     const std::shared_ptr<federation::DdsLink> link = dds->link();
@@ -182,6 +187,22 @@ void BridgeMetrics::watch(const core::Bridge& bridge) {
                          }
                          return samples;
                        });
+  metrics_.add_scraped(
+      "urslink_bridge_link_payload_bytes_total",
+      "Payload bytes of the calls between this bridge and each other space, by direction: sent (this bridge's "
+      "requests, and its replies to that space's calls) and received (the replies read, and that space's requests).",
+      Kind::kCounter, [this, dds] {
+        std::vector<Sample> samples;
+        const std::shared_ptr<federation::DdsLink> link = dds->link();
+        if (!link) return samples;
+        for (const auto& [name, space] : spaces(*link)) {
+          samples.push_back({{{"space", name}, {"direction", "sent"}},
+                             static_cast<double>(space.calls.request_bytes + space.served.reply_bytes)});
+          samples.push_back({{{"space", name}, {"direction", "received"}},
+                             static_cast<double>(space.calls.reply_bytes + space.served.request_bytes)});
+        }
+        return samples;
+      });
   metrics_.add_scraped("urslink_bridge_link_samples_lost_total",
                        "Samples the link's readers lost (DDS SAMPLE_LOST), by topic: DDS does not say whose.",
                        Kind::kCounter, [dds] {

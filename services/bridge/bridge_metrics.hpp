@@ -45,11 +45,12 @@ class BridgeMetrics {
 
   // One remote space as the link shows it now.
   struct Space {
-    bool up = false;               // reachable: seen on the link, and not lost (DdsLink::lost_since)
-    std::size_t participants = 0;  // its participants discovered on the link
-    std::size_t entries = 0;       // its catalog entries this bridge reads (live ones)
-    federation::SpaceCalls calls;  // what this bridge's calls to it met (DdsLink::space_calls)
-    double reached_since = 0;      // Unix seconds since when it is reached (DdsLink::reached_since); 0: not
+    bool up = false;                 // reachable: seen on the link, and not lost (DdsLink::lost_since)
+    std::size_t participants = 0;    // its participants discovered on the link
+    std::size_t entries = 0;         // its catalog entries this bridge reads (live ones)
+    federation::SpaceCalls calls;    // what this bridge's calls to it met (DdsLink::space_calls)
+    federation::SpaceServed served;  // what this bridge served to its calls (DdsLink::space_served)
+    double reached_since = 0;        // Unix seconds since when it is reached (DdsLink::reached_since); 0: not
   };
   // The spaces of the link but this one (at most kMaxSpaces), by name; a space once seen stays
   // (down) when it is gone.

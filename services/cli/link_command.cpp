@@ -115,6 +115,8 @@ struct SpaceLink {
   double round_trips = 0;
   double round_trip_seconds = 0;
   double last_round_trip_seconds = 0;
+  double sent_bytes = 0;                   // call payloads sent to it (requests, replies to its calls)
+  double received_bytes = 0;               // and received from it
   double last_failure_at = 0;              // Unix seconds; 0: never
   std::map<std::string, double> failures;  // by status
 };
@@ -142,6 +144,11 @@ std::map<std::string, SpaceLink> read_link(const std::string& text) {
     if (spaces.size() >= kMaxSpaces && spaces.count(space->second) == 0) continue;
     if (sample->name == "urslink_bridge_link_up") {
       spaces[space->second].up = sample->value != 0;
+    } else if (sample->name == "urslink_bridge_link_payload_bytes_total") {
+      const auto direction = sample->labels.find("direction");
+      if (direction == sample->labels.end()) continue;
+      if (direction->second == "sent") spaces[space->second].sent_bytes = sample->value;
+      if (direction->second == "received") spaces[space->second].received_bytes = sample->value;
     } else if (sample->name == "urslink_bridge_link_call_failures_total") {
       const auto status = sample->labels.find("status");
       if (status != sample->labels.end() && sample->value > 0)
@@ -156,6 +163,20 @@ std::map<std::string, SpaceLink> read_link(const std::string& text) {
 std::string milliseconds(double seconds) {
   char text[32];
   std::snprintf(text, sizeof text, "%.1fms", seconds * 1000);
+  return text;
+}
+
+std::string bytes(double value) {
+  char text[32];
+  if (value < 1024) {
+    std::snprintf(text, sizeof text, "%.0fB", value);
+  } else if (value < 1024 * 1024) {
+    std::snprintf(text, sizeof text, "%.1fKiB", value / 1024);
+  } else if (value < 1024.0 * 1024 * 1024) {
+    std::snprintf(text, sizeof text, "%.1fMiB", value / (1024 * 1024));
+  } else {
+    std::snprintf(text, sizeof text, "%.1fGiB", value / (1024.0 * 1024 * 1024));
+  }
   return text;
 }
 
@@ -198,6 +219,7 @@ int run_link_command(const std::string& address, bool json, std::chrono::millise
              ",\"services\":" + number(s.services) + ",\"round_trips\":" + number(s.round_trips) +
              ",\"round_trip_seconds\":" + number(s.round_trip_seconds) +
              ",\"last_round_trip_seconds\":" + number(s.last_round_trip_seconds) +
+             ",\"sent_bytes\":" + number(s.sent_bytes) + ",\"received_bytes\":" + number(s.received_bytes) +
              ",\"last_failure_at\":" + number(s.last_failure_at) + ",\"failures\":{";
       bool first = true;
       for (const auto& [status, count] : s.failures) {
@@ -209,8 +231,8 @@ int run_link_command(const std::string& address, bool json, std::chrono::millise
     std::cout << out << "]}\n";
     return 0;
   }
-  std::printf("%-16s %-12s %-7s %-9s %-10s %-10s %-10s %s\n", "SPACE", "STATE", "PEERS", "SERVICES", "CALLS",
-              "RTT-LAST", "RTT-MEAN", "LINK FAILURES");
+  std::printf("%-16s %-12s %-6s %-9s %-8s %-9s %-9s %-10s %-10s %s\n", "SPACE", "STATE", "PEERS", "SERVICES", "CALLS",
+              "RTT-LAST", "RTT-MEAN", "SENT", "RECEIVED", "LINK FAILURES");
   for (const auto& [name, s] : spaces) {
     const std::string state =
         s.up ? "up" + (s.reached_since > 0 ? " " + ago(static_cast<int64_t>(s.reached_since)) : std::string()) : "lost";
@@ -223,10 +245,11 @@ int run_link_command(const std::string& address, bool json, std::chrono::millise
     failures = total == 0 ? "none"
                           : number(total) + " (" + failures + "), last " +
                                 ago(static_cast<int64_t>(s.last_failure_at)) + " ago";
-    std::printf("%-16s %-12s %-7s %-9s %-10s %-10s %-10s %s\n", name.c_str(), state.c_str(),
+    std::printf("%-16s %-12s %-6s %-9s %-8s %-9s %-9s %-10s %-10s %s\n", name.c_str(), state.c_str(),
                 number(s.participants).c_str(), number(s.services).c_str(), number(s.round_trips).c_str(),
                 s.round_trips > 0 ? milliseconds(s.last_round_trip_seconds).c_str() : "-",
-                s.round_trips > 0 ? milliseconds(s.round_trip_seconds / s.round_trips).c_str() : "-", failures.c_str());
+                s.round_trips > 0 ? milliseconds(s.round_trip_seconds / s.round_trips).c_str() : "-",
+                bytes(s.sent_bytes).c_str(), bytes(s.received_bytes).c_str(), failures.c_str());
   }
   return 0;
 }

@@ -171,6 +171,7 @@ TEST_F(BridgeOperations, EachHopOfACrossSpaceCallIsCountedAndTheLinkIsSeenPerSpa
 // status, with the time of the last one.
 TEST_F(BridgeOperations, TheRoundTripsAndFailuresOfTheCallsToEachSpaceAreCounted) {
   const std::string before = scrape(kr_metrics_);
+  const std::string jp_before = scrape(jp_metrics_);
   const std::map<std::string, std::string> jp{{"space", "jp"}};
   constexpr int kCalls = 3;
   for (int i = 0; i < kCalls; ++i) ASSERT_FALSE(echo_across("round trip " + std::to_string(i)).empty());
@@ -186,13 +187,23 @@ TEST_F(BridgeOperations, TheRoundTripsAndFailuresOfTheCallsToEachSpaceAreCounted
   EXPECT_EQ(metric_value(after, "urslink_bridge_link_last_failure_timestamp_seconds", jp), 0.0) << after;
   EXPECT_EQ(metric_sum(after, "urslink_bridge_link_call_failures_total", jp), 0.0);
   EXPECT_GT(metric_value(after, "urslink_bridge_link_reached_since_timestamp_seconds", jp).value_or(0), 0.0) << after;
+  // The call payloads both ways: each echo request and reply "round trip N" is 14 bytes (a tag, a
+  // length, 12 characters), sent by kr and received by jp, and back.
+  auto bytes = [](const std::string& scraped, const std::string& space, const char* direction) {
+    return metric_sum(scraped, "urslink_bridge_link_payload_bytes_total", {{"space", space}, {"direction", direction}});
+  };
+  const std::string jp_after = scrape(jp_metrics_);
+  EXPECT_EQ(bytes(after, "jp", "sent") - bytes(before, "jp", "sent"), kCalls * 14) << after;
+  EXPECT_EQ(bytes(after, "jp", "received") - bytes(before, "jp", "received"), kCalls * 14) << after;
+  EXPECT_EQ(bytes(jp_after, "kr", "received") - bytes(jp_before, "kr", "received"), kCalls * 14) << jp_after;
+  EXPECT_EQ(bytes(jp_after, "kr", "sent") - bytes(jp_before, "kr", "sent"), kCalls * 14) << jp_after;
   // `urs link` shows the same, read from that endpoint: jp up, its round trips, no failure.
   const std::string kr_link = "127.0.0.1:" + std::to_string(kr_metrics_);
   CommandResult shown = urs({"link", kr_link});
   ASSERT_EQ(shown.exit_code, 0) << shown.err;
   std::cout << "urs link " << kr_link << ":\n" << shown.out;
   EXPECT_THAT(shown.out, ::testing::ContainsRegex("\njp +up [0-9]+[smh] +[1-9][0-9]* +[1-9][0-9]* +[0-9]+ +[0-9.]+ms "
-                                                  "+[0-9.]+ms +none\n"))
+                                                  "+[0-9.]+ms +[1-9][0-9.]*[KMG]?i?B +[1-9][0-9.]*[KMG]?i?B +none\n"))
       << shown.out;
 
   // A sleep longer than its deadline: the link gives up on it (jp answers too late).

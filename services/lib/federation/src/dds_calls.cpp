@@ -171,6 +171,11 @@ void DdsCalls::count_failure(const std::string& space, const call::Reply& reply)
   counts->last_failure_at = std::chrono::system_clock::now();
 }
 
+void DdsCalls::count_request_bytes(const std::string& space, std::size_t bytes) {
+  std::lock_guard lock(counts_mutex_);
+  if (SpaceCalls* counts = counts_of(space)) counts->request_bytes += bytes;
+}
+
 void DdsCalls::fail_pending(const std::string& space) {
   std::vector<std::shared_ptr<Pending>> failed;
   {
@@ -294,6 +299,7 @@ void DdsCalls::start(const std::string& space, fdds::DataWriter* writer, const s
   spdlog::debug("dds: request {} to space {}: {}.{}", call->id, space, service, operation);
   call->started = Clock::now();  // before the write: a reply may be read before it returns
   if (writer->write(&request)) {
+    count_request_bytes(space, request.payload().size());
     step(*call);
     return;
   }
@@ -369,7 +375,7 @@ bool DdsCalls::oneway(const std::string& space, const std::string& service, cons
     return false;
   }
   if (!route.listener->wait_matched(Clock::now() + kMatchWait)) return false;
-  return send_oneway(route.writer, service, operation, std::move(payload), caller);
+  return send_oneway(space, route.writer, service, operation, std::move(payload), caller);
 }
 
 std::optional<bool> DdsCalls::oneway_async(const std::string& space, const std::string& service,
@@ -377,11 +383,11 @@ std::optional<bool> DdsCalls::oneway_async(const std::string& space, const std::
                                            const std::string& caller) {
   const std::optional<RequestRoute> route = matched_writer(space);
   if (!route) return std::nullopt;
-  return send_oneway(route->writer, service, operation, std::move(payload), caller);
+  return send_oneway(space, route->writer, service, operation, std::move(payload), caller);
 }
 
-bool DdsCalls::send_oneway(fdds::DataWriter* writer, const std::string& service, const std::string& operation,
-                           std::string&& payload, const std::string& caller) {
+bool DdsCalls::send_oneway(const std::string& space, fdds::DataWriter* writer, const std::string& service,
+                           const std::string& operation, std::string&& payload, const std::string& caller) {
   dds::CallRequest request;
   request.request_id(next_request_id());
   request.caller_space(options_.space);
@@ -392,6 +398,7 @@ bool DdsCalls::send_oneway(fdds::DataWriter* writer, const std::string& service,
   request.caller_name(caller);
   request.traceparent(util::outgoing_trace().traceparent());  // the caller's trace, continued there
   if (!writer->write(&request)) return false;
+  count_request_bytes(space, request.payload().size());
   // No reply tells when it was served: it stays available to a replier matching late for as long
   // as a replier would take it (kDefaultDeadline), then is retired.
   registrations_.retire_later(writer, request.request_id(), false, Clock::now() + dds_rpc::kDefaultDeadline);
@@ -419,6 +426,7 @@ void DdsCalls::read_replies(fdds::DataReader* reader) {
       std::lock_guard lock(counts_mutex_);
       if (SpaceCalls* counts = counts_of(call->space)) {
         ++counts->replies;
+        counts->reply_bytes += sample.payload().size();
         counts->round_trip_seconds += round_trip;
         counts->last_round_trip_seconds = round_trip;
       }

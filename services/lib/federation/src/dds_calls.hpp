@@ -136,8 +136,10 @@ class DdsCalls {
   void start(const std::string& space, eprosima::fastdds::dds::DataWriter* writer, const std::string& service,
              const std::string& operation, std::string&& payload, Clock::time_point until,
              std::chrono::milliseconds deadline, const std::string& caller, Done done);
-  bool send_oneway(eprosima::fastdds::dds::DataWriter* writer, const std::string& service, const std::string& operation,
-                   std::string&& payload, const std::string& caller);
+  bool send_oneway(const std::string& space, eprosima::fastdds::dds::DataWriter* writer, const std::string& service,
+                   const std::string& operation, std::string&& payload, const std::string& caller);
+  // Counts `bytes` of request payload written to `space` (SpaceCalls::request_bytes).
+  void count_request_bytes(const std::string& space, std::size_t bytes);
   // The pending call `id`, taken away (its deadline too): nobody else ends it. Caller holds mutex_.
   std::shared_ptr<Pending> take(const std::string& id);
   // Runs the call's completion with `reply` and counts its end towards retiring its request.

@@ -165,6 +165,8 @@ uint64_t DdsLink::discoveries() const { return impl_->identities.discoveries(); 
 
 std::map<std::string, SpaceCalls> DdsLink::space_calls() const { return impl_->calls.space_calls(); }
 
+std::map<std::string, SpaceServed> DdsLink::space_served() const { return impl_->served.space_served(); }
+
 void DdsLink::count_failure(const std::string& space, const call::Reply& reply) {
   impl_->calls.count_failure(space, reply);
 }

@@ -108,6 +108,26 @@ void DdsServed::serve(const fdds::InstanceHandle_t& instance, const std::string&
   serving_[instance] = {id, until};
 }
 
+std::map<std::string, SpaceServed> DdsServed::space_served() const {
+  std::lock_guard lock(counts_mutex_);
+  return counts_;
+}
+
+void DdsServed::count_bytes(const std::string& space, std::size_t bytes, bool request) {
+  std::lock_guard lock(counts_mutex_);
+  auto it = counts_.find(space);
+  if (it == counts_.end()) {
+    if (counts_.size() >= DdsLink::kMaxCountedSpaces) return;
+    it = counts_.emplace(space, SpaceServed{}).first;
+  }
+  if (request) {
+    ++it->second.requests;
+    it->second.request_bytes += bytes;
+  } else {
+    it->second.reply_bytes += bytes;
+  }
+}
+
 void DdsServed::read_requests(fdds::DataReader* reader) {
   dds::CallRequest sample;
   fdds::SampleInfo info;
@@ -137,6 +157,7 @@ void DdsServed::read_requests(fdds::DataReader* reader) {
     // On a secured link, the space the writer's participant proved, whatever the request declares;
     // the name inside it is the one the request carries: that space speaks for its own callers.
     request.caller = identities_.caller(info.publication_handle, sample.caller_space());
+    count_bytes(request.caller.space, request.payload.size(), true);
     request.oneway = sample.no_reply();
     // The caller's trace, if it sent a valid one (parse() refuses a long value before copying it).
     if (const auto trace = util::TraceContext::parse(sample.traceparent())) request.traceparent = trace->traceparent();
@@ -207,6 +228,7 @@ void DdsServed::send_reply(const std::string& space, const std::string& id, cons
     spdlog::warn("dds: the reply to {} could not be written", id);
     return;
   }
+  count_bytes(space, result.payload.size(), false);
   // Registered once written: a caller done with it during the write (in this process, its reply
   // listener runs inside the write) must not unregister it on this writer then, which Fast DDS 2.9
   // does not take while the write delivers; such a reply is retired at `until`.

@@ -58,6 +58,9 @@ class DdsServed {
   const std::string& request_name() const { return request_name_; }  // the request reader's topic
 
   void read_requests(eprosima::fastdds::dds::DataReader* reader);
+  // The payload bytes of the requests read from each calling space and of the replies written to
+  // it (at most DdsLink::kMaxCountedSpaces spaces), by the caller's space as the link took it.
+  std::map<std::string, SpaceServed> space_served() const;
   // Stops the replier thread: a reply it would write now is refused (the gate is closed), those
   // queued are dropped.
   void stop() { replier_.stop(); }
@@ -85,6 +88,11 @@ class DdsServed {
   eprosima::fastdds::dds::DataReader* request_reader_ = nullptr;
   // Writes the replies given on the link's listener threads (responder_for).
   agent::WorkerPool replier_{1};
+
+  // Counts `request` or reply bytes of `space` (space_served()).
+  void count_bytes(const std::string& space, std::size_t bytes, bool request);
+  mutable std::mutex counts_mutex_;  // guards counts_; taken with no other lock held
+  std::map<std::string, SpaceServed> counts_;
 
   std::mutex writers_mutex_;                                                  // guards reply_writers_
   std::map<std::string, eprosima::fastdds::dds::DataWriter*> reply_writers_;  // by caller space

@@ -121,10 +121,20 @@ struct ServiceEntry {
 // that call's outcome, not the link's, and is not counted here.
 struct SpaceCalls {
   uint64_t replies = 0;                                     // replies read
+  uint64_t request_bytes = 0;                               // payload bytes of the requests written (oneway too)
+  uint64_t reply_bytes = 0;                                 // payload bytes of the replies read
   double round_trip_seconds = 0;                            // their round trips, summed
   double last_round_trip_seconds = 0;                       // the latest one's
   std::map<call::Status, uint64_t> failures;                // by the status the link gave
   std::chrono::system_clock::time_point last_failure_at{};  // the epoch if none
+};
+
+// What this bridge served to one other space's calls (DdsLink::space_served()), by the caller's
+// space as the link took it (proven on a secured link, declared on a plain one).
+struct SpaceServed {
+  uint64_t requests = 0;       // requests read (oneway too)
+  uint64_t request_bytes = 0;  // their payload bytes
+  uint64_t reply_bytes = 0;    // payload bytes of the replies written
 };
 
 class DdsLink {
@@ -188,6 +198,8 @@ class DdsLink {
 
   // The calls made to each other space (at most kMaxCountedSpaces), by space.
   std::map<std::string, SpaceCalls> space_calls() const;
+  // The calls served to each other space (at most kMaxCountedSpaces), by space.
+  std::map<std::string, SpaceServed> space_served() const;
   // Samples the link's readers lost (DDS's SAMPLE_LOST: a gap in a writer's sequence, a sample
   // dropped for a full history or a best-effort one not received), by topic, since the link was
   // joined. DDS does not say whose sample was lost, so they are not counted per space.
