@@ -129,12 +129,18 @@ void BridgeMetrics::watch(const core::Bridge& bridge) {
   if (dds == nullptr) return;
   // The link's families: each reads the link anew at each scrape (spaces(): the catalog, the
   // participants and the calls' counts), ten reads per scrape.
-  auto read = [this, dds](auto field) {
+  // `samples_of(name, space, samples)` adds a family's samples of each space; read(field) one each.
+  auto each_space = [this, dds](auto samples_of) {
     std::vector<Sample> samples;
     const std::shared_ptr<federation::DdsLink> link = dds->link();
     if (!link) return samples;
-    for (const auto& [name, space] : spaces(*link)) samples.push_back({{{"space", name}}, field(space)});
+    for (const auto& [name, space] : spaces(*link)) samples_of(name, space, samples);
     return samples;
+  };
+  auto read = [each_space](auto field) {
+    return each_space([field](const std::string& name, const Space& space, std::vector<Sample>& samples) {
+      samples.push_back({{{"space", name}}, field(space)});
+    });
   };
   metrics_.add_scraped("urslink_bridge_link_up",
                        "Whether each other space is reachable over the link (1) or lost (0): seen on the link, and "
@@ -175,33 +181,25 @@ void BridgeMetrics::watch(const core::Bridge& bridge) {
   metrics_.add_scraped("urslink_bridge_link_call_failures_total",
                        "Calls to each other space the link failed, by the status it gave them (an error the called "
                        "space answered is not one).",
-                       Kind::kCounter, [this, dds] {
-                         std::vector<Sample> samples;
-                         const std::shared_ptr<federation::DdsLink> link = dds->link();
-                         if (!link) return samples;
-                         for (const auto& [name, space] : spaces(*link)) {
+                       Kind::kCounter, [each_space] {
+                         return each_space([](const std::string& name, const Space& space, std::vector<Sample>& out) {
                            for (const auto& [status, count] : space.calls.failures) {
-                             samples.push_back({{{"space", name}, {"status", std::string(call::status_name(status))}},
-                                                static_cast<double>(count)});
+                             out.push_back({{{"space", name}, {"status", std::string(call::status_name(status))}},
+                                            static_cast<double>(count)});
                            }
-                         }
-                         return samples;
+                         });
                        });
   metrics_.add_scraped(
       "urslink_bridge_link_payload_bytes_total",
       "Payload bytes of the calls between this bridge and each other space, by direction: sent (this bridge's "
       "requests, and its replies to that space's calls) and received (the replies read, and that space's requests).",
-      Kind::kCounter, [this, dds] {
-        std::vector<Sample> samples;
-        const std::shared_ptr<federation::DdsLink> link = dds->link();
-        if (!link) return samples;
-        for (const auto& [name, space] : spaces(*link)) {
-          samples.push_back({{{"space", name}, {"direction", "sent"}},
-                             static_cast<double>(space.calls.request_bytes + space.served.reply_bytes)});
-          samples.push_back({{{"space", name}, {"direction", "received"}},
-                             static_cast<double>(space.calls.reply_bytes + space.served.request_bytes)});
-        }
-        return samples;
+      Kind::kCounter, [each_space] {
+        return each_space([](const std::string& name, const Space& space, std::vector<Sample>& out) {
+          out.push_back({{{"space", name}, {"direction", "sent"}},
+                         static_cast<double>(space.calls.request_bytes + space.served.reply_bytes)});
+          out.push_back({{{"space", name}, {"direction", "received"}},
+                         static_cast<double>(space.calls.reply_bytes + space.served.request_bytes)});
+        });
       });
   metrics_.add_scraped("urslink_bridge_link_samples_lost_total",
                        "Samples the link's readers lost (DDS SAMPLE_LOST), by topic: DDS does not say whose.",
