@@ -3,6 +3,10 @@
 #include "urs/gateway/logins.hpp"
 
 #include <gtest/gtest.h>
+#include <spdlog/sinks/ostream_sink.h>
+#include <spdlog/spdlog.h>
+
+#include <sstream>
 
 using urs::gateway::LoginOptions;
 using urs::gateway::Logins;
@@ -33,6 +37,27 @@ TEST(Logins, TheSpaceCredentialOperatesTheViewerOneSees) {
   EXPECT_TRUE(logins.logout(op.login->id));
   EXPECT_EQ(logins.find(op.login->id), nullptr);
   EXPECT_FALSE(logins.logout(op.login->id));
+}
+
+// The session id is the login's secret: the log names a login by its number, and shows no part of
+// the id (nor does the peer name a login's CAMUS session carries: tests/integration/gateway).
+TEST(Logins, TheLogNamesALoginByItsNumberNeverByItsSecret) {
+  std::ostringstream logged;
+  const auto before = spdlog::default_logger();
+  spdlog::set_default_logger(
+      std::make_shared<spdlog::logger>("test", std::make_shared<spdlog::sinks::ostream_sink_mt>(logged)));
+  Logins logins(options());
+  auto first = logins.login("space-secret");
+  auto second = logins.login("viewer-secret");
+  spdlog::set_default_logger(before);
+  ASSERT_TRUE(first.login && second.login);
+  EXPECT_EQ(first.login->number, 1u);
+  EXPECT_EQ(second.login->number, 2u);
+  EXPECT_NE(logged.str().find("login #1 as operator"), std::string::npos) << logged.str();
+  EXPECT_NE(logged.str().find("login #2 as viewer"), std::string::npos) << logged.str();
+  for (const auto& id : {first.login->id, second.login->id}) {
+    EXPECT_EQ(logged.str().find(id.substr(0, 8)), std::string::npos) << logged.str();
+  }
 }
 
 TEST(Logins, WrongCredentialsAreRefusedAndThenRateLimited) {

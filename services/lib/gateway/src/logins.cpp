@@ -76,12 +76,13 @@ LoginResult Logins::login(const std::string& credential) {
   }
   auto made = std::make_shared<Login>();
   made->id = random_id();
+  made->number = ++numbered_;
   if (!options_.viewer_token.empty() && same_secret(credential, options_.viewer_token)) {
     made->role = Role::viewer;
   } else if (options_.camus) {
     planet::ClientOptions client = *options_.camus;
     client.token = credential;
-    client.peer_name = options_.camus->peer_name + "/login-" + made->id.substr(0, 8);
+    client.peer_name = options_.camus->peer_name + "/login-" + std::to_string(made->number);
     auto session = std::make_unique<planet::Client>(client);
     session->start();
     if (!session->wait_connected(options_.verify_timeout)) {
@@ -112,9 +113,9 @@ LoginResult Logins::login(const std::string& credential) {
   }
   logins_[login->id] = Entry{login, now};
   if (login->identity.empty()) {
-    spdlog::info("gateway: login {}... as {}", login->id.substr(0, 8), role_name(login->role));
+    spdlog::info("gateway: login #{} as {}", login->number, role_name(login->role));
   } else {
-    spdlog::info("gateway: login {}... as {} (credential '{}', role {} at the CAMUS server)", login->id.substr(0, 8),
+    spdlog::info("gateway: login #{} as {} (credential '{}', role {} at the CAMUS server)", login->number,
                  role_name(login->role), login->identity, planet::role_word(login->server_role));
   }
   return {login, 200, {}};

@@ -17,6 +17,7 @@
 // Threading: every member may be called from any thread. login() blocks (up to verify_timeout);
 // call it off the network thread.
 
+#include <atomic>
 #include <chrono>
 #include <deque>
 #include <map>
@@ -43,7 +44,8 @@ struct LoginOptions {
 };
 
 struct Login {
-  std::string id;
+  std::string id;       // the session's secret: never logged, never sent to the CAMUS server
+  uint64_t number = 0;  // which login of this gateway it is (1, 2, ...): what logs and peer names show
   Role role = Role::viewer;
   std::unique_ptr<planet::Client> client;  // the login's own session with the CAMUS server, if any
   // What the CAMUS server said of the credential (ROLE_UNSPECIFIED and "" without a session).
@@ -87,6 +89,7 @@ class Logins {
   mutable std::mutex mutex_;
   std::map<std::string, Entry> logins_;
   std::deque<std::chrono::steady_clock::time_point> failures_;
+  std::atomic<uint64_t> numbered_{0};  // logins numbered so far
 };
 
 // True if `a` equals `b`, in a time that depends on their lengths only.
