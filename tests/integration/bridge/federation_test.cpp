@@ -443,7 +443,8 @@ class TcpFederation : public Federation {
     Federation::SetUp();
   }
   std::string jp_transport() const override {
-    return "  transport: tcp\n  tcp: {listen: " + std::to_string(tcp_port_) + ", public: 127.0.0.1}\n";
+    return "  transport: tcp\n  tcp: {listen: " + std::to_string(tcp_port_) + ", public: \"127.0.0.1" +
+           (jp_public_port_ == 0 ? "" : ":" + std::to_string(jp_public_port_)) + "\"}\n";
   }
   std::string kr_transport() const override {
     if (kr_connects_to_ == 0) return "  transport: tcp\n";  // its discovery server's address only
@@ -451,6 +452,7 @@ class TcpFederation : public Federation {
            "}\n";
   }
   uint16_t tcp_port_ = 0;
+  uint16_t jp_public_port_ = 0;  // the port jp announces (0: tcp_port_), as a router forwarding another one
   uint16_t kr_connects_to_ = 0;
   std::string kr_tcp_more_;  // more of kr's dds.tcp, ", key: value"
 };
@@ -572,30 +574,39 @@ class FirstConnectionSilentRelay {
   std::thread thread_;
 };
 
-// bridge-kr connects to bridge-jp's port through a relay whose first connection carries nothing:
-// without dds.tcp.rejoin_after_ms it stays on that connection and never links; with it, it joins
-// the link again, connects anew and links.
+// bridge-kr reaches bridge-jp only through a relay (jp announces the relay's port, as behind a
+// router forwarding it) whose first connection carries nothing: without dds.tcp.rejoin_after_ms
+// kr stays on that connection and never links; with it, it joins the link again, connects anew
+// and links.
 TEST_F(PlainTcpFederation, AConnectionThatCarriesNothingIsLeftAndTheLinkJoinedAgain) {
+  // jp behind a new relay (on a port of its own: the last one may be closing still), kr connecting to it.
+  auto start_behind = [&](FirstConnectionSilentRelay& relay, const std::string& rejoin_after_ms) {
+    jp_public_port_ = kr_connects_to_ = relay.port();
+    start_jp();
+    kr_tcp_more_ = ", rejoin_after_ms: " + rejoin_after_ms;
+    start_kr();
+  };
   kr_.reset();
+  jp_.reset();
   ASSERT_TRUE(wait_service_gone("jp/rt.Diagnostic0", 15s));
   {
+    tcp_port_ = free_udp_port(SOCK_STREAM);
     FirstConnectionSilentRelay relay(tcp_port_);
-    kr_connects_to_ = relay.port();
-    kr_tcp_more_ = ", rejoin_after_ms: 0";
-    start_kr();
+    start_behind(relay, "0");
     EXPECT_FALSE(wait_for_service("jp/rt.Diagnostic0", 15s)) << "linked over a connection that carries nothing";
     EXPECT_EQ(relay.accepted(), 1);
     kr_.reset();
+    jp_.reset();
   }
+  tcp_port_ = free_udp_port(SOCK_STREAM);
   FirstConnectionSilentRelay relay(tcp_port_);
-  kr_connects_to_ = relay.port();
-  kr_tcp_more_ = ", rejoin_after_ms: 2000";
-  start_kr();
+  start_behind(relay, "2000");
   ASSERT_TRUE(wait_for_service("jp/rt.Diagnostic0", 60s)) << kr_->log() << jp_->log();
   ASSERT_NO_FATAL_FAILURE(expect_echo("jp/rt.Diagnostic0", "after joining again"));
   EXPECT_GE(relay.accepted(), 2);
   EXPECT_NE(kr_->log().find("has met no one"), std::string::npos) << kr_->log();
-  kr_.reset();  // before the relay: its connections end with the bridge
+  kr_.reset();  // before the relay: its connections end with the bridges
+  jp_.reset();
 }
 
 // A Fast DDS discovery server over TCP: bridge-jp the server on its listening port, bridge-kr a

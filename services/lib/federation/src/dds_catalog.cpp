@@ -2,7 +2,9 @@
 
 #include <spdlog/spdlog.h>
 
+#include <cstring>
 #include <fastdds/dds/core/LoanableSequence.hpp>
+#include <fastdds/dds/domain/DomainParticipant.hpp>
 #include <fastdds/dds/publisher/DataWriter.hpp>
 #include <fastdds/dds/publisher/Publisher.hpp>
 #include <fastdds/dds/subscriber/DataReader.hpp>
@@ -113,6 +115,10 @@ void DdsCatalog::writer_state(const fdds::InstanceHandle_t& writer, bool alive) 
 }
 
 void DdsCatalog::subscription_matched(const fdds::SubscriptionMatchedStatus& status) {
+  if (status.current_count_change > 0) {  // a writer's handle is its GUID, its participant's prefix first
+    const auto& own = participant_.participant()->guid().guidPrefix;
+    if (std::memcmp(status.last_publication_handle.value, own.value, sizeof own.value) != 0) ++writers_matched_;
+  }
   if (status.current_count_change != 0) writer_state(status.last_publication_handle, status.current_count_change > 0);
   if (status.current_count_change < 0) {
     std::lock_guard lock(catalog_mutex_);

@@ -65,6 +65,9 @@ class DdsCatalog {
   // them lost ends it); nullopt if it is not reached now.
   std::optional<std::chrono::system_clock::time_point> reached_since(const std::string& space) const;
 
+  // DdsLink::catalog_writers_matched().
+  uint64_t writers_matched() const { return writers_matched_; }
+
   // From the readers' listener (urs/catalog only).
   void subscription_matched(const eprosima::fastdds::dds::SubscriptionMatchedStatus& status);
   void liveliness_changed(const eprosima::fastdds::dds::LivelinessChangedStatus& status);
@@ -92,6 +95,7 @@ class DdsCatalog {
   std::mutex interfaces_mutex_;
   std::map<std::string, std::chrono::steady_clock::time_point> interfaces_written_;  // digest -> when last written
 
+  std::atomic<uint64_t> writers_matched_{0};  // other participants' catalog writers matched so far
   // Guards dead_writers_, writer_spaces_, lost_since_, reached_since_, held_, refused_digests_ and descriptions_.
   mutable std::mutex catalog_mutex_;
   std::set<eprosima::fastdds::dds::InstanceHandle_t> dead_writers_;  // catalog writers whose liveliness is lost

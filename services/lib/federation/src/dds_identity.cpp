@@ -145,7 +145,6 @@ void DdsIdentities::on_participant_discovery(eprosima::fastdds::dds::DomainParti
     refused_.erase(prefix);
     return;
   }
-  if (info.status == rtps::ParticipantDiscoveryInfo::DISCOVERED_PARTICIPANT) ++discoveries_;
   if (!secured_) return;
   std::string subject;
   for (const auto& property : info.info.identity_token_.properties()) {

@@ -34,7 +34,6 @@
 #include <fastdds/rtps/common/InstanceHandle.h>
 
 #include <array>
-#include <atomic>
 #include <cstdint>
 #include <deque>
 #include <fastdds/dds/domain/DomainParticipantListener.hpp>
@@ -84,12 +83,8 @@ class DdsIdentities : public eprosima::fastdds::dds::DomainParticipantListener {
   void on_participant_discovery(eprosima::fastdds::dds::DomainParticipant* participant,
                                 eprosima::fastrtps::rtps::ParticipantDiscoveryInfo&& info) override;
 
-  // How many times another participant was discovered (a new one, or one dropped and found again).
-  uint64_t discoveries() const { return discoveries_; }
-
  private:
   const bool secured_;
-  std::atomic<uint64_t> discoveries_{0};
   const std::function<void()> on_proven_;
   std::mutex mutex_;
   // The space of a participant key (the first 6 bytes of a prefix), as any participant proved it.

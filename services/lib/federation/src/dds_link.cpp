@@ -161,7 +161,7 @@ void DdsLink::let_go(fdds::DataWriter* writer) { impl_->asserter->remove(writer)
 
 std::vector<ServiceEntry> DdsLink::catalog() const { return impl_->catalog.entries(); }
 
-uint64_t DdsLink::discoveries() const { return impl_->identities.discoveries(); }
+uint64_t DdsLink::catalog_writers_matched() const { return impl_->catalog.writers_matched(); }
 
 std::map<std::string, SpaceCalls> DdsLink::space_calls() const { return impl_->calls.space_calls(); }
 

@@ -223,14 +223,14 @@ Clock::time_point DdsSide::poll(Clock::time_point now) {
                                  (!link.tcp.connect.empty() || !link.discovery_servers.empty());
   if (connects_over_tcp && config_.rejoin_unmet.count() > 0 && !rejoin_asked_) {
     const std::shared_ptr<Session> session = this->session();
-    if (session && session->link->discoveries() == 0) {
+    if (session && session->link->catalog_writers_matched() == 0) {
       if (now - joined_at_ >= config_.rejoin_unmet) {
         std::string to;
         for (const auto& address : link.tcp.connect) to += (to.empty() ? "" : ", ") + address;
         for (const auto& address : link.discovery_servers) to += (to.empty() ? "" : ", ") + address;
         spdlog::warn(
-            "bridge {}: the link over TCP to {} has met no one {:g} s after joining (a connection that carries "
-            "nothing, or no site listening): joining again",
+            "bridge {}: the link over TCP to {} has met no one {:g} s after joining (no bridge matched: no site "
+            "listening, or a connection that carries nothing, or discovery only): joining again",
             config_.bridge, to, std::chrono::duration<double>(now - joined_at_).count());
         rejoin_asked_ = true;
         events_->reopen();

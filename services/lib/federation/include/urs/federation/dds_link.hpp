@@ -191,10 +191,11 @@ class DdsLink {
   // bridge of it lost since; nullopt if it is not reached now (lost, or never seen).
   std::optional<std::chrono::system_clock::time_point> reached_since(const std::string& space) const;
 
-  // How many times this link's participant discovered another (a bridge, a discovery server, a
-  // third-party peer; one dropped and found again counts again) since it joined. 0: it has met no
-  // one, e.g. a site connecting over TCP whose connection carries nothing.
-  uint64_t discoveries() const;
+  // How many times the catalog reader matched a catalog writer of another participant (every
+  // bridge and gateway has one; one matched again counts again) since the link was joined. 0: it
+  // has met no one it can exchange with, e.g. a site connecting over TCP whose connection carries
+  // nothing, or carried discovery only (its endpoints never matched).
+  uint64_t catalog_writers_matched() const;
 
   // The calls made to each other space (at most kMaxCountedSpaces), by space.
   std::map<std::string, SpaceCalls> space_calls() const;

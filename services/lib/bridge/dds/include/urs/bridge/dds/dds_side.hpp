@@ -21,7 +21,7 @@
 //
 // poll() reads the catalog again once a lease (offers_changed), and once a lease says the others
 // may have forgotten what this space announced (stand_ins_lost: it is announced again); on a site
-// connecting out over TCP, it asks to be opened again while its link has met no one
+// connecting out over TCP, it asks to be opened again while its link has matched no one
 // (DdsSideConfig::rejoin_unmet).
 //
 // Threads: the control methods on the bridge's thread; calls from other spaces arrive on DDS
@@ -65,9 +65,10 @@ struct DdsSideConfig {
   // with their space at once.
   std::chrono::milliseconds hold_lost{30000};
   // A site connecting out over TCP (link.tcp.connect, or discovery servers over TCP) whose link has
-  // met no other participant this long after joining leaves and joins again (the side is opened
-  // again: SideEvents::reopen): Fast DDS 2.9.1's TCP transport can leave a first connection
-  // established with nothing flowing, for good (docs/sites.md, "Limits"). 0: never.
+  // matched no other bridge or gateway (DdsLink::catalog_writers_matched) this long after joining
+  // leaves and joins again (the side is opened again: SideEvents::reopen): Fast DDS 2.9.1's TCP
+  // transport can leave a first connection established with nothing flowing, or with discovery
+  // only, for good (docs/sites.md, "Limits"). 0: never.
   std::chrono::milliseconds rejoin_unmet{20000};
   unsigned workers = 16;     // threads running the calls from other spaces that block (RT providers)
   std::size_t queue = 1024;  // calls waiting for a worker beyond which a call is refused
