@@ -49,19 +49,10 @@ root=${1:-$(cd "$here/../../.." && pwd)}
 build=${2:-${URS_BUILD_DIR:-$root/build}}
 test_name=e2e_containers
 source "$here/../steps.sh"
+source "$here/compose.sh"
 
 # ---- prerequisites: fail loudly, never skip --------------------------------------------------
-command -v docker >/dev/null || die "docker is not installed (Debian: apt-get install docker.io); this test needs it"
-docker info >/dev/null 2>&1 || die "the docker daemon does not answer (is it running? may $(id -un) use it?)"
-if [[ -n "${URS_COMPOSE:-}" ]]; then
-  read -r -a compose_cmd <<<"$URS_COMPOSE"
-elif docker compose version >/dev/null 2>&1; then
-  compose_cmd=(docker compose)
-elif command -v docker-compose >/dev/null; then
-  compose_cmd=(docker-compose)
-else
-  die "neither 'docker compose' nor docker-compose is installed (Debian: apt-get install docker-compose)"
-fi
+find_compose
 
 for f in /usr/bin/chromium /usr/bin/chromedriver; do
   [[ -x $f ]] || die "$f is missing (Debian: apt-get install chromium chromium-driver); the dashboard step needs it"
@@ -69,24 +60,8 @@ done
 /usr/bin/python3 -c 'import selenium' 2>/dev/null || die "python3-selenium is missing (Debian: apt-get install python3-selenium)"
 
 project=urs-e2e-$$
+compose_files=(-f "$root/compose/docker-compose.yml")
 # Free host ports for the two dashboards (a demo may hold 8765/8766); read back with `dc port`.
-# Below the kernel's ephemeral range: Docker binds them seconds after they were chosen, and a port
-# of that range may meanwhile be taken by any connection of the tests running alongside.
-free_port() {
-  /usr/bin/python3 -c '
-import random, socket
-below = int(open("/proc/sys/net/ipv4/ip_local_port_range").read().split()[0])
-while True:
-    port = random.randrange(10000, below)
-    with socket.socket() as s:
-        try:
-            s.bind(("0.0.0.0", port))
-        except OSError:
-            continue
-    print(port)
-    break
-'
-}
 export URS_KR_DASHBOARD_PORT=${URS_E2E_KR_DASHBOARD_PORT:-$(free_port)}
 export URS_JP_DASHBOARD_PORT=${URS_E2E_JP_DASHBOARD_PORT:-$(free_port)}
 while [[ $URS_JP_DASHBOARD_PORT == "$URS_KR_DASHBOARD_PORT" ]]; do URS_JP_DASHBOARD_PORT=$(free_port); done
@@ -96,22 +71,14 @@ export URS_PROMETHEUS_PORT=${URS_E2E_PROMETHEUS_PORT:-$(free_port)}
 while [[ $URS_PROMETHEUS_PORT == "$URS_KR_DASHBOARD_PORT" || $URS_PROMETHEUS_PORT == "$URS_JP_DASHBOARD_PORT" ]]; do
   URS_PROMETHEUS_PORT=$(free_port)
 done
-# The credentials compose mounts as secrets (deploy/images/build.sh writes them too).
-"$root/compose/make-token.sh" >/dev/null
-"$root/compose/make-token.sh" "${URS_KR_OPERATOR_TOKEN_FILE:-$root/compose/config/kr-operator.token}" >/dev/null
-"$root/compose/make-token.sh" "${URS_JP_TOKEN_FILE:-$root/compose/config/jp.token}" >/dev/null
-compose_file=$root/compose/docker-compose.yml
-dc() { timeout "${DC_TIMEOUT:-180}" "${compose_cmd[@]}" -p "$project" -f "$compose_file" "$@"; }
+make_credentials
 
 intruders=()  # containers of the intruder step (docker run, outside the compose project)
 capture_pids=()  # the captures of the capture step (host processes)
 teardown() {
   local rc=$? name
   if [[ $rc -ne 0 || -n "$failed_step" ]]; then
-    echo "==== step failed: ${failed_step:-setup}; container state:"
-    dc ps -a 2>&1 || true
-    echo "==== container logs (last 80 lines each)"
-    DC_TIMEOUT=60 dc logs --no-color --tail=80 2>&1 || true
+    report_project
     for name in "${intruders[@]}"; do
       echo "==== intruder $name"
       docker logs --tail=40 "$name" 2>&1 || true
@@ -119,56 +86,17 @@ teardown() {
   fi
   ((${#intruders[@]})) && docker rm -f "${intruders[@]}" >/dev/null 2>&1
   ((${#capture_pids[@]})) && kill "${capture_pids[@]}" 2>/dev/null
-  say "tearing down $project"
-  DC_TIMEOUT=120 dc down -v --remove-orphans -t 5 >/dev/null 2>&1 || echo "e2e_containers: teardown of $project failed" >&2
+  down_project
 }
 trap teardown EXIT
 trap 'exit 130' INT TERM
 
 
-# cli containers (profile `tools`): stdout only; stderr kept for failures
-kr() { dc run --rm -T cli-kr "$@" 2>"$tmp/cli.err"; }
-jp() { dc run --rm -T cli-jp "$@" 2>"$tmp/cli.err"; }
 tmp=$(mktemp -d)
 trap 'teardown; rm -rf "$tmp"' EXIT
 
-# Waits until every running container of the project reports healthy (bounded).
-wait_healthy() {
-  local limit=$1 deadline=$((SECONDS + $1)) ids states bad
-  while :; do
-    ids=$(dc ps -q 2>/dev/null)
-    if [[ -n "$ids" ]]; then
-      states=$(docker inspect -f '{{.Name}} {{.State.Status}} {{if .State.Health}}{{.State.Health.Status}}{{else}}none{{end}}' $ids)
-      bad=$(awk '$2 != "running" || ($3 != "healthy" && $3 != "none")' <<<"$states")
-      [[ -z "$bad" ]] && return 0
-      if awk '$2 == "exited" || $2 == "dead" || $3 == "unhealthy"' <<<"$states" | grep -q .; then
-        fail "a container failed: $(awk '$2 != "running" || $3 == "unhealthy"' <<<"$states" | tr '\n' ';')"
-      fi
-    fi
-    ((SECONDS < deadline)) || fail "not healthy within $limit s: $(tr '\n' ';' <<<"$bad")"
-    sleep 1
-  done
-}
-
-# ---- images -----------------------------------------------------------------------------------
-step "images"
-if [[ "${URS_E2E_SKIP_IMAGE_BUILD:-0}" == 1 ]]; then
-  for s in rtc-naming camus-server sam-host rtc-manager cli bridge gateway prometheus; do
-    docker image inspect "urslink/$s:${URS_IMAGE_TAG:-dev}" >/dev/null 2>&1 || fail "image urslink/$s:${URS_IMAGE_TAG:-dev} is missing"
-  done
-else
-  t=$SECONDS
-  URS_BUILD_DIR=$build timeout 480 "$root/deploy/images/build.sh" rtc-naming camus-server sam-host rtc-manager cli bridge gateway prometheus \
-    || fail "deploy/images/build.sh failed"
-  say "images ready in $((SECONDS - t)) s"
-fi
-
-# ---- up -----------------------------------------------------------------------------------------
-step "compose up (${compose_cmd[*]}, project $project)"
-t=$SECONDS
-dc up -d >"$tmp/up.log" 2>&1 || { cat "$tmp/up.log"; fail "compose up failed"; }
-wait_healthy 120
-say "all containers healthy $((SECONDS - t)) s after 'up'"
+images rtc-naming camus-server sam-host rtc-manager cli bridge gateway prometheus
+compose_up
 
 # ---- kr: the CAMUS space ------------------------------------------------------------------------
 step "kr: urs ls lists the SAM's services"
@@ -220,19 +148,9 @@ lab_in() {  # urs-lab in a space's client container, writing to $tmp/out
 }
 mkdir -p "$tmp/out"
 step "link: jp's RT providers are services in kr, kr's agents are RTCs in jp"
-jp_listed() { kr ls "jp/$1" | grep -qE "^jp/$1 +\S+ +\S+ +bridge-kr +available +dds:jp/$1\$"; }
 eventually 60 jp_listed robot1.navigation || fail "jp/robot1.navigation not in kr: $(kr ls)"
 eventually 30 jp_listed "Diagnostic0.diagnostic@$mgr1" || fail "jp's Diagnostic0 not in kr: $(kr ls)"
-kr_bound() { jp rtc ls bridge-jp.host_cxt | grep -q "$1"; }
 eventually 30 kr_bound "kr_tts-$sam1.rtc" || fail "kr's TTS not bound in jp: $(jp rtc ls)"
-cross_space_echoes() {  # TEXT: kr calls jp's diagnostic echo, and jp's RT consumer kr's
-  local out
-  out=$(kr call "jp/Diagnostic0.diagnostic@$mgr1" echo "{\"text\":\"$1 from kr\"}") || fail "cross-space call: $(cat "$tmp/cli.err")"
-  [[ "$out" == "{\"result\":\"$1 from kr\"}" ]] || fail "cross-space echo answered $out"
-  out=$(jp rtc call "bridge-jp.host_cxt/kr_diag-$sam1.rtc:diagnostic" echo "{\"text\":\"$1 from jp\"}") \
-    || fail "cross-space RT call: $(cat "$tmp/cli.err")"
-  [[ "$out" == "{\"result\":\"$1 from jp\"}" ]] || fail "cross-space RT echo answered $out"
-}
 cross_space_echoes "hello"
 
 step "link: the bridges and gateways joined it secured (DDS-Security, compose/make-pki.sh's members)"
