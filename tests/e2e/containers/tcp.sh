@@ -11,10 +11,10 @@
 #       connecting bridge joins again after 20 s without meeting anyone: 90 s are given);
 #   the link is that one connection: bridge-kr holds exactly one established TCP connection, to
 #       10.213.47.10:7400, bridge-jp exactly one from bridge-kr on its port 7400, and kr's side of
-#       the link (bridge-kr, gateway-kr) has no UDP socket on a port of DDS domain 0 (7400-7649),
-#       so nothing crosses between the spaces over UDP. jp's side is not checked so: bridge-jp and
-#       gateway-jp load the images' fastdds-udp.xml (for jp's devices domain), and a link over TCP
-#       keeps that default profile's UDP transport beside TCP (docs/sites.md, Limits).
+#       the link (bridge-kr, gateway-kr, bridge-jp, gateway-jp) has no UDP socket on a port of DDS
+#       domain 0 (7400-7649), so nothing of the link is UDP: bridge-jp and gateway-jp load the
+#       images' fastdds-udp.xml (for jp's devices domain, 7650 and up), whose UDP transport the
+#       link's participant does not take.
 # Uses the images e2e_containers builds (deploy/images/build.sh: Docker's cache, seconds when they
 # are there). Always tears the project down; a failing step prints the logs.
 #   tests/e2e/containers/tcp.sh [SOURCE_DIR [BUILD_DIR]]
@@ -88,7 +88,7 @@ eventually 30 kr_bound "kr_diag-$sam1.rtc" || fail "kr's diag not bound in jp: $
 cross_space_echoes "over TCP"
 say "an echo crossed each way"
 
-step "the link is one TCP connection from bridge-kr to $listener:$port; kr's side has no UDP of DDS domain 0"
+step "the link is one TCP connection from bridge-kr to $listener:$port; no member of it has UDP of DDS domain 0"
 # The sockets of a container's network namespace (/proc/net/*): TCP state 01 is ESTABLISHED.
 sockets() {  # SERVICE -> lines "tcp|udp STATE LOCAL_IP:PORT REMOTE_IP:PORT"
   docker exec "$(dc ps -q "$1")" cat /proc/net/tcp /proc/net/udp >"$tmp/net" 2>&1 || return 1
@@ -110,17 +110,18 @@ kr_ip=$(docker inspect -f '{{range $name, $net := .NetworkSettings.Networks}}{{$
           "$(dc ps -q bridge-kr)" | awk '$1 ~ /_link$/ {print $2}')
 [[ -n "$kr_ip" ]] || fail "bridge-kr has no address on the link network"
 sockets bridge-kr >"$tmp/bridge-kr.sockets" || fail "the sockets of bridge-kr: $(cat "$tmp/net")"
-sockets bridge-jp >"$tmp/jp.sockets" || fail "the sockets of bridge-jp: $(cat "$tmp/net")"
-sockets gateway-kr >"$tmp/gateway-kr.sockets" || fail "the sockets of gateway-kr: $(cat "$tmp/net")"
+for member in bridge-jp gateway-kr gateway-jp; do
+  sockets "$member" >"$tmp/$member.sockets" || fail "the sockets of $member: $(cat "$tmp/net")"
+done
 kr_out=$(awk '$1 == "tcp" && $2 == "01" && $4 ~ /:7400$/' "$tmp/bridge-kr.sockets")
-jp_in=$(awk -v from="$kr_ip:" -v to="$listener:$port" '$1 == "tcp" && $2 == "01" && $3 == to && index($4, from) == 1' "$tmp/jp.sockets")
+jp_in=$(awk -v from="$kr_ip:" -v to="$listener:$port" '$1 == "tcp" && $2 == "01" && $3 == to && index($4, from) == 1' "$tmp/bridge-jp.sockets")
 echo "bridge-kr ($kr_ip) connects: ${kr_out:-nothing}"
 echo "bridge-jp accepts from it: ${jp_in:-nothing}"
 [[ $(grep -c . <<<"$kr_out") == 1 && $kr_out == *" $listener:$port" ]] \
   || fail "bridge-kr: expected one established connection to $listener:$port, got: ${kr_out:-none}"
 [[ $(grep -c . <<<"$jp_in") == 1 ]] || fail "bridge-jp: expected one connection from $kr_ip on $port, got: ${jp_in:-none}"
 dds_udp() { awk '$1 == "udp" {split($3, a, ":"); if (a[2] >= 7400 && a[2] <= 7649) print}' "$1"; }
-for member in bridge-kr gateway-kr; do
+for member in bridge-kr gateway-kr bridge-jp gateway-jp; do
   [[ -z "$(dds_udp "$tmp/$member.sockets")" ]] || fail "$member has UDP sockets of DDS domain 0: $(dds_udp "$tmp/$member.sockets")"
 done
 

@@ -259,9 +259,11 @@ void LinkParticipant::join(const DdsOptions& options, fdds::DomainParticipantLis
   qos.wire_protocol().builtin.discovery_config.leaseDuration =
       link_qos::duration(std::max(options.participant_lease, options.lease));
   qos.wire_protocol().builtin.discovery_config.leaseDuration_announcementperiod = link_qos::duration(options.lease / 4);
-  // Only the transports below: builtin ones would announce (and send to) UDP locators a TCP
-  // link's other sites cannot reach.
+  // Only the transports below: builtin ones, or those of an XML default profile (the images'
+  // UDP-only profile for the devices' domain), would announce (and send to) UDP locators a TCP
+  // link's other sites cannot reach, and would open UDP sockets where none may be used.
   qos.transport().use_builtin_transports = false;
+  qos.transport().user_transports.clear();
   qos.transport().send_socket_buffer_size = options.socket_buffer_bytes;
   qos.transport().listen_socket_buffer_size = options.socket_buffer_bytes;
   if (options.transport == DdsOptions::Transport::kTcp) {
