@@ -96,10 +96,13 @@ int conf_set(Session& session, const std::string& path, const std::string& name,
   const bool accepted = configuring(path, [&] { return configuration->set_configuration_set_values(change); });
   if (!accepted) throw Failure(kFailed, path + ": configuration set " + id + " refused " + name + "=" + value);
   if (id == active->id.in()) configuring(path, [&] { return configuration->activate_configuration_set(id.c_str()); });
+  // A component may take the call and keep another value (one its parameter's type cannot
+  // hold, or an on-update callback's refusal) without saying so: the set read back tells.
   SDOPackage::ConfigurationSet_var after = set_named(configuration, path, id);
-  const std::string now = value_in(after.in(), path, name);
-  if (now != value) {
-    throw Failure(kFailed, path + ": " + name + " in configuration set " + id + " is still '" + now + "'");
+  const std::string kept = value_in(after.in(), path, name);
+  if (kept != value) {
+    throw Failure(kFailed, path + ": parameter '" + name + "' was set to '" + value + "' but the component keeps '" +
+                               kept + "': it refused the value");
   }
   return kOk;
 }

@@ -15,7 +15,9 @@ int conf_list(Session& session, const std::string& path);
 int conf_get(Session& session, const std::string& path, const std::string& name, const std::string& set);
 // Sets `name` to `value` in `set` (default: the active set), re-activates the set if it is the
 // active one (as rtconf does: OpenRTM-aist components apply values on activation) and reads the
-// value back: a component that kept the old value fails the command.
+// value back: a set showing another value fails the command, naming the value asked and the one
+// kept. A component whose set holds the text while it uses another value (an unmodified
+// OpenRTM-aist component whose variable cannot parse the text) is not caught: docs/rtc.md.
 int conf_set(Session& session, const std::string& path, const std::string& name, const std::string& value,
              const std::string& set);
 // Makes `set` the active configuration set.

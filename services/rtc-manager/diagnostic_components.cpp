@@ -14,6 +14,7 @@
 #include "urs/rtc/corba_port.hpp"
 #include "urs/rtc/orb.hpp"
 #include "urs/util/cli.hpp"
+#include "urs/util/number.hpp"
 #include "urs/util/yaml_config.hpp"
 
 namespace urs::rtc_manager {
@@ -24,8 +25,12 @@ constexpr const char* kInterface = "URS::Diagnostic";
 // While active, calls echo on the connected provider once per execution and counts the replies;
 // the log says when the first reply of an activation came and, at deactivation, that
 // activation's counts. Configuration, changeable at any time: `text`
-// (what it echoes) and `strict` (true: an execution without a provider, or whose echo fails or
-// comes back different, is an error: the component goes to the Error state until reset).
+// (what it echoes), `strict` (true: an execution without a provider, or whose echo fails or
+// comes back different, is an error: the component goes to the Error state until reset) and
+// `every` (it calls once every N executions, 1..1000). `every` is declared the way an OpenRTM-aist
+// component's parameter behaves: any text is stored, and one that is no such number is not taken
+// (the component keeps its value, which the set shows again), so that tools meet a component that
+// accepts a value and keeps another.
 class DiagnosticCallerComponent : public rtc::Component {
  public:
   explicit DiagnosticCallerComponent(std::string text)
@@ -45,11 +50,20 @@ class DiagnosticCallerComponent : public rtc::Component {
                          return value == "true" || value == "false" ? "" : "'" + value + "' is not true or false";
                        },
                        [this](const std::string& value) { strict_ = value == "true"; }});
+    declare_parameter({"every", "1", {}, [this](const std::string& value) {
+                         double every = 0;
+                         const std::string why = util::read_number(value, 1, 1000, every);
+                         if (!why.empty() || every != static_cast<double>(static_cast<int>(every))) {
+                           throw rtc::ValueNotTaken(why.empty() ? "'" + value + "' is not a whole number" : why);
+                         }
+                         every_ = static_cast<int>(every);
+                       }});
     add_port(port_);
     return RTC::RTC_OK;
   }
 
   RTC::ReturnCode_t handle_execute(RTC::ExecutionContextHandle_t) override {
+    if (executions_++ % static_cast<std::uint64_t>(every_.load()) != 0) return RTC::RTC_OK;
     URS::Diagnostic_var provider = consumer_.get<URS::Diagnostic>();
     if (CORBA::is_nil(provider)) {
       if (!strict_) return RTC::RTC_OK;  // not connected yet
@@ -90,6 +104,8 @@ class DiagnosticCallerComponent : public rtc::Component {
   std::mutex text_mutex_;
   std::string text_;  // guarded by text_mutex_ (tools change it from ORB threads)
   std::atomic<bool> strict_{false};
+  std::atomic<int> every_{1};     // calls once every `every_` executions
+  std::uint64_t executions_ = 0;  // the execution context's thread only
   rtc::CorbaPort port_;
   rtc::Consumer& consumer_;
   std::atomic<std::uint64_t> replies_{0};

@@ -13,6 +13,7 @@
 #include "Federation.h"
 
 #include <arpa/inet.h>
+#include <fastrtps/utils/IPLocator.h>
 #include <google/protobuf/descriptor.pb.h>
 #include <google/protobuf/struct.pb.h>
 #include <google/protobuf/util/json_util.h>
@@ -25,10 +26,12 @@
 
 #include <atomic>
 #include <cerrno>
+#include <condition_variable>
 #include <csignal>
 #include <cstring>
 #include <fastdds/dds/domain/DomainParticipant.hpp>
 #include <fastdds/dds/domain/DomainParticipantFactory.hpp>
+#include <fastdds/dds/domain/DomainParticipantListener.hpp>
 #include <fastdds/dds/publisher/DataWriter.hpp>
 #include <fastdds/dds/publisher/Publisher.hpp>
 #include <fastdds/dds/subscriber/DataReader.hpp>
@@ -686,6 +689,79 @@ TEST_F(PlainFederation, ABridgeWithoutANamingServiceStartsNoOrb) {
   ASSERT_TRUE(wait_for_service("jp/rt.Diagnostic0", 20s)) << kr_->log();
   EXPECT_EQ(listening_tcp(kr_->pid()), std::set<std::string>{});
   EXPECT_FALSE(listening_tcp(jp_->pid()).empty()) << "bridge-jp's ORB listens for its RTCs";
+}
+
+// The unicast addresses each participant of a domain announces (metatraffic and user data), by
+// participant name, as a raw Fast DDS participant with the builtin transports discovers them.
+class AnnouncedAddresses : public eprosima::fastdds::dds::DomainParticipantListener {
+ public:
+  explicit AnnouncedAddresses(uint32_t domain) {
+    namespace fdds = eprosima::fastdds::dds;
+    participant_ =
+        fdds::DomainParticipantFactory::get_instance()->create_participant(domain, fdds::PARTICIPANT_QOS_DEFAULT, this);
+    if (participant_ == nullptr) throw std::runtime_error("cannot join domain " + std::to_string(domain));
+  }
+  ~AnnouncedAddresses() override {
+    participant_->set_listener(nullptr);
+    eprosima::fastdds::dds::DomainParticipantFactory::get_instance()->delete_participant(participant_);
+  }
+  AnnouncedAddresses(const AnnouncedAddresses&) = delete;
+  AnnouncedAddresses& operator=(const AnnouncedAddresses&) = delete;
+
+  // The addresses participant `name` announces, once discovered (empty if not within `timeout`).
+  std::set<std::string> of(const std::string& name, std::chrono::milliseconds timeout) {
+    std::unique_lock lock(mutex_);
+    changed_.wait_for(lock, timeout, [&] { return found_.count(name) != 0; });
+    auto it = found_.find(name);
+    return it == found_.end() ? std::set<std::string>{} : it->second;
+  }
+
+  // DomainParticipantListener
+  void on_participant_discovery(eprosima::fastdds::dds::DomainParticipant*,
+                                eprosima::fastrtps::rtps::ParticipantDiscoveryInfo&& info) override {
+    using Status = eprosima::fastrtps::rtps::ParticipantDiscoveryInfo::DISCOVERY_STATUS;
+    if (info.status != Status::DISCOVERED_PARTICIPANT) return;
+    std::set<std::string> addresses;
+    for (const auto* list : {&info.info.metatraffic_locators.unicast, &info.info.default_locators.unicast}) {
+      for (const auto& locator : *list) addresses.insert(eprosima::fastrtps::rtps::IPLocator::ip_to_string(locator));
+    }
+    std::lock_guard lock(mutex_);
+    found_[info.info.m_participantName.to_string()] = std::move(addresses);
+    changed_.notify_all();
+  }
+
+ private:
+  eprosima::fastdds::dds::DomainParticipant* participant_ = nullptr;
+  std::mutex mutex_;
+  std::condition_variable changed_;
+  std::map<std::string, std::set<std::string>> found_;
+};
+
+// Both bridges kept to loopback (dds.interfaces: [127.0.0.1], UDP only): they link (multicast
+// discovery on loopback), and each announces no address but 127.0.0.1, so no other host is told
+// where to reach it. (Both, because Fast DDS 2.9 kept to loopback sends to no unicast address
+// outside its list, and a participant of a host with other interfaces announces only those:
+// docs/federation.md.) bridge-jp's ORB, with no --listen and omniNames on loopback, listens on
+// 127.0.0.1 only too (docs/bridge.md, "What a bridge listens on").
+class LoopbackFederation : public PlainFederation {
+ protected:
+  std::string jp_transport() const override { return "  udp_only: true\n  interfaces: [127.0.0.1]\n"; }
+  std::string kr_transport() const override { return "  udp_only: true\n  interfaces: [127.0.0.1]\n"; }
+};
+
+TEST_F(LoopbackFederation, ABridgeKeptToLoopbackLinksAndAnnouncesOnlyLoopback) {
+  ASSERT_TRUE(wait_for_service("jp/rt.Diagnostic0", 20s)) << jp_->log() << kr_->log();
+  ASSERT_NO_FATAL_FAILURE(expect_echo("jp/rt.Diagnostic0", "over loopback only"));
+  EXPECT_NE(jp_->log().find("dds: the link's UDP transport uses only the interfaces 127.0.0.1\n"), std::string::npos)
+      << jp_->log();
+
+  AnnouncedAddresses announced(static_cast<uint32_t>(domain_));
+  EXPECT_EQ(announced.of("urs-bridge/jp/bridge-jp", 15s), std::set<std::string>{"127.0.0.1"});
+  EXPECT_EQ(announced.of("urs-bridge/kr/bridge-kr", 15s), std::set<std::string>{"127.0.0.1"});
+  // Its ORB's listening sockets: "0100007F:PORT" is 127.0.0.1 in /proc/net/tcp.
+  const std::set<std::string> listening = listening_tcp(jp_->pid());
+  ASSERT_FALSE(listening.empty());
+  for (const auto& local : listening) EXPECT_EQ(local.substr(0, 9), "0100007F:") << local;
 }
 
 // Calls authorized per service on a secured link: kr's CAMUS server admits named credentials

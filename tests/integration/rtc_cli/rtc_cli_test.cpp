@@ -363,6 +363,30 @@ TEST_F(RtcCliTest, ConfListsGetsSetsAndActivatesConfigurationSets) {
   EXPECT_THAT(r.err, HasSubstr("strict: 'maybe' is not true or false"));
 }
 
+// A component that takes every value and keeps another, as an OpenRTM-aist component whose
+// parameter cannot parse the text does (DiagnosticCaller's `every` is declared that way): the
+// component accepts the call, and `conf set` learns from the set read back that the value was
+// not taken, and says what was asked and what the component keeps.
+TEST_F(RtcCliTest, ConfSetFailsWhenTheComponentKeepsAnotherValueThanTheOneSet) {
+  CommandResult r = urs({"conf", "set", path("DiagnosticCaller0"), "every", "3"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(urs({"conf", "get", path("DiagnosticCaller0"), "every"}).out, "3\n");
+
+  r = urs({"conf", "set", path("DiagnosticCaller0"), "every", "often"});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_EQ(r.out, "");
+  EXPECT_EQ(r.err, "urs: rtc conf set: " + path("DiagnosticCaller0") +
+                       ": parameter 'every' was set to 'often' but the component keeps '3': it refused the value\n");
+  EXPECT_EQ(urs({"conf", "get", path("DiagnosticCaller0"), "every"}).out, "3\n");
+  EXPECT_THAT(manager_->log(),
+              HasSubstr("DiagnosticCaller0: configuration parameter every: 'often' not taken ('often' is not a "
+                        "number); it keeps '3'"));
+
+  r = urs({"conf", "set", path("DiagnosticCaller0"), "every", "2.5"});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.err, HasSubstr("parameter 'every' was set to '2.5' but the component keeps '3'"));
+}
+
 TEST_F(RtcCliTest, LsLongShowsAComponentWhosePeerIsPausedAsAlive) {
   // A component's port asks its peers whether they still exist when its profile is read; a peer
   // that does not answer (paused) must not make the component itself look unreachable.

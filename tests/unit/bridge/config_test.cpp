@@ -151,6 +151,31 @@ TEST_F(BridgeConfigTest, TheLinkOverTcpListensOrConnects) {
   EXPECT_EQ(client.dds.link.discovery_servers, std::vector<std::string>{"198.51.100.2:7400"});
 }
 
+// dds.interfaces: the link kept to chosen interfaces of this host (loopback is on every host).
+TEST_F(BridgeConfigTest, TheLinkKeepsToTheInterfacesNamedByTheirAddresses) {
+  EXPECT_TRUE(load("dds: {domain: 3}\n").dds.link.interfaces.empty());  // every interface
+  EXPECT_EQ(load("dds: {interfaces: [127.0.0.1]}\n").dds.link.interfaces, std::vector<std::string>{"127.0.0.1"});
+  EXPECT_EQ(load("dds: {transport: tcp, tcp: {connect: [\"127.0.0.1:7400\"]}, interfaces: [127.0.0.1]}\n")
+                .dds.link.interfaces,
+            std::vector<std::string>{"127.0.0.1"});
+
+  const std::string message = refused("dds: {interfaces: [lo, 0.0.0.0, 203.0.113.254, 127.0.0.1, 300.1.1.1]}\n");
+  for (const char* expected : {
+           "dds.interfaces[0]: 'lo' is not an IPv4 address (Fast DDS 2.9 takes an interface's address, not its name)",
+           "dds.interfaces[1]: '0.0.0.0' is no interface's address: leave dds.interfaces out to use every interface",
+           "dds.interfaces[2]: '203.0.113.254' is no address of this host's interfaces (",
+           "dds.interfaces[4]: '300.1.1.1' is not an IPv4 address",
+       }) {
+    EXPECT_NE(message.find(expected), std::string::npos) << "missing \"" << expected << "\" in:\n" << message;
+  }
+  EXPECT_EQ(message.find("dds.interfaces[3]"), std::string::npos) << message;  // loopback is this host's
+  EXPECT_NE(message.find("127.0.0.1"), std::string::npos) << message;          // listed among the host's
+  EXPECT_NE(refused("dds: {interfaces: []}\n")
+                .find("dds.interfaces: name at least one address, or leave the key out to use every interface"),
+            std::string::npos);
+  EXPECT_NE(refused("dds: {interfaces: 127.0.0.1}\n").find("dds.interfaces: a list is expected"), std::string::npos);
+}
+
 TEST_F(BridgeConfigTest, EveryTcpErrorIsNamedWithItsKey) {
   const std::string message = refused(
       "dds:\n"

@@ -232,6 +232,27 @@ TEST_F(ConfigurationUnit, SetsAreAddedActivatedAndRemoved) {
   EXPECT_THROW(config_.get_configuration_set("fast"), SDOPackage::NotAvailable);
 }
 
+// A parameter declared OpenRTM-aist's way takes every value and does not use one it cannot: the
+// call succeeds, the value in effect stays, and the set shows it again, in the active set as in
+// a set activated later.
+TEST_F(ConfigurationUnit, AValueNotTakenLeavesTheValueInEffectInTheSet) {
+  config_.declare({"every", "1", {}, [this](const std::string& v) {
+                     if (v.find_first_not_of("0123456789") != std::string::npos) throw ValueNotTaken("not a count");
+                     applied_.push_back("every=" + v);
+                   }});
+  EXPECT_TRUE(config_.set_configuration_set_values(set("default", {{"every", "3"}})));
+  EXPECT_TRUE(config_.set_configuration_set_values(set("default", {{"every", "often"}})));
+  EXPECT_EQ(value("default", "every"), "3");
+  EXPECT_EQ(config_.active_value("every"), "3");
+  EXPECT_EQ(applied_, (std::vector<std::string>{"every=3"}));
+
+  EXPECT_TRUE(config_.add_configuration_set(set("odd", {{"every", "x"}})));
+  EXPECT_EQ(value("odd", "every"), "x");  // stored: nothing takes effect in a set not active
+  EXPECT_TRUE(config_.activate_configuration_set("odd"));
+  EXPECT_EQ(value("odd", "every"), "3");
+  EXPECT_EQ(applied_.size(), 1u);
+}
+
 TEST_F(ConfigurationUnit, RefusalsSayWhatAndWhyAndChangeNothing) {
   EXPECT_EQ(refusal([&] {
               config_.set_configuration_set_values(set("default", {{"label", "b"}, {"radius", "wide"}}));

@@ -1,8 +1,11 @@
 #include "urs/bridge/config.hpp"
 
 #include <arpa/inet.h>
+#include <ifaddrs.h>
+#include <netinet/in.h>
 
 #include <filesystem>
+#include <set>
 
 #include "urs/util/cli.hpp"
 #include "urs/util/yaml_config.hpp"
@@ -209,6 +212,49 @@ bool is_ipv4(const std::string& text) {
   return inet_pton(AF_INET, text.c_str(), &address) == 1;
 }
 
+// The IPv4 addresses of this host's interfaces, as Fast DDS 2.9 finds them (getifaddrs).
+std::set<std::string> host_ipv4_addresses() {
+  std::set<std::string> addresses;
+  ifaddrs* list = nullptr;
+  if (getifaddrs(&list) != 0) return addresses;
+  for (const ifaddrs* item = list; item != nullptr; item = item->ifa_next) {
+    if (item->ifa_addr == nullptr || item->ifa_addr->sa_family != AF_INET) continue;
+    char text[INET_ADDRSTRLEN] = {};
+    const auto* address = reinterpret_cast<const sockaddr_in*>(item->ifa_addr);
+    if (inet_ntop(AF_INET, &address->sin_addr, text, sizeof text) != nullptr) addresses.insert(text);
+  }
+  freeifaddrs(list);
+  return addresses;
+}
+
+// dds.interfaces: IPv4 addresses of this host's interfaces, the only ones the link's UDP or TCP
+// transport uses (Fast DDS 2.9's interfaceWhiteList takes addresses, not interface names, and
+// silently drops one no interface has).
+void read_interfaces(const YAML::Node& node, federation::DdsOptions& link, std::vector<std::string>& errors) {
+  const std::string where = "dds.interfaces";
+  link.interfaces = read_strings(node, where, errors);
+  if (node.IsSequence() && link.interfaces.empty()) {
+    errors.push_back(where + ": name at least one address, or leave the key out to use every interface");
+    return;
+  }
+  const std::set<std::string> host = host_ipv4_addresses();
+  std::string known;
+  for (const auto& address : host) known += (known.empty() ? "" : ", ") + address;
+  for (std::size_t i = 0; i < link.interfaces.size(); ++i) {
+    const std::string& entry = link.interfaces[i];
+    const std::string at = where + "[" + std::to_string(i) + "]: '" + entry + "'";
+    in_addr address{};
+    if (inet_pton(AF_INET, entry.c_str(), &address) != 1) {
+      errors.push_back(at + " is not an IPv4 address (Fast DDS 2.9 takes an interface's address, not its name)");
+    } else if (address.s_addr == htonl(INADDR_ANY)) {
+      errors.push_back(at + " is no interface's address: leave dds.interfaces out to use every interface");
+    } else if (host.count(entry) == 0) {
+      errors.push_back(at + " is no address of this host's interfaces (" + (known.empty() ? "none found" : known) +
+                       "): Fast DDS would leave the link without it");
+    }
+  }
+}
+
 // dds.transport (udp | tcp) and dds.tcp {listen, public, connect, rejoin_after_ms}.
 void read_transport(const YAML::Node& node, DdsConfig& dds, std::vector<std::string>& errors) {
   federation::DdsOptions& link = dds.link;
@@ -294,10 +340,11 @@ void read_dds(const YAML::Node& node, const std::string& base, DdsConfig& dds, s
     errors.push_back("dds: a map is expected");
     return;
   }
-  util::check_keys(node, "dds",
-                   {"domain", "lease_ms", "participant_lease_ms", "hold_lost_ms", "udp_only", "socket_buffer_bytes",
-                    "initial_peers", "transport", "tcp", "discovery", "security", "export", "import", "state", "audit"},
-                   errors);
+  util::check_keys(
+      node, "dds",
+      {"domain", "lease_ms", "participant_lease_ms", "hold_lost_ms", "udp_only", "socket_buffer_bytes", "initial_peers",
+       "interfaces", "transport", "tcp", "discovery", "security", "export", "import", "state", "audit"},
+      errors);
   if (node["domain"] && util::read_scalar(node["domain"], "dds.domain", dds.link.domain, errors) &&
       dds.link.domain > 232) {
     errors.push_back("dds.domain: " + std::to_string(dds.link.domain) + " is outside 0..232");
@@ -339,6 +386,7 @@ void read_dds(const YAML::Node& node, const std::string& base, DdsConfig& dds, s
     util::read_scalar(node["socket_buffer_bytes"], "dds.socket_buffer_bytes", dds.link.socket_buffer_bytes, errors);
   }
   if (node["initial_peers"]) dds.link.initial_peers = read_strings(node["initial_peers"], "dds.initial_peers", errors);
+  if (node["interfaces"]) read_interfaces(node["interfaces"], dds.link, errors);
   read_transport(node, dds, errors);
   if (const YAML::Node discovery = node["discovery"]) {
     util::check_keys(discovery, "dds.discovery", {"listen", "id", "servers"}, errors);

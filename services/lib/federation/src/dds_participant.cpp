@@ -96,6 +96,7 @@ void use_tcp(const DdsOptions& options, fdds::DomainParticipantQos& qos) {
   DdsOptions::Tcp tcp = options.tcp;
   if (tcp.public_port == 0) tcp.public_port = tcp.listen;
   auto transport = std::make_shared<eprosima::fastdds::rtps::TCPv4TransportDescriptor>();
+  transport->interfaceWhiteList = options.interfaces;
   transport->enable_tcp_nodelay = true;
   transport->sendBufferSize = options.socket_buffer_bytes;
   transport->receiveBufferSize = options.socket_buffer_bytes;
@@ -270,6 +271,7 @@ void LinkParticipant::join(const DdsOptions& options, fdds::DomainParticipantLis
     use_tcp(options, qos);
   } else {
     auto udp = std::make_shared<eprosima::fastdds::rtps::UDPv4TransportDescriptor>();
+    udp->interfaceWhiteList = options.interfaces;
     udp->sendBufferSize = options.socket_buffer_bytes;
     udp->receiveBufferSize = options.socket_buffer_bytes;
     qos.transport().user_transports.push_back(udp);
@@ -285,6 +287,15 @@ void LinkParticipant::join(const DdsOptions& options, fdds::DomainParticipantLis
     }
   }
   use_discovery_server(options, qos);
+  if (!options.interfaces.empty()) {
+    std::string addresses;
+    for (const auto& address : options.interfaces) addresses += (addresses.empty() ? "" : ", ") + address;
+    spdlog::info("dds: the link's {} transport uses only the interfaces {}{}",
+                 options.transport == DdsOptions::Transport::kTcp ? "TCP" : "UDP", addresses,
+                 options.transport == DdsOptions::Transport::kUdp && !options.udp_only
+                     ? " (shared memory between bridges of this host besides)"
+                     : "");
+  }
   if (options.security.enabled()) {
     // Checked here: Fast DDS would say only "initialization error" for any bad file.
     const std::vector<std::string> problems = check_dds_security(options.security, options.space);

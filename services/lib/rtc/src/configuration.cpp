@@ -125,7 +125,9 @@ const ParameterSpec* ComponentConfiguration::find_parameter(const std::string& n
 ComponentConfiguration::Values ComponentConfiguration::merged(const Values& base, const Values& changes,
                                                               const std::string& set_id) const {
   Values result = base;
-  for (const auto& [name, value] : changes) {
+  for (const auto& change : changes) {
+    const std::string& name = change.first;  // named: a lambda below captures it (no structured binding)
+    const std::string& value = change.second;
     const ParameterSpec* parameter = find_parameter(name);
     if (parameter == nullptr) {
       refuse("no configuration parameter '" + name + "' (parameters: " + names_of(parameters_) + ")");
@@ -156,14 +158,21 @@ ComponentConfiguration::Values ComponentConfiguration::merged(const Values& base
   return merged(base, given, set_id);
 }
 
-void ComponentConfiguration::take_effect(const Values& values) {
-  for (const auto& [name, value] : values) {
+void ComponentConfiguration::take_effect(Values& values) {
+  for (auto& entry : values) {
+    const std::string& name = entry.first;  // named: a lambda below captures it (no structured binding)
+    std::string& value = entry.second;
     auto current = std::find_if(in_effect_.begin(), in_effect_.end(), [&](const auto& e) { return e.first == name; });
     if (current == in_effect_.end() || current->second == value) continue;
     const ParameterSpec* parameter = find_parameter(name);
     if (parameter == nullptr || !parameter->apply) continue;
     try {
       parameter->apply(value);
+    } catch (const ValueNotTaken& e) {
+      spdlog::warn("{}: configuration parameter {}: '{}' not taken ({}); it keeps '{}'", owner_, name, value, e.what(),
+                   current->second);
+      value = current->second;
+      continue;
     } catch (const std::exception& e) {
       // `check` accepted it: a failure here is the component's fault, reported as such.
       spdlog::error("{}: configuration parameter {}: applying '{}' failed: {}", owner_, name, value, e.what());

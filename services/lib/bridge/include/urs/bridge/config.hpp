@@ -38,6 +38,8 @@
 //     udp_only: false               # true between containers (no shared memory)
 //     socket_buffer_bytes: 4194304
 //     initial_peers: [bridge-kr]    # HOST or HOST:PORT, for networks without multicast
+//     interfaces: ["127.0.0.1"]     # the link's UDP/TCP uses only these addresses of this host's
+//                                   #   interfaces (default: all; shared memory unaffected)
 //     transport: udp                # or tcp: one TCP connection between sites (docs/sites.md)
 //     tcp:                          # with transport: tcp
 //       listen: 7400                #   this site listens on this port (forwarded by its router)

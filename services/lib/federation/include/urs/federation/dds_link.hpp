@@ -61,6 +61,13 @@ struct DdsOptions {
   bool udp_only = false;                    // no shared memory (required between containers)
   uint32_t socket_buffer_bytes = 4u << 20;  // socket send/receive buffers (UDP or TCP), for large samples
   uint32_t shm_segment_bytes = 8u << 20;    // shared-memory segment, when used
+  // The IPv4 addresses of this host's interfaces the link's UDP or TCP transport may use: it
+  // listens, sends and announces locators on these only (Fast DDS's interfaceWhiteList), e.g.
+  // {"127.0.0.1"} for a link that stays on this host. Empty: every interface. Fast DDS 2.9 sends
+  // to no unicast address outside the list (peers must announce one of them), and drops an
+  // address no interface has (with every one dropped it uses none that works): the bridge's
+  // configuration refuses such an entry. Shared memory (same host, no interface) is unaffected.
+  std::vector<std::string> interfaces;
   // Unicast addresses of other bridges' hosts ("HOST" or "HOST:PORT"), for networks without
   // multicast; without a port, the default ports of the first participants of the domain.
   std::vector<std::string> initial_peers;

@@ -11,6 +11,10 @@
 //   - a value the parameter's `check` refuses ("radius: 'abc' is not a number");
 //   - a change of a read-only parameter (declared without `apply`);
 //   - adding a set whose id exists, removing "default" or the active set.
+// A parameter may instead take every value and decline, when applying it, one it cannot use
+// (its `apply` throws ValueNotTaken): OpenRTM-aist's way, whose configuration never refuses a
+// value. The call succeeds, the parameter keeps the value in effect and the set shows that value
+// again, so a tool that reads the set back sees what the component kept (`urs rtc conf set` does).
 // Values travel as string Anys (numbers and booleans are accepted and kept as their text).
 // get_configuration_parameters() returns an empty list: no URSLink parameter carries the SDO
 // TypeCode / allowed-values description (rtctree and OpenRTM-aist's tools do not read it).
@@ -22,6 +26,7 @@
 #include <functional>
 #include <mutex>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
@@ -36,8 +41,15 @@ struct ParameterSpec {
   // "" if `value` is acceptable, else why not (without the parameter's name). Empty: any text.
   std::function<std::string(const std::string& value)> check;
   // Makes an accepted value take effect; runs whenever the active set's value changes. Empty:
-  // the parameter is read-only (shown, and a different value is refused).
+  // the parameter is read-only (shown, and a different value is refused). May throw
+  // ValueNotTaken to keep the value in effect instead (see above).
   std::function<void(const std::string& value)> apply;
+};
+
+// Thrown by a ParameterSpec::apply that does not take a value (what() says why): the parameter
+// keeps the value in effect, which its set shows again; the tool's call still succeeds.
+struct ValueNotTaken : std::runtime_error {
+  using std::runtime_error::runtime_error;
 };
 
 // A ParameterSpec::check for a finite decimal number within [min, max] (urs/util/number.hpp).
@@ -91,8 +103,9 @@ class ComponentConfiguration : public virtual POA_SDOPackage::Configuration {
   // `base` with `changes` applied, each checked; throws InvalidParameter naming the first refusal.
   Values merged(const Values& base, const SDOPackage::NVList& changes, const std::string& set_id) const;
   Values merged(const Values& base, const Values& changes, const std::string& set_id) const;
-  // Runs `apply` of each parameter whose value in `values` differs from the one in effect.
-  void take_effect(const Values& values);
+  // Runs `apply` of each parameter whose value in `values` differs from the one in effect; a
+  // value not taken (ValueNotTaken) is replaced in `values` by the one in effect.
+  void take_effect(Values& values);
   SDOPackage::ConfigurationSet to_idl(const Set& set) const;
 
   mutable std::mutex mutex_;
