@@ -499,7 +499,7 @@ TEST_P(TcpFederation, TheSpacesLinkThroughTheListenersPortOnly) {
 class FirstConnectionSilentRelay {
  public:
   explicit FirstConnectionSilentRelay(uint16_t to) : to_(to) {
-    listener_ = socket(AF_INET, SOCK_STREAM, 0);
+    listener_ = socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
     sockaddr_in address = loopback(0);
     bind(listener_, reinterpret_cast<sockaddr*>(&address), sizeof address);
     listen(listener_, 8);
@@ -533,11 +533,11 @@ class FirstConnectionSilentRelay {
       for (const auto& [fd, other] : peer) fds.push_back({fd, POLLIN, 0});
       if (poll(fds.data(), fds.size(), 100) <= 0) continue;
       if (fds[0].revents & POLLIN) {
-        const int client = accept(listener_, nullptr, nullptr);
+        const int client = accept4(listener_, nullptr, nullptr, SOCK_CLOEXEC);
         if (client >= 0) {
           fds_.push_back(client);
           if (accepted_++ > 0) {
-            const int server = socket(AF_INET, SOCK_STREAM, 0);
+            const int server = socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
             sockaddr_in address = loopback(to_);
             fds_.push_back(server);
             if (connect(server, reinterpret_cast<sockaddr*>(&address), sizeof address) == 0) {
@@ -610,6 +610,28 @@ TEST_F(PlainTcpFederation, AConnectionThatCarriesNothingIsLeftAndTheLinkJoinedAg
   EXPECT_NE(kr_->log().find("has met no one"), std::string::npos) << kr_->log();
   kr_.reset();  // before the relay: its connections end with the bridges
   jp_.reset();
+}
+
+// A listening port another process holds: bridge-jp says so and tries again (Fast DDS alone would
+// only log that its acceptor could not bind, and listen nowhere), and links once the port is free.
+TEST_F(PlainTcpFederation, AListeningPortInUseIsSaidAndTakenOnceFree) {
+  kr_.reset();
+  jp_.reset();
+  ASSERT_TRUE(wait_service_gone("jp/rt.Diagnostic0", 15s));
+  tcp_port_ = kr_connects_to_ = free_udp_port(SOCK_STREAM);
+  const int holder = socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_addr.s_addr = htonl(INADDR_ANY);
+  address.sin_port = htons(tcp_port_);
+  ASSERT_EQ(bind(holder, reinterpret_cast<sockaddr*>(&address), sizeof address), 0) << std::strerror(errno);
+  ASSERT_EQ(listen(holder, 1), 0);
+  start_jp();
+  start_kr();
+  const std::string refusal = "cannot listen on port " + std::to_string(tcp_port_) + ": another process listens there";
+  EXPECT_TRUE(wait_until([&] { return jp_->log().find(refusal) != std::string::npos; }, 15s)) << jp_->log();
+  close(holder);
+  EXPECT_TRUE(wait_for_service("jp/rt.Diagnostic0", 60s)) << jp_->log() << kr_->log();
 }
 
 // A Fast DDS discovery server over TCP: bridge-jp the server on its listening port, bridge-kr a

@@ -6,9 +6,14 @@
 #include <fastdds/rtps/transport/shared_mem/SharedMemTransportDescriptor.h>
 #include <fastrtps/utils/IPLocator.h>
 #include <netdb.h>
+#include <netinet/in.h>
 #include <spdlog/spdlog.h>
+#include <sys/socket.h>
+#include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
+#include <cstring>
 #include <fastdds/dds/domain/DomainParticipant.hpp>
 #include <fastdds/dds/domain/DomainParticipantFactory.hpp>
 #include <fastdds/dds/publisher/DataWriter.hpp>
@@ -92,6 +97,28 @@ rtps::Locator_t announced_locator(const DdsOptions::Tcp& tcp, uint16_t logical) 
 // site that only connects out announces its `public_address` as its WAN address if given: a
 // listener that has this site's private address itself takes this site's locators for its own
 // without one; on the listener's own host, with one, the two never link (Fast DDS 2.9).
+// Throws std::runtime_error if another socket listens on TCP `port` already: Fast DDS 2.9.1 only
+// logs that its acceptor could not bind and goes on with a participant that listens nowhere (the
+// other sites then never link). A port left in TIME_WAIT by an earlier run is no refusal
+// (SO_REUSEADDR, as the acceptor may take it then).
+void check_port_free(uint16_t port) {
+  const int fd = socket(AF_INET, SOCK_STREAM, 0);
+  if (fd < 0) return;  // Fast DDS will say what it can
+  const int yes = 1;
+  setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_addr.s_addr = htonl(INADDR_ANY);
+  address.sin_port = htons(port);
+  const bool bound = bind(fd, reinterpret_cast<sockaddr*>(&address), sizeof address) == 0;
+  const int error = errno;
+  close(fd);
+  if (!bound && error == EADDRINUSE) {
+    throw std::runtime_error("DDS over TCP: cannot listen on port " + std::to_string(port) +
+                             ": another process listens there (" + std::strerror(error) + ")");
+  }
+}
+
 void use_tcp(const DdsOptions& options, fdds::DomainParticipantQos& qos) {
   DdsOptions::Tcp tcp = options.tcp;
   if (tcp.public_port == 0) tcp.public_port = tcp.listen;
@@ -108,6 +135,7 @@ void use_tcp(const DdsOptions& options, fdds::DomainParticipantQos& qos) {
     if (!rtps::IPLocator::setIPv4(check, tcp.public_address)) {
       throw std::runtime_error("DDS over TCP: public address '" + tcp.public_address + "' is no IPv4 address");
     }
+    check_port_free(tcp.listen);
     transport->add_listener_port(tcp.listen);
     if (tcp.public_port == tcp.listen) {
       transport->set_WAN_address(tcp.public_address);
