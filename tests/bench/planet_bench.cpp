@@ -23,7 +23,8 @@
 //     space's server, calling an rtc-manager of its own).
 // The paths a goal compares are measured in turns (measure_interleaved) and their ratio taken
 // repetition by repetition, with its spread. Also throughput with 1 and 4 clients (Planet against
-// gRPC, bridged against direct omniORB, in turns), a sustained image stream, discovery across
+// gRPC, bridged against direct omniORB, in turns) and with 4 across spaces (kr → jp over the link
+// over TCP against the UDP link, in turns), a sustained image stream, discovery across
 // spaces, recovery after a server kill -9, and resident memory of the server, SAM and bridges idle
 // and with 1,000 services.
 // Every process is real and runs on 127.0.0.1. Numbers are reported, never asserted.
@@ -762,6 +763,34 @@ int main(int argc, char** argv) {
                     100 * *std::max_element(share.begin(), share.end()),
                     clients == 4 ? (median_share >= 0.35 ? " (goal >= 35%: met)" : " (goal >= 35%: missed)") : "");
       extras.push_back({"throughput RTC→CAMUS, " + std::to_string(clients) + " client(s), 64 B", value});
+    }
+
+    // Throughput across spaces with 4 clients, 64 B: kr → jp over the link over TCP and over the UDP
+    // link, in turns. The TCP link's goal, <= 1.2x the UDP link, is >= 0.83 of its calls/s here.
+    const std::string across = "throughput across spaces, 4 client(s), 64 B: kr → jp, the link over TCP and over UDP";
+    if (tcp_linked && wanted(across)) {
+      std::vector<std::unique_ptr<urs::planet::Client>> planets;
+      for (int c = 0; c < 4; ++c) planets.push_back(connect(space.port()));
+      auto rate_of = [&](const std::string& service) {
+        return urs::bench::throughput(4, per, [&](int c) {
+          return [cl = planets[static_cast<size_t>(c)].get(), &service, &echo_payload] {
+            expect_ok(cl->call(service, "echo", echo_payload, 10s), service.c_str());
+          };
+        });
+      };
+      std::vector<double> tcp, udp, share;
+      for (int r = 0; r < repetitions; ++r) {
+        udp.push_back(rate_of("jp/rt.diag"));
+        tcp.push_back(rate_of("jp-tcp/rt.diag"));
+        share.push_back(tcp.back() / udp.back());
+      }
+      const double median_share = urs::bench::percentile(share, 0.5);
+      char value[200];
+      std::snprintf(value, sizeof(value), "TCP %.0f calls/s, UDP %.0f; TCP/UDP %.2f (%.2f – %.2f) (goal >= 0.83: %s)",
+                    urs::bench::percentile(tcp, 0.5), urs::bench::percentile(udp, 0.5), median_share,
+                    *std::min_element(share.begin(), share.end()), *std::max_element(share.begin(), share.end()),
+                    median_share >= 1 / 1.2 ? "met" : "missed");
+      extras.push_back({across, value});
     }
 
     // A sustained stream of 921,600-byte images, in space and across spaces.
