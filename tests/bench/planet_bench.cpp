@@ -38,6 +38,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <mutex>
 #include <thread>
 
 #include "Diagnostic.pb.h"
@@ -766,30 +767,49 @@ int main(int argc, char** argv) {
     }
 
     // Throughput across spaces with 4 clients, 64 B: kr → jp over the link over TCP and over the UDP
-    // link, in turns. The TCP link's goal, <= 1.2x the UDP link, is >= 0.83 of its calls/s here.
+    // link, in turns. The TCP link's goal, <= 1.2x the UDP link, is >= 0.83 of its calls/s here. A
+    // call that fails is counted (it runs on a thread of throughput()) and the rate is of those
+    // answered: the TCP link on loopback has stalled past the 10 s deadline under 4 clients.
     const std::string across = "throughput across spaces, 4 client(s), 64 B: kr → jp, the link over TCP and over UDP";
     if (tcp_linked && wanted(across)) {
       std::vector<std::unique_ptr<urs::planet::Client>> planets;
       for (int c = 0; c < 4; ++c) planets.push_back(connect(space.port()));
-      auto rate_of = [&](const std::string& service) {
-        return urs::bench::throughput(4, per, [&](int c) {
-          return [cl = planets[static_cast<size_t>(c)].get(), &service, &echo_payload] {
-            expect_ok(cl->call(service, "echo", echo_payload, 10s), service.c_str());
+      std::mutex failure_mutex;
+      std::string first_failure;
+      auto rate_of = [&](const std::string& service, int& failed) {
+        std::atomic<int> failures{0};
+        const double rate = urs::bench::throughput(4, per, [&](int c) {
+          return [&, cl = planets[static_cast<size_t>(c)].get()] {
+            const urs::planet::CallResult r = cl->call(service, "echo", echo_payload, 10s);
+            if (r.ok()) return;
+            ++failures;
+            std::lock_guard lock(failure_mutex);
+            if (first_failure.empty()) {
+              first_failure = service + ": " + std::string(urs::planet::status_name(r.status)) + ": " + r.message;
+            }
           };
         });
+        failed += failures;
+        return rate * (1.0 - static_cast<double>(failures) / (4.0 * per));
       };
       std::vector<double> tcp, udp, share;
+      int tcp_failed = 0, udp_failed = 0;
       for (int r = 0; r < repetitions; ++r) {
-        udp.push_back(rate_of("jp/rt.diag"));
-        tcp.push_back(rate_of("jp-tcp/rt.diag"));
+        udp.push_back(rate_of("jp/rt.diag", udp_failed));
+        tcp.push_back(rate_of("jp-tcp/rt.diag", tcp_failed));
         share.push_back(tcp.back() / udp.back());
       }
       const double median_share = urs::bench::percentile(share, 0.5);
-      char value[200];
-      std::snprintf(value, sizeof(value), "TCP %.0f calls/s, UDP %.0f; TCP/UDP %.2f (%.2f – %.2f) (goal >= 0.83: %s)",
+      char value[400];
+      std::snprintf(value, sizeof(value), "TCP %.0f calls/s, UDP %.0f; TCP/UDP %.2f (%.2f – %.2f)%s (goal >= 0.83: %s)",
                     urs::bench::percentile(tcp, 0.5), urs::bench::percentile(udp, 0.5), median_share,
                     *std::min_element(share.begin(), share.end()), *std::max_element(share.begin(), share.end()),
-                    median_share >= 1 / 1.2 ? "met" : "missed");
+                    tcp_failed + udp_failed == 0
+                        ? ""
+                        : ("; calls failed: " + std::to_string(tcp_failed) + " over TCP, " +
+                           std::to_string(udp_failed) + " over UDP, the first " + first_failure)
+                              .c_str(),
+                    median_share >= 1 / 1.2 && tcp_failed == 0 ? "met" : "missed");
       extras.push_back({across, value});
     }
 
