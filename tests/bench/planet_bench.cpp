@@ -769,16 +769,20 @@ int main(int argc, char** argv) {
     // Throughput across spaces with 4 clients, 64 B: kr → jp over the link over TCP and over the UDP
     // link, in turns. The TCP link's goal, <= 1.2x the UDP link, is >= 0.83 of its calls/s here. A
     // call that fails is counted (it runs on a thread of throughput()) and the rate is of those
-    // answered: the TCP link on loopback has stalled past the 10 s deadline under 4 clients.
+    // answered: the TCP link on loopback has stalled past the 10 s deadline under 4 clients, and
+    // a full run of 3,000 (then 500) calls a client per repetition did not end within 18 minutes,
+    // bridge-jp's TCP receive thread busy all along (docs/sites.md, Limits). Hence 100 calls a
+    // client per repetition, and no repetition after one with failures.
     const std::string across = "throughput across spaces, 4 client(s), 64 B: kr → jp, the link over TCP and over UDP";
     if (tcp_linked && wanted(across)) {
+      const int across_per = 100;
       std::vector<std::unique_ptr<urs::planet::Client>> planets;
       for (int c = 0; c < 4; ++c) planets.push_back(connect(space.port()));
       std::mutex failure_mutex;
       std::string first_failure;
       auto rate_of = [&](const std::string& service, int& failed) {
         std::atomic<int> failures{0};
-        const double rate = urs::bench::throughput(4, per, [&](int c) {
+        const double rate = urs::bench::throughput(4, across_per, [&](int c) {
           return [&, cl = planets[static_cast<size_t>(c)].get()] {
             const urs::planet::CallResult r = cl->call(service, "echo", echo_payload, 10s);
             if (r.ok()) return;
@@ -790,7 +794,7 @@ int main(int argc, char** argv) {
           };
         });
         failed += failures;
-        return rate * (1.0 - static_cast<double>(failures) / (4.0 * per));
+        return rate * (1.0 - static_cast<double>(failures) / (4.0 * across_per));
       };
       std::vector<double> tcp, udp, share;
       int tcp_failed = 0, udp_failed = 0;
@@ -798,6 +802,7 @@ int main(int argc, char** argv) {
         udp.push_back(rate_of("jp/rt.diag", udp_failed));
         tcp.push_back(rate_of("jp-tcp/rt.diag", tcp_failed));
         share.push_back(tcp.back() / udp.back());
+        if (tcp_failed + udp_failed > 0) break;  // each failed call cost its 10 s deadline
       }
       const double median_share = urs::bench::percentile(share, 0.5);
       char value[400];
