@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <functional>
 #include <string>
+#include <thread>
 #include <vector>
 
 namespace urs::bench {
@@ -127,6 +128,22 @@ inline Ratio ratio_of(const Summary& path, const Summary& baseline, bool interle
   }
   ratio.median = ratio.low = ratio.high = baseline.median_us > 0 ? path.median_us / baseline.median_us : 0;
   return ratio;
+}
+
+// calls/s of `call` run by `clients` threads for `per_client` calls each.
+template <class MakeCall>
+double throughput(int clients, int per_client, MakeCall make_call) {
+  std::vector<std::function<void()>> calls;
+  for (int c = 0; c < clients; ++c) calls.push_back(make_call(c));
+  const auto t0 = std::chrono::steady_clock::now();
+  std::vector<std::thread> threads;
+  for (auto& call : calls) {
+    threads.emplace_back([&call, per_client] {
+      for (int i = 0; i < per_client; ++i) call();
+    });
+  }
+  for (auto& t : threads) t.join();
+  return clients * per_client / std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
 struct Row {

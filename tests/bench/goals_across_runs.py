@@ -3,6 +3,9 @@
 
     goals_across_runs.py RUN1.json RUN2.json ...   (urs-bench --json files)
 
+A run may be several files joined by commas (RUN1.json,WAN1.json: urs-bench's and wan_bench.sh's
+of the same run), their rows and measurements taken together.
+
 A latency goal is a ratio to a baseline measured in the same run (the row's median ratio, with
 the spread of its per-repetition ratios); a throughput, stream, discovery, memory or recovery goal
 is the value urs-bench reports with its goal. The state says whether every run met the goal, none
@@ -96,8 +99,18 @@ def state_of(met, ratios):
     return state
 
 
+def load_run(paths):
+    """One run from one file or several joined by commas."""
+    run = {"rows": [], "other": {}}
+    for path in paths.split(","):
+        part = json.load(open(path))
+        run["rows"] += part["rows"]
+        run["other"].update(part["other"])
+    return run
+
+
 def main(paths):
-    runs = [json.load(open(p)) for p in paths]
+    runs = [load_run(p) for p in paths]
     head = "| goal | " + " | ".join(f"run {i + 1}" for i in range(len(runs))) + " | state |"
     print(head)
     print("|" + "---|" * (len(runs) + 2))

@@ -14,6 +14,7 @@
 #include <sys/uio.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <cstdint>
 #include <cstring>
 #include <mutex>
@@ -75,20 +76,27 @@ inline std::string blob_request(uint32_t size) {
   return std::string(reinterpret_cast<const char*>(&wire), 4);
 }
 
-inline int connect_loopback(uint16_t port) {
+// A connection to `host` (an IPv4 address) and `port`, TCP_NODELAY set; throws when it fails.
+inline int connect_to(const std::string& host, uint16_t port) {
   int fd = ::socket(AF_INET, SOCK_STREAM, 0);
   sockaddr_in addr{};
   addr.sin_family = AF_INET;
-  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
   addr.sin_port = htons(port);
-  if (::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)) != 0) {
+  if (::inet_pton(AF_INET, host.c_str(), &addr.sin_addr) != 1) {
     ::close(fd);
-    throw std::runtime_error("cannot connect to 127.0.0.1:" + std::to_string(port));
+    throw std::runtime_error("cannot connect to " + host + ": not an IPv4 address");
+  }
+  if (::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)) != 0) {
+    const std::string why = std::strerror(errno);
+    ::close(fd);
+    throw std::runtime_error("cannot connect to " + host + ":" + std::to_string(port) + ": " + why);
   }
   int one = 1;
   ::setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof(one));
   return fd;
 }
+
+inline int connect_loopback(uint16_t port) { return connect_to("127.0.0.1", port); }
 
 // One request, one reply, on a connected socket.
 inline void round_trip(int fd, const std::string& request, std::string& reply) {

@@ -25,6 +25,7 @@ tools=$build/tests/e2e/sites
 test_name=e2e_sites_link
 source "$here/../steps.sh"
 source "$here/wan.sh"
+source "$here/jp_site.sh"
 
 [[ $(id -u) -eq 0 ]] || die "needs root for ip netns (run as root, as CI does)"
 command -v iptables >/dev/null || die "iptables (Debian: iptables) is not installed"
@@ -42,31 +43,9 @@ a=$WAN_A_LAN
 b=$WAN_B_LAN
 
 step "site a (jp): omniNames, urs-rtc-manager (Diagnostic), bridge-jp listening on TCP 7400"
-ip netns exec "$WAN_NS_A" omniNames -start 2809 -datadir "$work" -logdir "$work" -ORBendPoint "giop:tcp:$a:2809" \
-  >"$work/naming.log" 2>&1 &
-eventually 10 in_a bash -c "exec 3<>/dev/tcp/$a/2809" 2>/dev/null || fail "omniNames does not listen"
-printf 'components:\n  - type: Diagnostic\n' >"$work/rtc.yaml"
-ip netns exec "$WAN_NS_A" "$bin/rtc-manager/urs-rtc-manager" --space jp --naming "$a:2809" --host jp1 \
-  --config "$work/rtc.yaml" --listen "$a:2810" --ready-file "$work/rtc.ready" >"$work/rtc-manager.log" 2>&1 &
-eventually 20 test -e "$work/rtc.ready" || fail "urs-rtc-manager did not come up"
+jp_rt_up || fail "omniNames or urs-rtc-manager did not come up"
 start_jp_bridge() {  # start_jp_bridge PUBLIC: bridge-jp listening on 7400, announced at PUBLIC
-  cat >"$work/jp-bridge.yaml" <<EOF
-name: bridge-jp
-rt_to_camus:
-  poll_ms: 100
-  providers: [{match: "*", name: "rt.{instance}"}]
-dds:
-  domain: 7
-  transport: tcp
-  tcp: {listen: 7400, public: "$1"}
-  state: {period_ms: 200}
-EOF
-  rm -f "$work/jp.ready"
-  # ip netns exec itself (not a function, which would run in a subshell): $! is the bridge.
-  ip netns exec "$WAN_NS_A" "$bin/bridge/urs-bridge" --space jp --naming "$a:2809" --listen "$a:2811" \
-    --host jp-bridge --config "$work/jp-bridge.yaml" --ready-file "$work/jp.ready" >>"$work/bridge-jp.log" 2>&1 &
-  jp_bridge=$!
-  eventually 20 test -e "$work/jp.ready" || fail "bridge-jp did not come up"
+  jp_bridge_up "$1" "state: {period_ms: 200}" || fail "bridge-jp did not come up"
 }
 start_jp_bridge "$WAN_A_PUBLIC"
 

@@ -4,6 +4,10 @@
 //   tcp-rtt --serve [HOST:]PORT [--ready-file PATH]
 //       answers each length-prefixed message on every connection (a thread per connection): a
 //       4-byte message asks for a reply of that many bytes, any other is echoed (raw_tcp.hpp)
+//   tcp-rtt --serve-over HOST:PORT [--clients N]
+//       answers the same way on N connections it opens to HOST:PORT, and exits once they are all
+//       closed: the server of a round trip over connections opened from this side, as a site behind
+//       NAT opens the link's (urs-wan-bench --raw-accept)
 //   tcp-rtt --connect HOST:PORT [--request-bytes N] [--reply-bytes N] [--count N] [--clients N]
 //       N round trips per client over one connection each (TCP_NODELAY); prints
 //       "rtt count=.. p50_us=.. p90_us=.. max_us=.. calls_per_s=.." (calls_per_s: all clients)
@@ -65,6 +69,31 @@ int serve(const std::string& where, const std::string& ready_file) {
   }
 }
 
+int serve_over(const std::string& where, int connections) {
+  const sockaddr_in address = address_of(where, false);
+  std::vector<int> fds;
+  for (int c = 0; c < connections; ++c) {
+    const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+    fds.push_back(fd);
+    if (::connect(fd, reinterpret_cast<const sockaddr*>(&address), sizeof address) != 0) {
+      std::cerr << "tcp-rtt: cannot connect to " << where << ": " << std::strerror(errno) << "\n";
+      for (const int opened : fds) ::close(opened);
+      return 1;
+    }
+    int one = 1;
+    ::setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+  }
+  std::vector<std::thread> threads;
+  for (const int fd : fds) {
+    threads.emplace_back([fd] {
+      urs::bench::serve_echo(fd);
+      ::close(fd);
+    });
+  }
+  for (auto& thread : threads) thread.join();
+  return 0;
+}
+
 int measure(const std::string& where, std::size_t request_bytes, std::size_t reply_bytes, int count, int clients) {
   const sockaddr_in address = address_of(where, false);
   // A request that asks for reply_bytes (4 bytes) when the reply is to differ from the request.
@@ -122,6 +151,7 @@ int measure(const std::string& where, std::size_t request_bytes, std::size_t rep
 [[noreturn]] void usage(const std::string& why) {
   std::cerr << "tcp-rtt: " << why
             << "\nusage: tcp-rtt --serve [HOST:]PORT [--ready-file PATH]\n"
+               "       tcp-rtt --serve-over HOST:PORT [--clients N]\n"
                "       tcp-rtt --connect HOST:PORT [--request-bytes N] [--reply-bytes N] [--count N] [--clients N]\n";
   std::exit(2);
 }
@@ -129,7 +159,7 @@ int measure(const std::string& where, std::size_t request_bytes, std::size_t rep
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string serve_at, connect_to, ready_file;
+  std::string serve_at, serve_over_to, connect_to, ready_file;
   std::size_t request_bytes = 64, reply_bytes = 64;
   int count = 20, clients = 1;
   for (int i = 1; i < argc; ++i) {
@@ -138,6 +168,8 @@ int main(int argc, char** argv) {
     const std::string value = argv[++i];
     if (flag == "--serve")
       serve_at = value;
+    else if (flag == "--serve-over")
+      serve_over_to = value;
     else if (flag == "--connect")
       connect_to = value;
     else if (flag == "--ready-file")
@@ -153,10 +185,13 @@ int main(int argc, char** argv) {
     else
       usage("unknown flag " + flag);
   }
-  if (serve_at.empty() == connect_to.empty()) usage("one of --serve and --connect");
+  if (!serve_at.empty() + !serve_over_to.empty() + !connect_to.empty() != 1) {
+    usage("one of --serve, --serve-over and --connect");
+  }
   try {
-    return serve_at.empty() ? measure(connect_to, request_bytes, reply_bytes, count, clients)
-                            : serve(serve_at, ready_file);
+    if (!serve_at.empty()) return serve(serve_at, ready_file);
+    if (!serve_over_to.empty()) return serve_over(serve_over_to, clients);
+    return measure(connect_to, request_bytes, reply_bytes, count, clients);
   } catch (const std::exception& e) {
     std::cerr << "tcp-rtt: " << e.what() << "\n";
     return 1;
