@@ -91,12 +91,6 @@ rtps::Locator_t announced_locator(const DdsOptions::Tcp& tcp, uint16_t logical) 
   return locator;
 }
 
-// The link over Fast DDS's TCPv4 transport alone (docs/sites.md). A listening site announces its
-// public address: as its WAN address when the router forwards the port it listens on (Fast DDS
-// then announces that port), else as its own unicast locators at the public address and port. A
-// site that only connects out announces its `public_address` as its WAN address if given: a
-// listener that has this site's private address itself takes this site's locators for its own
-// without one; on the listener's own host, with one, the two never link (Fast DDS 2.9).
 // Throws std::runtime_error if another socket listens on TCP `port` already: Fast DDS 2.9.1 only
 // logs that its acceptor could not bind and goes on with a participant that listens nowhere (the
 // other sites then never link). A port left in TIME_WAIT by an earlier run is no refusal
@@ -119,6 +113,12 @@ void check_port_free(uint16_t port) {
   }
 }
 
+// The link over Fast DDS's TCPv4 transport alone (docs/sites.md). A listening site announces its
+// public address: as its WAN address when the router forwards the port it listens on (Fast DDS
+// then announces that port), else as its own unicast locators at the public address and port. A
+// site that only connects out announces its `public_address` as its WAN address if given: a
+// listener that has this site's private address itself takes this site's locators for its own
+// without one; on the listener's own host, with one, the two never link (Fast DDS 2.9).
 void use_tcp(const DdsOptions& options, fdds::DomainParticipantQos& qos) {
   DdsOptions::Tcp tcp = options.tcp;
   if (tcp.public_port == 0) tcp.public_port = tcp.listen;
