@@ -225,6 +225,17 @@ agent::Outcome CorbaProxyAgent::invoke(const gp::MethodDescriptor& method, const
       return agent::Outcome::ok();
     }
     dii->invoke();
+    // omniORB's call timeout can let a reply through past it under load (a 200 ms call with a 50 ms
+    // timeout, seen in CI): a reply that comes after the caller's deadline is not an answer in time.
+    if (ctx.deadline != std::chrono::steady_clock::time_point::max()) {
+      const auto late = std::chrono::steady_clock::now() - ctx.deadline;
+      if (late > std::chrono::steady_clock::duration::zero()) {
+        return agent::Outcome::error(
+            call::Status::DEADLINE_EXCEEDED,
+            "deadline passed: " + call.operation + "'s reply came " +
+                std::to_string(std::chrono::duration_cast<std::chrono::milliseconds>(late).count()) + " ms after it");
+      }
+    }
     if (CORBA::Exception* raised = dii->env()->exception()) {
       if (auto* user = CORBA::UnknownUserException::_downcast(raised)) return answer_user_exception(call, *user);
       if (auto* system = CORBA::SystemException::_downcast(raised)) return answer_system_exception(call, *system);
