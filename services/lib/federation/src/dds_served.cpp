@@ -120,12 +120,7 @@ void DdsServed::count_bytes(const std::string& space, std::size_t bytes, bool re
     if (counts_.size() >= DdsLink::kMaxCountedSpaces) return;
     it = counts_.emplace(space, SpaceServed{}).first;
   }
-  if (request) {
-    ++it->second.requests;
-    it->second.request_bytes += bytes;
-  } else {
-    it->second.reply_bytes += bytes;
-  }
+  (request ? it->second.request_bytes : it->second.reply_bytes) += bytes;
 }
 
 void DdsServed::read_requests(fdds::DataReader* reader) {

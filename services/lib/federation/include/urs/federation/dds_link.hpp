@@ -139,8 +139,7 @@ struct SpaceCalls {
 // What this bridge served to one other space's calls (DdsLink::space_served()), by the caller's
 // space as the link took it (proven on a secured link, declared on a plain one).
 struct SpaceServed {
-  uint64_t requests = 0;       // requests read (oneway too)
-  uint64_t request_bytes = 0;  // their payload bytes
+  uint64_t request_bytes = 0;  // payload bytes of the requests read (oneway too)
   uint64_t reply_bytes = 0;    // payload bytes of the replies written
 };
 
